@@ -1,0 +1,54 @@
+"""ffd_notebook: interactive 3D free-form deformation in Jupyter.
+
+The model (:class:`Lattice`, :class:`FFD`) is plain NumPy. File readers, the editor and the
+other systems are imported lazily on first use, so ``import ffd_notebook`` stays fast and does
+not load VTK.
+
+Examples
+--------
+>>> import numpy as np
+>>> import ffd_notebook as fn
+>>> pts = np.random.default_rng(0).random((100, 3))
+>>> lat = fn.Lattice.around(pts, shape=(5, 5, 5))
+>>> lat.offsets[...] = (0.0, 0.0, 1.0)          # move every control point up by 1
+>>> moved = fn.FFD(lat).deform(pts)
+>>> bool(np.allclose(moved - pts, (0, 0, 1)))
+True
+"""
+
+from __future__ import annotations
+
+import importlib
+from typing import Any
+
+from .deform import FFD, Deformer
+from .errors import FileFormatError
+from .lattice import Lattice
+
+__version__ = "0.1.0"
+
+# public name -> module that defines it (imported on first access)
+_LAZY = {
+    "load_ffd": "ffd_notebook.io",
+    "save_ffd": "ffd_notebook.io",
+    "read_obj": "ffd_notebook.io",
+    "write_obj": "ffd_notebook.io",
+    "read_mesh": "ffd_notebook.io",
+    "write_mesh": "ffd_notebook.io",
+    "edit": "ffd_notebook.view",
+    "Editor": "ffd_notebook.view",
+}
+
+__all__ = ["FFD", "Deformer", "FileFormatError", "Lattice", "__version__", *sorted(_LAZY)]
+
+
+def __getattr__(name: str) -> Any:
+    if name in _LAZY:
+        value = getattr(importlib.import_module(_LAZY[name]), name)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module 'ffd_notebook' has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted(__all__)

@@ -1,0 +1,30 @@
+"""Exceptions raised for bad input."""
+
+from __future__ import annotations
+
+import os
+
+__all__ = ["FileFormatError"]
+
+
+class FileFormatError(ValueError):
+    """A file could not be read: names the file, the line (1-based, if known) and the problem.
+
+    Examples
+    --------
+    >>> err = FileFormatError("lattice.ffd", 12, "expected 3 numbers, got 'a b'")
+    >>> str(err)
+    "lattice.ffd, line 12: expected 3 numbers, got 'a b'"
+    >>> err.line
+    12
+    """
+
+    def __init__(self, path: str | os.PathLike[str], line: int | None, problem: str) -> None:
+        self.path = os.fspath(path)
+        self.line = line
+        self.problem = problem
+        where = f"{self.path}, line {line}" if line is not None else self.path
+        super().__init__(f"{where}: {problem}")
+
+    def __reduce__(self):  # keep it picklable (multiprocessing, pytest-xdist)
+        return (type(self), (self.path, self.line, self.problem))

@@ -1,0 +1,283 @@
+"""The control lattice of a free-form deformation.
+
+A :class:`Lattice` is a regular grid of ``nx x ny x nz`` control points placed in space by an
+``origin``, a per-axis ``spacing`` and an orthogonal ``rotation`` (a reflection is allowed: the
+real .ffd files of the FFD platform have one). Each control point carries a displacement in
+world units, stored in the writable ``offsets`` array.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+__all__ = ["Lattice"]
+
+
+def _as_points(points_or_mesh: Any) -> NDArray[np.float64]:
+    """Return an ``(N, 3)`` float array from an array or any object with a ``points`` attribute."""
+    pts = getattr(points_or_mesh, "points", points_or_mesh)
+    pts = np.asarray(pts, dtype=np.float64)
+    if pts.ndim != 2 or pts.shape[1] != 3 or len(pts) == 0:
+        raise ValueError(f"expected a non-empty (N, 3) point array, got shape {pts.shape}")
+    if not np.isfinite(pts).all():
+        raise ValueError("points contain NaN or infinite values")
+    return pts
+
+
+def _check_rotation(rotation: ArrayLike | None) -> NDArray[np.float64]:
+    if rotation is None:
+        return np.eye(3)
+    r = np.array(rotation, dtype=np.float64)
+    if r.shape != (3, 3):
+        raise ValueError(f"rotation must be a 3x3 matrix, got shape {r.shape}")
+    if not np.allclose(r.T @ r, np.eye(3), atol=1e-6):
+        raise ValueError("rotation must be orthogonal (R.T @ R == I); scaling belongs in spacing")
+    return r
+
+
+class Lattice:
+    """A regular grid of control points with per-point displacements.
+
+    Control point ``(i, j, k)`` rests at ``origin + rotation @ ((i, j, k) * spacing)`` and is
+    displaced by ``offsets[i, j, k]`` (world units).
+
+    Parameters
+    ----------
+    shape : tuple of int
+        Control points per axis ``(nx, ny, nz)``, each at least 2.
+    spacing : float or array_like
+        Distance between neighbouring control points, per axis (positive).
+    origin : array_like, optional
+        Rest position of control point ``(0, 0, 0)``.
+    rotation : array_like, optional
+        Orthogonal 3x3 matrix whose columns are the lattice axes in world coordinates
+        (identity by default; a reflection, determinant -1, is allowed).
+    offsets : array_like, optional
+        Initial ``(nx, ny, nz, 3)`` displacements; zeros by default.
+
+    Attributes
+    ----------
+    offsets : numpy.ndarray
+        Writable ``(nx, ny, nz, 3)`` float64 displacements.
+    metadata : dict
+        Free-form information carried along (for example unknown .ffd sections kept on a
+        round trip).
+
+    Examples
+    --------
+    >>> lat = Lattice((2, 3, 4), spacing=10.0, origin=(1, 0, 0))
+    >>> lat.control_points()[1, 2, 3].tolist()
+    [11.0, 20.0, 30.0]
+    >>> lat.offsets[1, 2, 3] = (0, 0, 5)
+    >>> lat.control_points(deformed=True)[1, 2, 3].tolist()
+    [11.0, 20.0, 35.0]
+    """
+
+    def __init__(
+        self,
+        shape: tuple[int, int, int] | ArrayLike,
+        spacing: float | ArrayLike,
+        origin: ArrayLike = (0.0, 0.0, 0.0),
+        rotation: ArrayLike | None = None,
+        offsets: ArrayLike | None = None,
+    ) -> None:
+        shape_arr = np.asarray(shape)
+        if shape_arr.shape != (3,) or not np.all(shape_arr == np.round(shape_arr)) or np.any(shape_arr < 2):
+            raise ValueError(f"shape must be three integers >= 2, got {shape!r}")
+        self.shape: tuple[int, int, int] = tuple(int(s) for s in shape_arr)  # type: ignore[assignment]
+        spacing_arr = np.broadcast_to(np.asarray(spacing, dtype=np.float64), (3,)).copy()
+        if not np.all(np.isfinite(spacing_arr)) or np.any(spacing_arr <= 0):
+            raise ValueError(f"spacing must be positive and finite, got {spacing!r}")
+        self.spacing: NDArray[np.float64] = spacing_arr
+        origin_arr = np.array(origin, dtype=np.float64)
+        if origin_arr.shape != (3,) or not np.all(np.isfinite(origin_arr)):
+            raise ValueError(f"origin must be three finite numbers, got {origin!r}")
+        self.origin: NDArray[np.float64] = origin_arr
+        self.rotation: NDArray[np.float64] = _check_rotation(rotation)
+        self.offsets: NDArray[np.float64] = np.zeros(self.shape + (3,))
+        if offsets is not None:
+            self.set_offsets(offsets)
+        self.metadata: dict[str, Any] = {}
+
+    # ------------------------------------------------------------------ construction
+    @classmethod
+    def around(
+        cls,
+        points_or_mesh: Any,
+        shape: tuple[int, int, int] | int = (5, 5, 5),
+        margin: float = 0.05,
+        basis: str = "bspline",
+    ) -> Lattice:
+        """Fit an axis-aligned lattice around a point set or mesh.
+
+        Parameters
+        ----------
+        points_or_mesh : array_like or mesh
+            ``(N, 3)`` points, or anything with a ``points`` attribute (a PyVista mesh).
+        shape : tuple of int or int
+            Control points per axis, counting every control point of the lattice. For the
+            B-spline basis the outer ring of control points lies one spacing outside the fitted
+            box: the box spans ``shape - 3`` cells, so each count must be at least 4. For the
+            Bernstein basis the lattice spans the box exactly (at least 2 per axis).
+        margin : float
+            Extra room around the points, as a fraction of the largest bounding-box extent.
+        basis : {"bspline", "bernstein"}
+            Which FFD basis the lattice is meant for (it decides where the points sit).
+
+        Returns
+        -------
+        Lattice
+            For ``"bspline"`` every point lies where the B-spline weights sum to one, so moving
+            every control point by ``d`` moves every point by exactly ``d``.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> pts = np.array([[0.0, 0.0, 0.0], [2.0, 1.0, 1.0]])
+        >>> lat = Lattice.around(pts, shape=(5, 4, 4), margin=0.0)
+        >>> lat.spacing.tolist(), lat.origin.tolist()
+        ([1.0, 1.0, 1.0], [-1.0, -1.0, -1.0])
+        """
+        pts = _as_points(points_or_mesh)
+        shape_t = (int(shape),) * 3 if np.isscalar(shape) else tuple(int(s) for s in shape)  # type: ignore[arg-type]
+        if len(shape_t) != 3:
+            raise ValueError(f"shape must be an int or three ints, got {shape!r}")
+        if basis not in ("bspline", "bernstein"):
+            raise ValueError(f"basis must be 'bspline' or 'bernstein', got {basis!r}")
+        lo, hi = pts.min(axis=0), pts.max(axis=0)
+        extent = hi - lo
+        largest = float(extent.max())
+        if largest == 0.0:
+            largest = 1.0
+        # a flat axis (a planar mesh) still needs a cell of non-zero size
+        extent = np.maximum(extent, 1e-3 * largest)
+        pad = margin * largest
+        lo = lo - pad
+        extent = extent + 2 * pad
+        counts = np.asarray(shape_t)
+        if basis == "bspline":
+            if np.any(counts < 4):
+                raise ValueError(f"a cubic B-spline lattice needs at least 4 control points per axis, got {shape_t}")
+            spacing = extent / (counts - 3)
+            origin = lo - spacing
+        else:
+            if np.any(counts < 2):
+                raise ValueError(f"a Bernstein lattice needs at least 2 control points per axis, got {shape_t}")
+            spacing = extent / (counts - 1)
+            origin = lo
+        return cls(shape_t, spacing, origin)
+
+    def copy(self) -> Lattice:
+        """Return an independent copy (offsets and metadata included).
+
+        Examples
+        --------
+        >>> a = Lattice((2, 2, 2), 1.0)
+        >>> b = a.copy(); b.offsets += 1
+        >>> float(a.offsets.sum())
+        0.0
+        """
+        out = Lattice(self.shape, self.spacing, self.origin, self.rotation, self.offsets)
+        out.metadata = {k: (v.copy() if hasattr(v, "copy") else v) for k, v in self.metadata.items()}
+        return out
+
+    # ------------------------------------------------------------------ queries
+    @property
+    def n_points(self) -> int:
+        """Number of control points ``nx * ny * nz``."""
+        return int(np.prod(self.shape))
+
+    def set_offsets(self, offsets: ArrayLike) -> None:
+        """Replace all offsets (in place, so views of ``offsets`` stay valid)."""
+        arr = np.asarray(offsets, dtype=np.float64)
+        if arr.shape != self.shape + (3,):
+            raise ValueError(f"offsets must have shape {self.shape + (3,)}, got {arr.shape}")
+        if not np.all(np.isfinite(arr)):
+            raise ValueError("offsets contain NaN or infinite values")
+        self.offsets[...] = arr
+
+    def reset(self) -> None:
+        """Set every offset to zero."""
+        self.offsets[...] = 0.0
+
+    def indices(self) -> NDArray[np.int64]:
+        """All control-point indices as an ``(nx, ny, nz, 3)`` integer array."""
+        return np.stack(np.meshgrid(*[np.arange(n) for n in self.shape], indexing="ij"), axis=-1)
+
+    def control_points(self, deformed: bool = False) -> NDArray[np.float64]:
+        """Control-point positions as an ``(nx, ny, nz, 3)`` array.
+
+        Parameters
+        ----------
+        deformed : bool
+            If true, add the offsets to the rest positions.
+
+        Examples
+        --------
+        >>> Lattice((2, 2, 2), 2.0).control_points().reshape(-1, 3)[-1].tolist()
+        [2.0, 2.0, 2.0]
+        """
+        rest = (self.indices() * self.spacing) @ self.rotation.T + self.origin
+        return rest + self.offsets if deformed else rest
+
+    def to_lattice(self, points: ArrayLike) -> NDArray[np.float64]:
+        """Lattice coordinates ``(u, v, w)`` of world points (control point (i, j, k) is at (i, j, k)).
+
+        Examples
+        --------
+        >>> Lattice((3, 3, 3), 2.0, origin=(1, 1, 1)).to_lattice([[3.0, 2.0, 1.0]]).tolist()
+        [[1.0, 0.5, 0.0]]
+        """
+        pts = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+        return ((pts - self.origin) @ self.rotation) / self.spacing
+
+    def to_world(self, lattice_coords: ArrayLike) -> NDArray[np.float64]:
+        """World positions of lattice coordinates (the inverse of :meth:`to_lattice`)."""
+        uvw = np.asarray(lattice_coords, dtype=np.float64).reshape(-1, 3)
+        return (uvw * self.spacing) @ self.rotation.T + self.origin
+
+    def bounds(self) -> NDArray[np.float64]:
+        """World bounding box of the rest lattice as ``[xmin, xmax, ymin, ymax, zmin, zmax]``."""
+        pts = self.control_points().reshape(-1, 3)
+        return np.column_stack([pts.min(0), pts.max(0)]).ravel()
+
+    def edges(self) -> NDArray[np.int64]:
+        """Pairs of flat control-point indices joined by a lattice line, shape ``(E, 2)``.
+
+        Flat index of ``(i, j, k)`` is ``(i * ny + j) * nz + k`` (C order, like ``offsets``).
+
+        Examples
+        --------
+        >>> len(Lattice((2, 2, 2), 1.0).edges())
+        12
+        """
+        ids = np.arange(self.n_points).reshape(self.shape)
+        pairs = []
+        for axis in range(3):
+            a = np.moveaxis(ids, axis, 0)
+            pairs.append(np.stack([a[:-1].ravel(), a[1:].ravel()], axis=1))
+        return np.concatenate(pairs)
+
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, Lattice):
+            return NotImplemented
+        return (
+            self.shape == other.shape
+            and np.array_equal(self.spacing, other.spacing)
+            and np.array_equal(self.origin, other.origin)
+            and np.array_equal(self.rotation, other.rotation)
+            and np.array_equal(self.offsets, other.offsets)
+        )
+
+    __hash__ = None  # type: ignore[assignment]  # mutable
+
+    def __repr__(self) -> str:
+        moved = int(np.count_nonzero(np.any(self.offsets != 0, axis=-1)))
+        return (
+            f"Lattice(shape={self.shape}, spacing={self.spacing.tolist()}, origin={self.origin.tolist()}, "
+            f"rotation={'identity' if np.array_equal(self.rotation, np.eye(3)) else self.rotation.tolist()}, "
+            f"moved={moved}/{self.n_points})"
+        )
