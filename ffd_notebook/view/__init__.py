@@ -1,9 +1,30 @@
-"""The view layer: everything that touches VTK, PyVista, trame or ipywidgets."""
+"""The view layer: everything that touches VTK, PyVista, trame or ipywidgets.
+
+Importing it applies the headless rendering settings where they help
+(see :func:`~ffd_notebook.view.rendering.configure_rendering`).
+"""
 
 from __future__ import annotations
+
+import importlib
+from typing import Any
 
 from .rendering import configure_rendering, is_headless
 
 configure_rendering()
 
-__all__ = ["configure_rendering", "is_headless"]
+_LAZY = {
+    "Editor": "ffd_notebook.view.editor",
+    "edit": "ffd_notebook.view.notebook",
+    "ControlPanel": "ffd_notebook.view.panel",
+}
+
+__all__ = ["configure_rendering", "is_headless", *sorted(_LAZY)]
+
+
+def __getattr__(name: str) -> Any:
+    if name in _LAZY:
+        value = getattr(importlib.import_module(_LAZY[name]), name)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module 'ffd_notebook.view' has no attribute {name!r}")
