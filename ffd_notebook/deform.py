@@ -86,10 +86,9 @@ class FFD:
         if self.basis == "bernstein":
             bx, by, bz = self._bernstein_values(uvw)
             return np.einsum("pi,pj,pk,ijkd->pd", bx, by, bz, self.lattice.offsets, optimize=True)
-        out = np.zeros_like(pts)
-        for rows, first, t in _chunks_by_support(uvw):
-            out[rows] = _bspline_sum(self.lattice.offsets, first, bspline(t[:, 0]), bspline(t[:, 1]), bspline(t[:, 2]))
-        return out
+        cells = _CellGroups(uvw, self.lattice.shape)
+        bu, bv, bw = (bspline(cells.t[:, a]) for a in range(3))
+        return cells.unsort(cells.sum(_pad(self.lattice.offsets), _outer(bu, bv), cells.masked(bw)))
 
     def deform(self, points: ArrayLike) -> NDArray[np.float64]:
         """Deformed positions ``A x + b + T_local(x)`` of ``(N, 3)`` points.
@@ -134,12 +133,13 @@ class FFD:
                 factors = [ders[a] if a == axis else vals[a] for a in range(3)]
                 d_uvw[:, :, axis] = np.einsum("pi,pj,pk,ijkd->pd", *factors, lat.offsets, optimize=True)
         else:
-            for rows, first, t in _chunks_by_support(uvw):
-                vals = [bspline(t[:, a]) for a in range(3)]
-                ders = [bspline_derivative(t[:, a]) for a in range(3)]
-                for axis in range(3):
-                    factors = [ders[a] if a == axis else vals[a] for a in range(3)]
-                    d_uvw[rows, :, axis] = _bspline_sum(lat.offsets, first, *factors)
+            cells = _CellGroups(uvw, lat.shape)
+            padded = _pad(lat.offsets)
+            vals = [bspline(cells.t[:, a]) for a in range(3)]
+            ders = [bspline_derivative(cells.t[:, a]) for a in range(3)]
+            for axis in range(3):
+                bu, bv, bw = (ders[a] if a == axis else vals[a] for a in range(3))
+                d_uvw[:, :, axis] = cells.unsort(cells.sum(padded, _outer(bu, bv), cells.masked(bw)))
         d_uvw_dx = lat.rotation.T / lat.spacing[:, None]
         return self.affine[:3, :3] + d_uvw @ d_uvw_dx
 
@@ -178,42 +178,59 @@ class FFD:
         return f"FFD({self.lattice!r}, basis={self.basis!r}, affine={affine})"
 
 
-_CHUNK = 65536
+def _pad(offsets: NDArray[np.float64], dtype: Any = np.float64) -> NDArray[Any]:
+    """Offsets with three zero layers around: supports reaching outside the lattice read zeros."""
+    return np.pad(offsets, ((3, 3), (3, 3), (3, 3), (0, 0))).astype(dtype, copy=False)
 
 
-def _chunks_by_support(uvw: NDArray[np.float64]):
-    """Yield ``(rows, first_index, t)`` for chunks of points (bounded temporary memory)."""
-    for s in range(0, len(uvw), _CHUNK):
-        rows = slice(s, min(s + _CHUNK, len(uvw)))
-        first, t = _bspline_cells(uvw[rows])
-        yield rows, first, t
+def _outer(bu: NDArray[Any], bv: NDArray[Any]) -> NDArray[Any]:
+    """Row-wise outer product of the u and v weights, ``(N, 16)`` with index ``4 * l + m``."""
+    return (bu[:, :, None] * bv[:, None, :]).reshape(len(bu), 16)
 
 
-def _bspline_sum(
-    offsets: NDArray[np.float64],
-    first: NDArray[np.int64],
-    bu: NDArray[np.float64],
-    bv: NDArray[np.float64],
-    bw: NDArray[np.float64],
-) -> NDArray[np.float64]:
-    """``sum_lmn bu_l bv_m bw_n offsets[first + (l, m, n)]`` with out-of-lattice terms as zero.
+class _CellGroups:
+    """Points grouped by the lattice cell whose 4x4x4 support moves them.
 
-    Pads the offsets with three zero layers on each side so that neighbours outside the lattice
-    read zeros; points whose support lies wholly outside get zero displacement.
+    Points are sorted by cell so that each cell's points form one contiguous run; a sum over a
+    run is then one small matrix product with that cell's 64 offsets. Points whose support
+    lies wholly outside the lattice are put in a run with zero weights.
     """
-    pad = 3
-    padded = np.pad(offsets, ((pad, pad), (pad, pad), (pad, pad), (0, 0)))
-    idx = np.clip(first + pad, 0, np.array(padded.shape[:3]) - 4)
-    outside = np.any((first + pad != idx), axis=1)
-    out = np.zeros((len(first), 3))
-    for l in range(4):
-        for m in range(4):
-            wlm = bu[:, l] * bv[:, m]
-            for n in range(4):
-                w = wlm * bw[:, n]
-                out += w[:, None] * padded[idx[:, 0] + l, idx[:, 1] + m, idx[:, 2] + n]
-    out[outside] = 0.0
-    return out
+
+    def __init__(self, uvw: NDArray[np.float64], shape: tuple[int, int, int]) -> None:
+        n = len(uvw)
+        first, t = _bspline_cells(uvw)
+        dims = np.array(shape)
+        self.inside = np.all((first >= -3) & (first <= dims - 1), axis=1)
+        first = np.where(self.inside[:, None], first, 0)
+        grid = tuple(dims + 3)
+        cell = np.ravel_multi_index(tuple((first + 3).T), grid)
+        order = np.argsort(cell, kind="stable")
+        cells, starts = np.unique(cell[order], return_index=True)
+        self.order = order.astype(np.int32 if n < 2**31 else np.int64)
+        self.inside = self.inside[order]
+        self.t = t[order]
+        self.runs = np.column_stack([starts, np.r_[starts[1:], n]])
+        self.run_first = np.column_stack(np.unravel_index(cells, grid)) - 3
+
+    def masked(self, bw: NDArray[Any]) -> NDArray[Any]:
+        """Zero the weights of points outside every support (applied to one factor only)."""
+        bw[~self.inside] = 0.0
+        return bw
+
+    def sum(self, padded: NDArray[Any], buv: NDArray[Any], bw: NDArray[Any], out: NDArray[Any] | None = None):
+        """``sum_lmn buv[4l+m] bw[n] offsets[first + (l, m, n)]`` per point, in sorted order."""
+        out = np.empty((len(buv), 3), dtype=np.result_type(buv, padded)) if out is None else out
+        for (s, e), (i, j, k) in zip(self.runs, self.run_first + 3, strict=True):
+            # (l m) x (n d): contract the 16 (l, m) weights by BLAS, then the 4 n weights
+            x = (buv[s:e] @ padded[i : i + 4, j : j + 4, k : k + 4].reshape(16, 12)).reshape(-1, 4, 3)
+            np.einsum("pnd,pn->pd", x, bw[s:e], out=out[s:e])
+        return out
+
+    def unsort(self, values: NDArray[Any]) -> NDArray[Any]:
+        """Values given in sorted order, returned in the points' original order."""
+        out = np.empty_like(values)
+        out[self.order] = values
+        return out
 
 
 class Deformer:
@@ -272,24 +289,19 @@ class Deformer:
         self._key = self._geometry_key()
         self._affine = self.ffd.affine.copy()
         uvw = lat.to_lattice(self.points)
+        self._cells = None
         if self.ffd.basis == "bspline":
-            first, t = _bspline_cells(uvw)
-            shape = np.array(lat.shape)
-            # cells in a grid padded by 3 (supports reaching outside read zero offsets)
-            inside = np.all((first >= -3) & (first <= shape - 1), axis=1)
-            first = np.where(inside[:, None], first, 0)
-            cell_grid = tuple(shape + 3)
-            cell = np.ravel_multi_index(tuple((first + 3).T), cell_grid)
-            order = np.argsort(cell, kind="stable")
-            cells, starts = np.unique(cell[order], return_index=True)
-            bu, bv, bw = (bspline(t[order, a]) for a in range(3))
-            bw[~inside[order]] = 0.0
-            self._buv = (bu[:, :, None] * bv[:, None, :]).reshape(n, 16).astype(self.dtype)
-            self._bw = bw.astype(self.dtype)
-            self._runs = np.column_stack([starts, np.r_[starts[1:], n]])
-            self._run_first = np.column_stack(np.unravel_index(cells, cell_grid)) - 3
-            self._order = order.astype(np.int32 if n < 2**31 else np.int64)
-            self._contiguous = bool(np.array_equal(self._order, np.arange(n)))
+            cells = _CellGroups(uvw, lat.shape)
+            bu, bv, bw = (bspline(cells.t[:, a]) for a in range(3))
+            self._buv = _outer(bu, bv).astype(self.dtype)
+            self._bw = cells.masked(bw).astype(self.dtype)
+            cells.t = None  # not needed after the weights: keep the cache small
+            self._cells = cells
+            # inverse permutation: original point p sits at sorted position inverse[p]
+            self._inverse = np.empty_like(cells.order)
+            self._inverse[cells.order] = np.arange(n, dtype=cells.order.dtype)
+            self._local = np.zeros((n, 3))  # displacement in sorted order
+            self._gathered = np.empty((n, 3))
         else:
             bx, by, bz = self.ffd._bernstein_values(uvw)
             nx, ny, _ = lat.shape
@@ -302,9 +314,15 @@ class Deformer:
 
     @property
     def cache_bytes(self) -> int:
-        """Bytes held for fast updates (weights and indices; not the points or the output)."""
-        names = ("_buv", "_bw", "_order", "_runs", "_run_first", "_bxy", "_bz")
-        return int(sum(getattr(self, k).nbytes for k in names if hasattr(self, k)))
+        """Bytes of weights and indices held for fast updates.
+
+        Not counted: the rest points, the affine image of the points and the working
+        displacement/output buffers (three ``(N, 3)`` float64 arrays any evaluation needs).
+        """
+        arrays = [getattr(self, k) for k in ("_buv", "_bw", "_inverse", "_bxy", "_bz") if hasattr(self, k)]
+        if self._cells is not None:
+            arrays += [self._cells.order, self._cells.inside, self._cells.runs, self._cells.run_first]
+        return int(sum(a.nbytes for a in arrays))
 
     # ------------------------------------------------------------------ updates
     def update(self, changed: Any = None) -> NDArray[np.float64]:
@@ -347,18 +365,14 @@ class Deformer:
             local = np.einsum("pkd,pk->pd", x.reshape(-1, nz, 3), self._bz)
             np.add(self._base, local, out=self._out)
             return
-        padded = np.pad(offsets, ((3, 3), (3, 3), (3, 3), (0, 0))).astype(self.dtype)
-        local = np.empty((len(self.points), 3), dtype=self.dtype)
-        for (s, e), (i, j, k) in zip(self._runs, self._run_first + 3, strict=True):
-            # (l m) x (n d): contract the 16 (l, m) weights by BLAS, then the 4 n weights
-            g = padded[i : i + 4, j : j + 4, k : k + 4].reshape(16, 12)
-            x = (self._buv[s:e] @ g).reshape(-1, 4, 3)
-            np.einsum("pnd,pn->pd", x, self._bw[s:e], out=local[s:e])
-        if self._contiguous:
-            np.add(self._base, local, out=self._out)
-        else:
-            self._out[self._order] = local
-            self._out += self._base
+        local = self._cells.sum(_pad(offsets, self.dtype), self._buv, self._bw)
+        self._local[...] = local
+        self._refresh_all()
+
+    def _refresh_all(self) -> None:
+        """Output = affine image + displacement brought back to the points' order (one gather)."""
+        np.take(self._local, self._inverse, axis=0, out=self._gathered)
+        np.add(self._base, self._gathered, out=self._out)
 
     def _add_control_point(self, i: int, j: int, k: int, delta: NDArray[np.float64]) -> None:
         if self.ffd.basis == "bernstein":
@@ -366,11 +380,19 @@ class Deformer:
             w = self._bxy[:, i * ny + j] * self._bz[:, k]
             self._out += w[:, None].astype(np.float64) * delta
             return
-        rel = np.array([i, j, k]) - self._run_first  # position of (i, j, k) in each cell's 4x4x4 support
+        cells = self._cells
+        rel = np.array([i, j, k]) - cells.run_first  # (i, j, k) inside each cell's 4x4x4 support
         hit = np.flatnonzero(np.all((rel >= 0) & (rel <= 3), axis=1))
-        for r in hit:
-            s, e = self._runs[r]
+        spans = cells.runs[hit]
+        n_hit = int((spans[:, 1] - spans[:, 0]).sum())
+        # many points: add in sorted order (contiguous) and gather once; few: touch only those rows
+        gather_all = n_hit > len(self.points) // 4
+        for r, (s, e) in zip(hit, spans, strict=True):
             l, m, n = rel[r]
             w = self._buv[s:e, l * 4 + m].astype(np.float64) * self._bw[s:e, n]
-            rows = slice(s, e) if self._contiguous else self._order[s:e]
-            self._out[rows] += w[:, None] * delta
+            contribution = w[:, None] * delta
+            self._local[s:e] += contribution
+            if not gather_all:
+                self._out[cells.order[s:e]] += contribution
+        if gather_all:
+            self._refresh_all()

@@ -15,8 +15,24 @@ def report_bspline(t: float) -> tuple[float, float, float, float]:
     return ((1 - t) ** 3 / 6, (3 * t**3 - 6 * t**2 + 4) / 6, (-3 * t**3 + 3 * t**2 + 3 * t + 1) / 6, t**3 / 6)
 
 
+def report_basis(l: int, t: float) -> float:
+    """B_l(t) of the FFD report."""
+    if l == 0:
+        return (1 - t) ** 3 / 6
+    if l == 1:
+        return (3 * t**3 - 6 * t**2 + 4) / 6
+    if l == 2:
+        return (-3 * t**3 + 3 * t**2 + 3 * t + 1) / 6
+    return t**3 / 6
+
+
 def deform_loop(points, offsets, spacing, origin, rotation=None, affine=None):
-    """``affine(x) + T_local(x)`` for each point with the report's triple loop over l, m, n."""
+    """``affine(x) + T_local(x)`` for each point, the report's formula as written.
+
+    For each point: its lattice coordinates, ``i = floor(u) - 1`` (likewise j, k), then
+    ``T_local = sum_lmn B_l(u - floor u) B_m(v - floor v) B_n(w - floor w) offsets[i+l, j+m, k+n]``
+    with control points outside the lattice contributing nothing.
+    """
     rotation = np.eye(3) if rotation is None else np.asarray(rotation)
     affine = np.eye(4) if affine is None else np.asarray(affine)
     nx, ny, nz = offsets.shape[:3]
@@ -24,22 +40,14 @@ def deform_loop(points, offsets, spacing, origin, rotation=None, affine=None):
     for p, x in enumerate(points):
         u, v, w = rotation.T @ (x - origin) / spacing
         i, j, k = math.floor(u) - 1, math.floor(v) - 1, math.floor(w) - 1
-        bu, bv, bw = (
-            report_bspline(u - math.floor(u)),
-            report_bspline(v - math.floor(v)),
-            report_bspline(w - math.floor(w)),
-        )
-        d = [0.0, 0.0, 0.0]
+        tu, tv, tw = u - math.floor(u), v - math.floor(v), w - math.floor(w)
+        d = np.zeros(3)
         for l in range(4):
             for m in range(4):
                 for n in range(4):
-                    a, b, c = i + l, j + m, k + n
-                    if 0 <= a < nx and 0 <= b < ny and 0 <= c < nz:
-                        wt = bu[l] * bv[m] * bw[n]
-                        o = offsets[a, b, c]
-                        d[0] += wt * o[0]
-                        d[1] += wt * o[1]
-                        d[2] += wt * o[2]
+                    if 0 <= i + l < nx and 0 <= j + m < ny and 0 <= k + n < nz:
+                        weight = report_basis(l, tu) * report_basis(m, tv) * report_basis(n, tw)
+                        d += weight * offsets[i + l, j + m, k + n]
         out[p] = affine[:3, :3] @ x + affine[:3, 3] + d
     return out
 

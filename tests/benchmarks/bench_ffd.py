@@ -1,0 +1,111 @@
+"""FFD engine benchmark on the 53k-vertex face (issue: FFD engine).
+
+Run from the repository root (needs ../shared/data):
+
+    python tests/benchmarks/bench_ffd.py
+
+Prints, in one run: the FFD report's per-point loop (the baseline), ``ffd.deform``, a full
+``deformer.update()``, one-control-point ``deformer.update(changed=...)`` and a 1M-point full
+update, with speed-ups over the baseline, the cache's bytes per point, and each target.
+"""
+
+from __future__ import annotations
+
+import statistics
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE.parent))  # tests/: the plain reference loop
+
+from reference_ffd import deform_loop  # noqa: E402
+
+from ffd_notebook import FFD, Lattice  # noqa: E402
+
+FACE = HERE.parents[2] / "shared" / "data" / "face" / "template.ply"
+
+
+def median_ms(fn, repeat=30):
+    fn()  # warm-up
+    times = []
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - t0)
+    return 1000 * statistics.median(times)
+
+
+def row(name, ms, target=None, extra=""):
+    verdict = "" if target is None else ("  ok" if ms <= target else "  MISSED")
+    tgt = "" if target is None else f"(target <= {target:g} ms)"
+    print(f"{name:<48} {ms:10.3f} ms {tgt:<20}{verdict} {extra}")
+
+
+def main() -> None:
+    import pyvista as pv
+
+    points = np.asarray(pv.read(FACE).points, dtype=np.float64)
+    n = len(points)
+    rng = np.random.default_rng(0)
+    lattice = Lattice.around(points, shape=(5, 5, 5))
+    lattice.offsets[...] = rng.normal(size=lattice.offsets.shape) * lattice.spacing.min() * 0.05
+    ffd = FFD(lattice)
+    print(f"face: {n} vertices, lattice {lattice.shape}, machine: 2 shared cores (medians)\n")
+
+    t0 = time.perf_counter()
+    baseline = deform_loop(points, lattice.offsets, lattice.spacing, lattice.origin)
+    base_ms = 1000 * (time.perf_counter() - t0)
+    row("baseline: report's per-point loop", base_ms)
+
+    deformed = ffd.deform(points)
+    assert np.allclose(deformed, baseline, atol=1e-9)
+    ms = median_ms(lambda: ffd.deform(points), 10)
+    row("ffd.deform (float64, exact)", ms, extra=f"x{base_ms / ms:,.0f} over baseline")
+
+    for dtype in (np.float32, np.float64):
+        deformer = ffd.bind(points, dtype=dtype)
+        err = np.abs(deformer.update() - baseline).max() / np.abs(baseline - points).max()
+        ms = median_ms(deformer.update)
+        target = 3 if dtype is np.float32 else None
+        row(
+            f"deformer.update() [{np.dtype(dtype).name}]",
+            ms,
+            target,
+            f"x{base_ms / ms:,.0f} over baseline (target >= 3000x); max error {err:.0e} of the largest displacement; "
+            f"{deformer.cache_bytes / n:.0f} B/point",
+        )
+
+    deformer = ffd.bind(points)
+    for label, ijk in [("corner-side point (2,1,1)", (2, 1, 1)), ("centre point (2,2,2): moves all", (2, 2, 2))]:
+        hit = np.count_nonzero(np.abs(FFD(_unit(lattice, ijk)).displacement(points)).sum(1))
+
+        def one(ijk=ijk):
+            lattice.offsets[ijk] += 1e-3
+            deformer.update(changed=[ijk])
+
+        ms = median_ms(one, 50)
+        row(f"update(changed=[{label}])", ms, 1, f"{hit} points influenced")
+    drift = np.abs(deformer.update(changed=[]) - ffd.deform(points)).max()
+    scale = np.abs(ffd.deform(points) - points).max()
+    print(f"{'after 100 incremental updates: max error':<48} {drift:10.1e}    (largest displacement {scale:.1e})")
+
+    big = rng.uniform(points.min(0), points.max(0), size=(1_000_000, 3))
+    t0 = time.perf_counter()
+    big_deformer = ffd.bind(big)
+    bind_ms = 1000 * (time.perf_counter() - t0)
+    ms = median_ms(big_deformer.update, 10)
+    bpp = big_deformer.cache_bytes / len(big)
+    row("1M points: deformer.update()", ms, 100, f"{bpp:.0f} B/point cache (target <= 100); bind {bind_ms:.0f} ms")
+
+
+def _unit(lattice: Lattice, ijk) -> Lattice:
+    unit = Lattice(lattice.shape, lattice.spacing, lattice.origin, lattice.rotation)
+    unit.offsets[ijk] = 1.0
+    return unit
+
+
+if __name__ == "__main__":
+    main()
