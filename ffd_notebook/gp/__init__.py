@@ -1,0 +1,62 @@
+"""Gaussian-process deformation models ("Gaussian Process Morphable Models", Luthi et al.).
+
+A Gaussian process over displacement fields ``u: R^3 -> R^3`` with a matrix-valued kernel:
+draw smooth random deformations, see how the kernel width sets their smoothness, and condition
+on a few observed landmark displacements to get the posterior deformation and its uncertainty.
+NumPy/SciPy only (the pictures live in :mod:`ffd_notebook.view.gp_view`).
+
+- :mod:`~ffd_notebook.gp.kernels`: Gaussian, exponential and cubic B-spline kernels, anisotropic
+  and per-component versions, sums and scalings.
+- :mod:`~ffd_notebook.gp.process`: :class:`GaussianProcess` with exact Cholesky inference.
+- :mod:`~ffd_notebook.gp.lowrank`: :class:`LowRankGP`, Nystrom or pivoted-Cholesky eigenbases on
+  a mesh's vertices, for meshes with tens of thousands of points.
+- :mod:`~ffd_notebook.gp.fields`: displacement fields on regular grids for arrow display.
+
+Examples
+--------
+>>> import numpy as np
+>>> from ffd_notebook.gp import GaussianKernel, GaussianProcess
+>>> gp = GaussianProcess(GaussianKernel(sigma=50.0, scale=5.0))
+>>> landmarks = np.array([[0.0, 0.0, 0.0], [100.0, 0.0, 0.0], [0.0, 100.0, 0.0]])
+>>> moves = np.array([[0.0, 0.0, 10.0], [0.0, 0.0, 0.0], [0.0, 0.0, 0.0]])
+>>> post = gp.posterior(landmarks, moves, noise=0.01)
+>>> post.mean([[0.0, 0.0, 0.0], [10.0, 0.0, 0.0]]).round(2).tolist()
+[[0.0, 0.0, 10.0], [0.0, 0.0, 9.6]]
+>>> post.variance([[0.0, 0.0, 0.0]]).round(3).tolist()     # pinned down by the landmark
+[[0.01, 0.01, 0.01]]
+"""
+
+from __future__ import annotations
+
+from .fields import ArrowField, arrow_field, grid_points, sample_jointly
+from .kernels import (
+    BSplineKernel,
+    DiagonalKernel,
+    ExponentialKernel,
+    GaussianKernel,
+    Kernel,
+    ScaledKernel,
+    SumKernel,
+    bspline_weights,
+)
+from .lowrank import LowRankGP
+from .process import GaussianProcess, PosteriorKernel, cholesky
+
+__all__ = [
+    "ArrowField",
+    "BSplineKernel",
+    "DiagonalKernel",
+    "ExponentialKernel",
+    "GaussianKernel",
+    "GaussianProcess",
+    "Kernel",
+    "LowRankGP",
+    "PosteriorKernel",
+    "ScaledKernel",
+    "SumKernel",
+    "arrow_field",
+    "bspline_weights",
+    "cholesky",
+    "grid_points",
+    "sample_jointly",
+]

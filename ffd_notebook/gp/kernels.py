@@ -1,0 +1,337 @@
+"""Matrix-valued kernels for Gaussian processes over displacement fields ``u: R^3 -> R^3``.
+
+Every kernel here is *diagonal*: ``k(x, y) = diag(k_x(x, y), k_y(x, y), k_z(x, y))``, each
+output component an independent scalar process. Most are *isotropic in the output*
+(``k(x, y) = k_s(x, y) I3``, one scalar kernel for all three components). A kernel reports
+which through :attr:`Kernel.n_components` (1 or 3) and :meth:`Kernel.components`, so the
+processes solve one scalar ``N x N`` problem for all three components (or three of them)
+instead of a ``3N x 3N`` one. :meth:`Kernel.matrix` gives the full block matrix when needed.
+
+Examples
+--------
+>>> import numpy as np
+>>> from ffd_notebook.gp import GaussianKernel
+>>> k = GaussianKernel(sigma=2.0, scale=3.0)
+>>> x = np.zeros((1, 3)); y = np.array([[2.0, 0.0, 0.0]])
+>>> k(x, y)[0, 0].round(4)            # 9 * exp(-4 / 4) * I3
+array([[3.3109, 0.    , 0.    ],
+       [0.    , 3.3109, 0.    ],
+       [0.    , 0.    , 3.3109]])
+>>> (2 * k + GaussianKernel(sigma=10.0)).matrix(x, y).shape
+(3, 3)
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+
+import numpy as np
+import scipy.sparse as sp
+from numpy.typing import ArrayLike, NDArray
+from scipy.spatial.distance import cdist
+
+from ..basis import bspline
+from ..lattice import Lattice
+
+__all__ = [
+    "BSplineKernel",
+    "DiagonalKernel",
+    "ExponentialKernel",
+    "GaussianKernel",
+    "Kernel",
+    "ScaledKernel",
+    "SumKernel",
+    "as_points",
+    "bspline_weights",
+]
+
+
+def as_points(points: ArrayLike, name: str = "points") -> NDArray[np.float64]:
+    """Return an ``(N, 3)`` float64 array (one point may be given as a 3-vector)."""
+    arr = np.asarray(points, dtype=np.float64)
+    if arr.ndim == 1 and arr.shape == (3,):
+        arr = arr[None, :]
+    if arr.ndim != 2 or arr.shape[1] != 3:
+        raise ValueError(f"{name} must be an (N, 3) array, got shape {arr.shape}")
+    if not np.all(np.isfinite(arr)):
+        raise ValueError(f"{name} contain NaN or infinite values")
+    return arr
+
+
+def _per_axis(value: ArrayLike, name: str) -> NDArray[np.float64]:
+    """A positive scalar or 3-vector as a float array (shape () or (3,))."""
+    arr = np.asarray(value, dtype=np.float64)
+    if arr.shape not in ((), (3,)) or not np.all(np.isfinite(arr)) or np.any(arr <= 0):
+        raise ValueError(f"{name} must be a positive number or three positive numbers, got {value!r}")
+    return arr
+
+
+class Kernel(ABC):
+    """A diagonal matrix-valued positive-definite kernel on R^3.
+
+    Subclasses implement :meth:`components` (and :meth:`diagonal` when it has a cheap form).
+    Kernels add (``k1 + k2``) and scale by a positive number or a per-component 3-vector
+    (``2.0 * k``, ``[1, 1, 0.1] * k``).
+    """
+
+    #: 1 if the same scalar kernel drives all three output components (``k_s I3``), else 3.
+    n_components: int = 1
+
+    @abstractmethod
+    def components(self, x: ArrayLike, y: ArrayLike) -> NDArray[np.float64]:
+        """Scalar kernel matrices of the output components, shape ``(n_components, N, M)``."""
+
+    def diagonal(self, x: ArrayLike) -> NDArray[np.float64]:
+        """``k(x_i, x_i)`` per component, shape ``(n_components, N)`` (the prior variance)."""
+        x = as_points(x)
+        return np.stack([np.diagonal(c) for c in self.components(x, x)])
+
+    def component_matrices(self, x: ArrayLike, y: ArrayLike) -> NDArray[np.float64]:
+        """The three scalar kernel matrices, shape ``(3, N, M)`` (repeated if isotropic)."""
+        comps = self.components(x, y)
+        return np.broadcast_to(comps, (3, *comps.shape[1:]))
+
+    def __call__(self, x: ArrayLike, y: ArrayLike) -> NDArray[np.float64]:
+        """The 3x3 blocks ``k(x_i, y_j)``, shape ``(N, M, 3, 3)``."""
+        comps = self.component_matrices(x, y)
+        out = np.zeros((*comps.shape[1:], 3, 3))
+        for a in range(3):
+            out[:, :, a, a] = comps[a]
+        return out
+
+    def matrix(self, x: ArrayLike, y: ArrayLike | None = None) -> NDArray[np.float64]:
+        """The ``(3N, 3M)`` kernel matrix; row ``3 i + a`` is point ``i``, component ``a``.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> k = GaussianKernel(sigma=1.0)
+        >>> x = np.random.default_rng(0).random((4, 3))
+        >>> K = k.matrix(x)
+        >>> K.shape, bool(np.allclose(K, K.T)), bool(np.linalg.eigvalsh(K).min() > -1e-12)
+        ((12, 12), True, True)
+        """
+        y = x if y is None else y
+        blocks = self(x, y)
+        n, m = blocks.shape[:2]
+        return blocks.transpose(0, 2, 1, 3).reshape(3 * n, 3 * m)
+
+    def __add__(self, other: Kernel) -> Kernel:
+        if not isinstance(other, Kernel):
+            return NotImplemented
+        return SumKernel(self, other)
+
+    def __mul__(self, factor: ArrayLike) -> Kernel:
+        if isinstance(factor, Kernel):
+            return NotImplemented
+        return ScaledKernel(self, factor)
+
+    __rmul__ = __mul__
+
+
+class _StationaryKernel(Kernel):
+    """``scale^2 * profile(distance)`` with per-axis length scales and per-component scales."""
+
+    def __init__(self, sigma: ArrayLike = 1.0, scale: ArrayLike = 1.0) -> None:
+        self.sigma = _per_axis(sigma, "sigma")
+        self.scale = _per_axis(scale, "scale")
+        self.n_components = 1 if self.scale.ndim == 0 else 3
+
+    @abstractmethod
+    def _profile(self, x: NDArray[np.float64], y: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Unscaled kernel values ``(N, M)``, equal to 1 at zero distance."""
+
+    def components(self, x: ArrayLike, y: ArrayLike) -> NDArray[np.float64]:
+        base = self._profile(as_points(x, "x"), as_points(y, "y"))
+        return base[None] * np.reshape(self.scale**2, (-1, 1, 1))
+
+    def diagonal(self, x: ArrayLike) -> NDArray[np.float64]:
+        n = len(as_points(x))
+        return np.ones((self.n_components, n)) * np.reshape(self.scale**2, (-1, 1))
+
+    def __repr__(self) -> str:
+        return f"{type(self).__name__}(sigma={self.sigma.tolist()}, scale={self.scale.tolist()})"
+
+
+class GaussianKernel(_StationaryKernel):
+    """``k(x, y) = scale^2 exp(-|x - y|^2 / sigma^2) I3`` (Scalismo's convention).
+
+    Note the missing factor 2: scikit-learn's ``RBF(length_scale=l)`` is this kernel with
+    ``sigma = sqrt(2) l``.
+
+    Parameters
+    ----------
+    sigma : float or (3,) array_like
+        Kernel width (world units); a 3-vector gives one width per input axis (anisotropic:
+        ``exp(-sum_i (x_i - y_i)^2 / sigma_i^2)``).
+    scale : float or (3,) array_like
+        Standard deviation of each displacement component; a 3-vector gives one per output
+        component (a diagonal, non-isotropic kernel).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> k = GaussianKernel(sigma=[1.0, 2.0, 4.0], scale=[1.0, 1.0, 0.5])
+    >>> k.n_components, k.components(np.zeros((1, 3)), [[0.0, 2.0, 0.0]]).ravel().round(4).tolist()
+    (3, [0.3679, 0.3679, 0.092])
+    """
+
+    def _profile(self, x: NDArray[np.float64], y: NDArray[np.float64]) -> NDArray[np.float64]:
+        d2 = cdist(x / self.sigma, y / self.sigma, "sqeuclidean")
+        return np.exp(-d2, out=d2)
+
+
+class ExponentialKernel(_StationaryKernel):
+    """``k(x, y) = scale^2 exp(-|x - y| / sigma^2) I3`` (the convention of the blog post).
+
+    Rougher than :class:`GaussianKernel`: samples are continuous but not differentiable.
+    A 3-vector ``sigma`` divides each axis by ``sigma_i^2`` before taking the distance.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> k = ExponentialKernel(sigma=2.0)
+    >>> float(k.components(np.zeros((1, 3)), [[4.0, 0.0, 0.0]])[0, 0, 0].round(6))   # exp(-4/4)
+    0.367879
+    """
+
+    def _profile(self, x: NDArray[np.float64], y: NDArray[np.float64]) -> NDArray[np.float64]:
+        s2 = self.sigma**2
+        d = cdist(x / s2, y / s2, "euclidean")
+        return np.exp(-d, out=d)
+
+
+def bspline_weights(lattice: Lattice, points: ArrayLike) -> sp.csr_matrix:
+    """Cubic B-spline weights of every lattice control point at each point, sparse ``(N, n_ctrl)``.
+
+    Row ``i`` holds the 64 tensor-product weights ``B_l(t_u) B_m(t_v) B_n(t_w)`` of the
+    4x4x4 control points around point ``i`` (the FFD engine's formula; control points outside
+    the lattice are dropped). Columns are flat control-point indices in C order, like
+    ``lattice.offsets.reshape(-1, 3)``, so ``W @ offsets.reshape(-1, 3)`` is the FFD
+    displacement.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from ffd_notebook import Lattice
+    >>> lat = Lattice((4, 4, 4), 1.0, origin=(-1, -1, -1))
+    >>> W = bspline_weights(lat, [[0.0, 0.0, 0.0], [0.5, 0.5, 0.5]])
+    >>> W.shape, W.sum(axis=1).round(12).ravel().tolist()
+    ((2, 64), [1.0, 1.0])
+    """
+    uvw = lattice.to_lattice(as_points(points))
+    floor = np.floor(uvw)
+    first = floor.astype(np.int64) - 1
+    per_axis = [bspline(uvw[:, a] - floor[:, a]) for a in range(3)]  # (N, 4) each
+    shape = np.array(lattice.shape)
+    offs = np.stack(np.meshgrid(np.arange(4), np.arange(4), np.arange(4), indexing="ij"), -1).reshape(64, 3)
+    idx = first[:, None, :] + offs[None]  # (N, 64, 3)
+    values = per_axis[0][:, offs[:, 0]] * per_axis[1][:, offs[:, 1]] * per_axis[2][:, offs[:, 2]]
+    inside = np.all((idx >= 0) & (idx < shape), axis=2)
+    flat = np.ravel_multi_index(tuple(np.where(inside[..., None], idx, 0).transpose(2, 0, 1)), lattice.shape)
+    rows = np.broadcast_to(np.arange(len(uvw))[:, None], inside.shape)
+    return sp.csr_matrix((values[inside], (rows[inside], flat[inside])), shape=(len(uvw), lattice.n_points))
+
+
+class BSplineKernel(Kernel):
+    """``k(x, y) = scale^2 sum_c w_c(x) w_c(y) I3`` with the FFD engine's B-spline weights ``w_c``.
+
+    The covariance of the displacement ``FFD(lattice).displacement(x)`` when every control
+    point's offset is drawn i.i.d. from ``N(0, scale^2)`` per component: a sample of this
+    process *is* a random FFD on ``lattice`` (the lattice's own offsets are ignored).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from ffd_notebook import Lattice
+    >>> k = BSplineKernel(Lattice((5, 5, 5), 1.0, origin=(-2, -2, -2)), scale=2.0)
+    >>> float(k.components([[0.0, 0.0, 0.0]], [[0.0, 0.0, 0.0]])[0, 0, 0].round(6))  # 4 * (1/36 + 16/36 + 1/36)^3
+    0.5
+    """
+
+    def __init__(self, lattice: Lattice, scale: ArrayLike = 1.0) -> None:
+        if not isinstance(lattice, Lattice):
+            raise TypeError(f"lattice must be a Lattice, got {type(lattice).__name__}")
+        if min(lattice.shape) < 4:
+            raise ValueError(f"a cubic B-spline lattice needs at least 4 control points per axis, got {lattice.shape}")
+        self.lattice = lattice.copy()
+        self.scale = _per_axis(scale, "scale")
+        self.n_components = 1 if self.scale.ndim == 0 else 3
+
+    def weights(self, points: ArrayLike) -> sp.csr_matrix:
+        """Sparse ``(N, n_ctrl)`` control-point weights (see :func:`bspline_weights`)."""
+        return bspline_weights(self.lattice, points)
+
+    def components(self, x: ArrayLike, y: ArrayLike) -> NDArray[np.float64]:
+        base = (self.weights(x) @ self.weights(y).T).toarray()
+        return base[None] * np.reshape(self.scale**2, (-1, 1, 1))
+
+    def diagonal(self, x: ArrayLike) -> NDArray[np.float64]:
+        w = self.weights(x)
+        return np.asarray(w.multiply(w).sum(axis=1)).T * np.reshape(self.scale**2, (-1, 1))
+
+    def __repr__(self) -> str:
+        return f"BSplineKernel({self.lattice!r}, scale={self.scale.tolist()})"
+
+
+class SumKernel(Kernel):
+    """``k1 + k2``: the displacement is the sum of two independent processes."""
+
+    def __init__(self, first: Kernel, second: Kernel) -> None:
+        self.terms = (first, second)
+        self.n_components = max(first.n_components, second.n_components)
+
+    def components(self, x: ArrayLike, y: ArrayLike) -> NDArray[np.float64]:
+        return self.terms[0].components(x, y) + self.terms[1].components(x, y)
+
+    def diagonal(self, x: ArrayLike) -> NDArray[np.float64]:
+        return self.terms[0].diagonal(x) + self.terms[1].diagonal(x)
+
+    def __repr__(self) -> str:
+        return f"({self.terms[0]!r} + {self.terms[1]!r})"
+
+
+class ScaledKernel(Kernel):
+    """``factor * k``: the covariance multiplied by a positive number or a per-component 3-vector."""
+
+    def __init__(self, kernel: Kernel, factor: ArrayLike) -> None:
+        self.kernel = kernel
+        self.factor = _per_axis(factor, "factor")
+        self.n_components = 3 if self.factor.ndim == 1 else kernel.n_components
+
+    def components(self, x: ArrayLike, y: ArrayLike) -> NDArray[np.float64]:
+        return self.kernel.components(x, y) * np.reshape(self.factor, (-1, 1, 1))
+
+    def diagonal(self, x: ArrayLike) -> NDArray[np.float64]:
+        return self.kernel.diagonal(x) * np.reshape(self.factor, (-1, 1))
+
+    def __repr__(self) -> str:
+        return f"{self.factor.tolist()} * {self.kernel!r}"
+
+
+class DiagonalKernel(Kernel):
+    """One isotropic kernel per output component: ``diag(k_x, k_y, k_z)``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> k = DiagonalKernel(GaussianKernel(1.0), GaussianKernel(1.0), ExponentialKernel(1.0))
+    >>> k.n_components, k(np.zeros((1, 3)), [[1.0, 0, 0]])[0, 0].diagonal().round(4).tolist()
+    (3, [0.3679, 0.3679, 0.3679])
+    """
+
+    def __init__(self, kx: Kernel, ky: Kernel, kz: Kernel) -> None:
+        for k in (kx, ky, kz):
+            if not isinstance(k, Kernel) or k.n_components != 1:
+                raise ValueError("DiagonalKernel needs three output-isotropic kernels (n_components == 1)")
+        self.kernels = (kx, ky, kz)
+        self.n_components = 3
+
+    def components(self, x: ArrayLike, y: ArrayLike) -> NDArray[np.float64]:
+        return np.concatenate([k.components(x, y) for k in self.kernels])
+
+    def diagonal(self, x: ArrayLike) -> NDArray[np.float64]:
+        return np.concatenate([k.diagonal(x) for k in self.kernels])
+
+    def __repr__(self) -> str:
+        return f"DiagonalKernel{self.kernels!r}"
