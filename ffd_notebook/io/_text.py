@@ -1,0 +1,101 @@
+"""Shared helpers of the text parsers: decoding, line splitting and strict number parsing."""
+
+from __future__ import annotations
+
+import os
+import re
+from pathlib import Path
+
+from ..errors import FileFormatError
+
+__all__ = ["parse_float", "parse_int", "read_lines", "read_text"]
+
+# Plain decimal numbers only: Python's float() would also take "nan", "inf", "1_000" and "  1 ".
+_FLOAT = re.compile(r"[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?")
+_INT = re.compile(r"[+-]?\d+")
+
+
+def read_text(path: str | os.PathLike[str]) -> str:
+    """Read a whole text file as UTF-8 (a leading byte-order mark is dropped).
+
+    Raises
+    ------
+    FileFormatError
+        If the bytes are not UTF-8 text; names the line of the first bad byte.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> p = pathlib.Path(tempfile.mkdtemp()) / "bad.txt"
+    >>> _ = p.write_bytes(b"ok\\n\\xff\\xfe")
+    >>> read_text(p)
+    Traceback (most recent call last):
+    ...
+    ffd_notebook.errors.FileFormatError: ...bad.txt, line 2: not UTF-8 text (byte 0xff at column 1); expected ...
+    """
+    data = Path(path).read_bytes()
+    try:
+        text = data.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        line_start = data.rfind(b"\n", 0, exc.start) + 1
+        line = data.count(b"\n", 0, exc.start) + 1
+        column = exc.start - line_start + 1
+        problem = f"not UTF-8 text (byte 0x{data[exc.start]:02x} at column {column}); expected a text file"
+        raise FileFormatError(path, line, problem) from None
+    return text[1:] if text.startswith("\ufeff") else text
+
+
+def split_lines(text: str) -> list[str]:
+    """Split on LF, CRLF or (if the file has no LF at all) CR; line ``i`` is physical line ``i + 1``."""
+    if "\n" not in text and "\r" in text:
+        return text.split("\r")
+    lines = text.split("\n")
+    if "\r" in text:
+        lines = [line[:-1] if line.endswith("\r") else line for line in lines]
+    return lines
+
+
+def read_lines(path: str | os.PathLike[str]) -> list[str]:
+    """:func:`read_text` followed by :func:`split_lines`."""
+    return split_lines(read_text(path))
+
+
+def parse_float(path: str | os.PathLike[str], line: int, token: str, what: str = "a number") -> float:
+    """Parse a finite decimal number or raise :class:`FileFormatError` saying what was expected.
+
+    Examples
+    --------
+    >>> parse_float("x.ffd", 3, "-1.5e2")
+    -150.0
+    >>> parse_float("x.ffd", 3, "nan", "the spacing sx")
+    Traceback (most recent call last):
+    ...
+    ffd_notebook.errors.FileFormatError: x.ffd, line 3: expected the spacing sx (a finite number), got 'nan'
+    """
+    if _FLOAT.fullmatch(token):
+        value = float(token)
+        if value - value == 0.0:  # finite (1e999 overflows to inf)
+            return value
+    raise FileFormatError(path, line, f"expected {what} (a finite number), got {_show(token)}")
+
+
+def parse_int(path: str | os.PathLike[str], line: int, token: str, what: str = "an integer") -> int:
+    """Parse a decimal integer or raise :class:`FileFormatError` saying what was expected.
+
+    Examples
+    --------
+    >>> parse_int("x.ffd", 7, "11")
+    11
+    >>> parse_int("x.ffd", 7, "11.5", "nx")
+    Traceback (most recent call last):
+    ...
+    ffd_notebook.errors.FileFormatError: x.ffd, line 7: expected nx (an integer), got '11.5'
+    """
+    if _INT.fullmatch(token):
+        return int(token)
+    raise FileFormatError(path, line, f"expected {what} (an integer), got {_show(token)}")
+
+
+def _show(token: str, limit: int = 40) -> str:
+    """Quote a token for an error message, shortened if long."""
+    return repr(token if len(token) <= limit else token[:limit] + "...")
