@@ -39,8 +39,9 @@ from .kernels import (
     SumKernel,
     bspline_weights,
 )
+from .linalg import cholesky
 from .lowrank import LowRankGP
-from .process import GaussianProcess, PosteriorKernel, cholesky
+from .process import GaussianProcess, PosteriorKernel
 
 __all__ = [
     "ArrowField",

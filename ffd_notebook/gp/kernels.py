@@ -32,6 +32,7 @@ from scipy.spatial.distance import cdist
 
 from ..basis import bspline
 from ..lattice import Lattice
+from .linalg import as_generator, cholesky
 
 __all__ = [
     "BSplineKernel",
@@ -90,6 +91,23 @@ class Kernel(ABC):
         """The three scalar kernel matrices, shape ``(3, N, M)`` (repeated if isotropic)."""
         comps = self.components(x, y)
         return np.broadcast_to(comps, (3, *comps.shape[1:]))
+
+    def sample(self, points: NDArray[np.float64], n: int, rng: np.random.Generator) -> NDArray[np.float64]:
+        """``n`` zero-mean fields drawn jointly at the points, ``(n, N, 3)``.
+
+        Cholesky factor of each distinct component's ``N x N`` matrix times standard normals
+        (``rng.standard_normal((N, n, 3))``).
+        """
+        comps = self.components(points, points)
+        z = rng.standard_normal((len(points), n, 3))
+        out = np.empty((n, len(points), 3))
+        if len(comps) == 1:
+            flat = cholesky(comps[0]) @ z.reshape(len(points), 3 * n)
+            out[...] = flat.reshape(len(points), n, 3).transpose(1, 0, 2)
+        else:
+            for a in range(3):
+                out[:, :, a] = (cholesky(comps[a]) @ z[:, :, a]).T
+        return out
 
     def __call__(self, x: ArrayLike, y: ArrayLike) -> NDArray[np.float64]:
         """The 3x3 blocks ``k(x_i, y_j)``, shape ``(N, M, 3, 3)``."""
@@ -261,6 +279,27 @@ class BSplineKernel(Kernel):
     def weights(self, points: ArrayLike) -> sp.csr_matrix:
         """Sparse ``(N, n_ctrl)`` control-point weights (see :func:`bspline_weights`)."""
         return bspline_weights(self.lattice, points)
+
+    def random_offsets(self, n: int, rng: np.random.Generator) -> NDArray[np.float64]:
+        """``n`` sets of i.i.d. ``N(0, scale^2)`` control-point offsets, ``(n, nx, ny, nz, 3)``."""
+        return rng.standard_normal((n, *self.lattice.shape, 3)) * self.scale
+
+    def random_lattice(self, rng: int | np.random.Generator | None = None) -> Lattice:
+        """A copy of the lattice with random offsets: the FFD of one sample of this process.
+
+        Uses the same draws as ``sample(points, 1, rng)``, so for the same seed
+        ``FFD(kernel.random_lattice(seed)).displacement(points)`` equals
+        ``GaussianProcess(kernel).sample(points, 1, seed)[0]``.
+        """
+        lattice = self.lattice.copy()
+        lattice.offsets[...] = self.random_offsets(1, as_generator(rng))[0]
+        return lattice
+
+    def sample(self, points: NDArray[np.float64], n: int, rng: np.random.Generator) -> NDArray[np.float64]:
+        """Random FFDs evaluated at the points (weight space: exact, no factorisation, any ``N``)."""
+        offsets = self.random_offsets(n, rng).reshape(n, -1, 3)
+        weights = self.weights(points)
+        return np.stack([weights @ o for o in offsets])
 
     def components(self, x: ArrayLike, y: ArrayLike) -> NDArray[np.float64]:
         base = (self.weights(x) @ self.weights(y).T).toarray()

@@ -40,7 +40,8 @@ from numpy.typing import ArrayLike, NDArray
 from tqdm.auto import tqdm
 
 from .kernels import Kernel, as_points
-from .process import GaussianProcess, _rng, cholesky, noise_variances
+from .linalg import as_generator, cholesky
+from .process import GaussianProcess, noise_variances
 
 __all__ = ["LowRankGP"]
 
@@ -241,7 +242,7 @@ class LowRankGP:
             Show a progress bar while the kernel matrix is evaluated.
         """
         pts = as_points(points)
-        gen = _rng(rng)
+        gen = as_generator(rng)
         inducing = pts[np.sort(gen.choice(len(pts), size=min(n_inducing, len(pts)), replace=False))]
         bases = [_nystrom_basis(process.kernel, c, pts, inducing, progress) for c in range(process.kernel.n_components)]
         return cls._from_bases(process, pts, bases, rank, variance)
@@ -373,7 +374,7 @@ class LowRankGP:
         self, n: int = 1, rng: int | np.random.Generator | None = None, points: ArrayLike | None = None
     ) -> NDArray[np.float64]:
         """Draw ``n`` random displacement fields, ``(n, N, 3)``, at the point set or other points."""
-        coefs = _rng(rng).standard_normal((n, self.rank))
+        coefs = as_generator(rng).standard_normal((n, self.rank))
         # any factor of the covariance gives the same distribution: no need for the eigen form
         return np.stack([self._fields(self._weights(c, self._factor, self._axes), points) for c in coefs])
 

@@ -30,38 +30,11 @@ import scipy.linalg as sla
 from numpy.typing import ArrayLike, NDArray
 
 from .kernels import Kernel, as_points
+from .linalg import as_generator, cholesky
 
-__all__ = ["GaussianProcess", "PosteriorKernel", "cholesky", "noise_variances"]
+__all__ = ["GaussianProcess", "PosteriorKernel", "noise_variances"]
 
 MeanFunction = Callable[[NDArray[np.float64]], NDArray[np.float64]]
-
-
-def cholesky(matrix: NDArray[np.float64], max_tries: int = 8) -> NDArray[np.float64]:
-    """Lower Cholesky factor, adding the smallest diagonal jitter that makes it succeed.
-
-    Kernel matrices of smooth kernels are numerically singular (their eigenvalues decay
-    faster than machine precision); a jitter of ``1e-12``, ``1e-11``, ... times the mean
-    diagonal is tried in turn.
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> L = cholesky(np.ones((3, 3)))            # rank one: needs jitter
-    >>> bool(np.allclose(L @ L.T, np.ones((3, 3)), atol=1e-9))
-    True
-    """
-    try:
-        return sla.cholesky(matrix, lower=True, check_finite=False)
-    except np.linalg.LinAlgError:
-        pass
-    scale = float(np.mean(np.diagonal(matrix))) or 1.0
-    eye = np.eye(len(matrix))
-    for power in range(max_tries):
-        try:
-            return sla.cholesky(matrix + (10.0 ** (power - 12) * scale) * eye, lower=True, check_finite=False)
-        except np.linalg.LinAlgError:
-            continue
-    raise ValueError("matrix is not positive semi-definite (Cholesky failed even with jitter)")
 
 
 def noise_variances(noise: ArrayLike, n_landmarks: int) -> NDArray[np.float64]:
@@ -80,10 +53,6 @@ def noise_variances(noise: ArrayLike, n_landmarks: int) -> NDArray[np.float64]:
     if not np.all(np.isfinite(out)) or np.any(out < 0):
         raise ValueError("noise variances must be finite and non-negative")
     return out
-
-
-def _rng(rng: int | np.random.Generator | None) -> np.random.Generator:
-    return rng if isinstance(rng, np.random.Generator) else np.random.default_rng(rng)
 
 
 @dataclass(frozen=True)
@@ -214,20 +183,13 @@ class GaussianProcess:
     ) -> NDArray[np.float64]:
         """Draw ``n`` displacement fields jointly at the points, ``(n, N, 3)``.
 
-        Exact: Cholesky factorisation of the ``N x N`` kernel matrix (one per distinct
-        component), so keep ``N`` to a few thousand; use a
-        :class:`~ffd_notebook.gp.LowRankGP` for whole meshes.
+        Exact, see :meth:`Kernel.sample <ffd_notebook.gp.kernels.Kernel.sample>`: most kernels
+        factorise the ``N x N`` kernel matrix, so keep ``N`` to a few thousand and use a
+        :class:`~ffd_notebook.gp.LowRankGP` for whole meshes; the B-spline kernel samples a
+        random FFD directly at any size.
         """
         pts = as_points(points)
-        gen = _rng(rng)
-        comps = self.kernel.components(pts, pts)
-        z = gen.standard_normal((len(pts), n, 3))
-        out = np.empty((n, len(pts), 3))
-        if len(comps) == 1:
-            out[...] = (cholesky(comps[0]) @ z.reshape(len(pts), 3 * n)).reshape(len(pts), n, 3).transpose(1, 0, 2)
-        else:
-            for a in range(3):
-                out[:, :, a] = (cholesky(comps[a]) @ z[:, :, a]).T
+        out = self.kernel.sample(pts, n, as_generator(rng))
         return out + self.mean(pts)[None]
 
     def posterior(self, landmarks: ArrayLike, displacements: ArrayLike, noise: ArrayLike = 0.0) -> GaussianProcess:
