@@ -1,0 +1,71 @@
+"""Sample meshes that work offline (built from data bundled with PyVista)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["sample_mesh"]
+
+
+def _frog_label_surface(label: int = 10, sigma: float = 2.0):
+    """Smooth closed surface of one label of PyVista's bundled frog tissue volume (in its world units).
+
+    The label mask is blurred (``sigma`` world units) before contouring at 0.5, which removes the
+    voxel staircase; x and y are sampled every second voxel (z already has 1.5x spacing).
+    """
+    import pyvista as pv
+    from pyvista import examples
+    from scipy import ndimage
+
+    volume = examples.load_frog_tissues()
+    labels = np.asarray(volume.active_scalars).reshape(volume.dimensions[::-1])  # (z, y, x)
+    mask = labels == label
+    found = np.argwhere(mask)
+    lo = np.maximum(found.min(axis=0) - 4, 0)
+    hi = found.max(axis=0) + 5
+    spacing_zyx = np.array(volume.spacing)[::-1]
+    blurred = ndimage.gaussian_filter(
+        mask[lo[0] : hi[0], lo[1] : hi[1], lo[2] : hi[2]].astype(np.float32), sigma / spacing_zyx
+    )
+    step = np.array([1, 2, 2])
+    blurred = blurred[:: step[0], :: step[1], :: step[2]]
+    image = pv.ImageData(
+        dimensions=blurred.shape[::-1],
+        spacing=tuple((spacing_zyx * step)[::-1]),
+        origin=tuple(np.array(volume.origin) + lo[::-1] * np.array(volume.spacing)),
+    )
+    image.point_data["mask"] = blurred.ravel()
+    return image.contour([0.5], scalars="mask").clean().connectivity("largest")
+
+
+def sample_mesh():
+    """The editor's default mesh: a frog's liver with per-vertex colours (offline, about 20k vertices).
+
+    The surface of label 10 of :func:`pyvista.examples.load_frog_tissues` (bundled with PyVista),
+    smoothed and closed, with liver-coloured bands across its long axis as per-vertex ``"RGB"``
+    (uint8) point data, so that deformations and colour-keeping decimation are easy to see.
+
+    Returns
+    -------
+    pyvista.PolyData
+        Triangles, point data ``"RGB"`` (uint8, ``(N, 3)``).
+
+    Examples
+    --------
+    >>> mesh = sample_mesh()
+    >>> mesh.n_points > 10000, mesh.point_data["RGB"].dtype.name, mesh.n_open_edges
+    (True, 'uint8', 0)
+    """
+    mesh = _frog_label_surface(10)
+    pts = np.asarray(mesh.points, dtype=np.float64)
+    centred = pts - pts.mean(axis=0)
+    # bands across the principal axis: a shear or bend of the lattice shows as bent bands
+    axis = np.linalg.svd(centred, full_matrices=False)[2][0]
+    t = centred @ axis
+    t = (t - t.min()) / max(float(np.ptp(t)), 1e-12)
+    bands = 0.5 + 0.5 * np.cos(2 * np.pi * 6 * t)
+    dark, light = np.array([150.0, 45.0, 35.0]), np.array([235.0, 160.0, 120.0])
+    rgb = dark + (light - dark) * bands[:, None]
+    mesh.point_data["RGB"] = np.clip(np.rint(rgb), 0, 255).astype(np.uint8)
+    mesh.point_data.active_scalars_name = "RGB"
+    return mesh

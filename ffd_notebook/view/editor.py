@@ -1,0 +1,544 @@
+"""The FFD editor: a PyVista plotter with a mesh inside a lattice of draggable control points.
+
+Data flows one way: a sphere-widget move -> the lattice's offsets (model) -> the cached
+:class:`~ffd_notebook.deform.Deformer` recomputes only the points the moved control point
+influences -> the plotted mesh's points and the lattice line dataset are rewritten in place ->
+the next render shows them. No actor is created or removed while dragging.
+
+Undo: one drag is one undo step (consecutive moves of the same sphere merge until the mouse
+releases it or another kind of edit happens); a typed displacement, a reset, a programmatic edit
+picked up by :meth:`Editor.update`, a new lattice size, basis or a loaded .ffd file are one step
+each. Loading a mesh starts a new history (the old steps belong to the old mesh).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import time
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+import pyvista as pv
+from numpy.typing import ArrayLike, NDArray
+
+from ..deform import FFD
+from ..lattice import Lattice
+from . import fields
+from .editor_files import EditorFilesMixin, as_surface
+from .history import History, LatticeSwap, OffsetEdit
+from .lattice_actor import LatticeActor
+
+__all__ = ["Editor"]
+
+TRACE_ENV = "FFD_NOTEBOOK_TRACE"
+
+
+class Editor(EditorFilesMixin):
+    """Interactive FFD editor (see the module docstring and docs of each method).
+
+    Parameters
+    ----------
+    mesh_or_path : pyvista.DataSet or path, optional
+        The mesh to deform (its surface is used), or a file to read; the bundled sample mesh
+        (:func:`ffd_notebook.datasets.sample_mesh`) if omitted.
+    lattice : Lattice, optional
+        The control lattice (used as is); fitted around the mesh with ``shape`` if omitted.
+    shape : tuple of int
+        Control points per axis of a fitted lattice.
+    basis : {"bspline", "bernstein"}
+        The FFD basis.
+    window_size : tuple of int
+        Render window size in pixels.
+    off_screen : bool, optional
+        Render off-screen (the default: images go to the notebook view, the app or screenshots).
+
+    Examples
+    --------
+    >>> import pyvista as pv
+    >>> from ffd_notebook.view import Editor
+    >>> editor = Editor(pv.Sphere(), shape=(4, 4, 4), window_size=(200, 150))
+    >>> editor.lattice.offsets[1, 1, 2] = (0.0, 0.0, 0.2)
+    >>> editor.update()
+    >>> float(editor.deformed_mesh.points[:, 2].max()) > float(editor.mesh.points[:, 2].max())
+    True
+    >>> editor.undo(); float(abs(editor.lattice.offsets).sum())
+    True
+    0.0
+    >>> editor.close()
+    """
+
+    def __init__(
+        self,
+        mesh_or_path: Any = None,
+        lattice: Lattice | None = None,
+        shape: tuple[int, int, int] = (5, 5, 5),
+        basis: str = "bspline",
+        window_size: tuple[int, int] = (800, 600),
+        off_screen: bool | None = None,
+    ) -> None:
+        self.messages: list[str] = []
+        self.history = History()
+        self.last_callback_ms = 0.0
+        self.n_callbacks = 0
+        self._listeners: list[Callable[[str], None]] = []
+        self._viewers: list[Any] = []
+        self._selected: tuple[int, int, int] | None = None
+        self._field: str | None = None
+        self._colors_on = True
+        self._lattice_actor: LatticeActor | None = None
+        self.mesh_actor: Any = None
+        trace = os.environ.get(TRACE_ENV)
+        self._trace = open(trace, "a", buffering=1) if trace else None
+
+        mesh = self._read_mesh_arg(mesh_or_path)
+        if lattice is None:
+            lattice = Lattice.around(mesh, shape, basis=basis)
+            self._lattice_source = "fit"
+        else:
+            self._lattice_source = "given"
+        ffd = FFD(lattice, basis)
+        self.plotter = pv.Plotter(off_screen=True if off_screen is None else off_screen, window_size=window_size)
+        self._install_mesh(mesh, ffd)
+        self._install_lattice(lattice, basis)
+        self.plotter.view_isometric(render=False)
+        self.plotter.reset_camera(render=False)
+
+    # ------------------------------------------------------------------ model objects
+    @property
+    def lattice(self) -> Lattice:
+        """The control lattice; edit ``lattice.offsets`` in place, then call :meth:`update`."""
+        return self._ffd.lattice
+
+    @lattice.setter
+    def lattice(self, lattice: Lattice) -> None:
+        self.set_lattice(lattice)
+
+    @property
+    def ffd(self) -> FFD:
+        """The :class:`~ffd_notebook.deform.FFD` (lattice + basis) applied to the mesh."""
+        return self._ffd
+
+    @property
+    def basis(self) -> str:
+        """The FFD basis, ``"bspline"`` or ``"bernstein"``."""
+        return self._ffd.basis
+
+    @property
+    def deformed_mesh(self) -> pv.PolyData:
+        """A new mesh: the current deformed points with the rest mesh's faces and point data."""
+        out = self.mesh.copy(deep=True)
+        out.points = np.asarray(self._display_points, dtype=out.points.dtype).copy()
+        return out
+
+    @property
+    def can_undo(self) -> bool:
+        """Whether :meth:`undo` has a step to revert."""
+        return self.history.can_undo
+
+    @property
+    def can_redo(self) -> bool:
+        """Whether :meth:`redo` has a step to re-apply."""
+        return self.history.can_redo
+
+    @property
+    def selected(self) -> tuple[int, int, int] | None:
+        """The selected control point ``(i, j, k)`` (last dragged or :meth:`select`-ed), or None."""
+        return self._selected
+
+    @property
+    def field(self) -> str | None:
+        """The deformation field shown on the mesh: None, ``"displacement"`` or ``"jacobian"``."""
+        return self._field
+
+    @property
+    def colors_shown(self) -> bool:
+        """Whether per-vertex colours are shown (when the mesh has them and no field is shown)."""
+        return self._colors_on
+
+    @property
+    def has_colors(self) -> bool:
+        """Whether the mesh has per-vertex colours."""
+        return fields.color_array_name(self.mesh) is not None
+
+    # ------------------------------------------------------------------ the drag path
+    def on_widget_moved(self, center: ArrayLike, index: int) -> None:
+        """Sphere-widget callback: control point ``index`` (flat C order) was dragged to ``center``.
+
+        Sets its offset to ``center - rest position``, updates the points it influences, the
+        lattice lines and the field view in place. Errors are logged to :attr:`messages`
+        (PyVista would turn them into warnings nobody sees).
+        """
+        t0 = time.perf_counter()
+        try:
+            index = int(index)
+            ijk = tuple(int(v) for v in np.unravel_index(index, self.lattice.shape))
+            before = self.lattice.offsets[ijk].copy()
+            self.lattice.offsets[ijk] = np.asarray(center, dtype=np.float64) - self._rest_flat[index]
+            self.history.record([ijk], [before], [self.lattice.offsets[ijk]], key=("drag", index), label="drag")
+            self._refresh([ijk], widgets=False)
+        except Exception as exc:  # a callback must never raise into VTK
+            self._error(f"widget callback failed for control point {index}: {exc!r}")
+            return
+        self.last_callback_ms = (time.perf_counter() - t0) * 1000.0
+        self.n_callbacks += 1
+        if self._selected != ijk:
+            self._set_selected(ijk)
+        if self._trace is not None:
+            self._write_trace(index, ijk, center)
+        self._notify("drag")
+
+    def _on_widget_start(self, index: int) -> None:
+        self.history.close()
+        self._set_selected(tuple(int(v) for v in np.unravel_index(index, self.lattice.shape)))
+
+    def _on_widget_end(self, index: int) -> None:
+        self.history.close()
+        self._notify("offsets")
+
+    def _write_trace(self, index: int, ijk: tuple[int, int, int], center: ArrayLike) -> None:
+        record = {
+            "t": time.time(),
+            "ev": "cb",
+            "index": index,
+            "ijk": list(ijk),
+            "center": [float(c) for c in np.asarray(center).ravel()],
+            "ms": self.last_callback_ms,
+            "checksum": self.checksum(),
+        }
+        self._trace.write(json.dumps(record) + "\n")
+
+    def checksum(self) -> float:
+        """``sum |deformed points|``: a cheap fingerprint of the shown mesh (for tests and traces)."""
+        return float(np.abs(self._display_points).sum())
+
+    # ------------------------------------------------------------------ programmatic edits
+    def update(self, changed: Any = None) -> None:
+        """Push the model to the view: mesh points, widget centres, lattice lines; then render.
+
+        Call it after editing ``editor.lattice.offsets`` (or its placement) in place. Offsets that
+        differ from what the view last showed become one undo step. ``changed`` (a list of
+        ``(i, j, k)``) is a hint; points found to differ are always included.
+        """
+        self.history.close()
+        lat = self.lattice
+        if lat.shape != self._lattice_actor.shape:
+            raise ValueError("the lattice's shape changed: assign a new lattice with editor.set_lattice(...)")
+        self._rest_flat = lat.control_points().reshape(-1, 3)
+        moved = np.argwhere(np.any(lat.offsets != self._synced, axis=-1))
+        if len(moved):
+            idx = tuple(moved.T)
+            self.history.record(moved, self._synced[idx], lat.offsets[idx], label="code")
+        hint = np.asarray(changed if changed is not None else np.empty((0, 3)), dtype=np.int64).reshape(-1, 3)
+        todo = np.unique(np.vstack([moved, hint]), axis=0)
+        self._refresh(None if changed is None and not len(todo) else [tuple(v) for v in todo], widgets=True)
+        self._render()
+        self._notify("offsets")
+
+    def move_control_point(self, ijk: ArrayLike, displacement: ArrayLike) -> None:
+        """Set the offset of control point ``ijk`` to ``displacement`` (world units; one undo step)."""
+        ijk_t = self._check_ijk(ijk)
+        value = np.asarray(displacement, dtype=np.float64).reshape(3)
+        if not np.all(np.isfinite(value)):
+            raise ValueError(f"displacement must be three finite numbers, got {displacement!r}")
+        self._set_offsets([ijk_t], value[None, :], label="move")
+        self._set_selected(ijk_t)
+
+    def reset(self, ijk: ArrayLike | None = None) -> None:
+        """Zero the offset of one control point, or of all of them (one undo step)."""
+        if ijk is None:
+            points = [tuple(v) for v in np.argwhere(np.any(self.lattice.offsets != 0, axis=-1))]
+        else:
+            points = [self._check_ijk(ijk)]
+        if points:
+            self._set_offsets(points, np.zeros((len(points), 3)), label="reset")
+
+    def _set_offsets(self, points: list[tuple[int, int, int]], values: NDArray[np.float64], label: str) -> None:
+        self.history.close()
+        idx = tuple(np.array(points).T)
+        before = self.lattice.offsets[idx].copy()
+        self.lattice.offsets[idx] = values
+        self.history.record(points, before, values, label=label)
+        self._refresh(points, widgets=True)
+        self._render()
+        self._notify("offsets")
+
+    # ------------------------------------------------------------------ selection
+    def select(self, ijk: ArrayLike | None) -> None:
+        """Select control point ``(i, j, k)`` (highlighted; the panel edits it), or None."""
+        self._set_selected(None if ijk is None else self._check_ijk(ijk))
+        self._render()
+
+    def _set_selected(self, ijk: tuple[int, int, int] | None) -> None:
+        self._selected = ijk
+        flat = None if ijk is None else int(np.ravel_multi_index(ijk, self.lattice.shape))
+        self._lattice_actor.highlight(flat)
+        self._notify("select")
+
+    def _check_ijk(self, ijk: ArrayLike) -> tuple[int, int, int]:
+        arr = np.asarray(ijk)
+        shape = self.lattice.shape
+        if arr.shape != (3,) or not np.all(arr == np.round(arr)) or np.any(arr < 0) or np.any(arr >= shape):
+            raise ValueError(f"control point index must be (i, j, k) within the lattice {shape}, got {ijk!r}")
+        return tuple(int(v) for v in arr)  # type: ignore[return-value]
+
+    # ------------------------------------------------------------------ undo / redo
+    def undo(self) -> bool:
+        """Revert the last step; False if there was none."""
+        change = self.history.undo()
+        if change is not None:
+            self._apply_change(change, forward=False)
+        return change is not None
+
+    def redo(self) -> bool:
+        """Re-apply the last undone step; False if there was none."""
+        change = self.history.redo()
+        if change is not None:
+            self._apply_change(change, forward=True)
+        return change is not None
+
+    def _apply_change(self, change: OffsetEdit | LatticeSwap, forward: bool) -> None:
+        if isinstance(change, LatticeSwap):
+            lattice, basis = change.after if forward else change.before
+            self._install_lattice(lattice.copy(), basis)
+            self._notify("lattice")
+        else:
+            idx = tuple(change.ijk.T)
+            self.lattice.offsets[idx] = change.after if forward else change.before
+            self._refresh([tuple(v) for v in change.ijk], widgets=True)
+            self._notify("offsets")
+        self._render()
+
+    # ------------------------------------------------------------------ lattice and basis
+    def set_lattice(self, lattice: Lattice, basis: str | None = None, label: str = "lattice") -> None:
+        """Replace the lattice (and optionally the basis); one undo step. Invalid input changes nothing."""
+        basis = self.basis if basis is None else basis
+        if not isinstance(lattice, Lattice):
+            raise TypeError(f"lattice must be a Lattice, got {type(lattice).__name__}")
+        FFD(lattice, basis)  # validates (e.g. a B-spline lattice needs 4 points per axis) before any change
+        self.history.close()
+        before = (self.lattice.copy(), self.basis)
+        self._install_lattice(lattice, basis)
+        self.history.record_lattice(before, (lattice.copy(), basis), label=label)
+        self._render()
+        self._notify("lattice")
+
+    def set_shape(self, shape: ArrayLike) -> None:
+        """Fit a new lattice with ``shape`` control points per axis around the mesh (undoable)."""
+        try:
+            lattice = Lattice.around(self.mesh, tuple(int(s) for s in np.ravel(shape)), basis=self.basis)
+        except (ValueError, TypeError) as exc:
+            self._error(f"cannot build a {shape!r} lattice: {exc}")
+            raise
+        self._lattice_source = "fit"
+        self.set_lattice(lattice, label="shape")
+        self._info(f"new {'x'.join(map(str, lattice.shape))} lattice around the mesh")
+
+    def set_basis(self, basis: str) -> None:
+        """Switch the basis; refits the lattice around the mesh for it (offsets start at zero; undoable)."""
+        if basis == self.basis:
+            return
+        try:
+            lattice = Lattice.around(self.mesh, self.lattice.shape, basis=basis)
+        except ValueError as exc:
+            self._error(f"cannot switch to the {basis!r} basis: {exc}")
+            raise
+        self._lattice_source = "fit"
+        self.set_lattice(lattice, basis, label="basis")
+        self._info(f"basis: {basis}")
+
+    # ------------------------------------------------------------------ display
+    def show_colors(self, show: bool = True) -> None:
+        """Show the mesh's per-vertex colours (or a plain colour)."""
+        self._colors_on = bool(show)
+        if show and not self.has_colors:
+            self._info("this mesh has no per-vertex colours")
+        self._apply_coloring()
+        self._render()
+        self._notify("display")
+
+    def set_field(self, field: str | None) -> None:
+        """Colour the mesh by a deformation field: None, ``"displacement"`` or ``"jacobian"`` (folding)."""
+        if field not in fields.FIELDS:
+            raise ValueError(f"field must be one of {fields.FIELDS}, got {field!r}")
+        self._field = field
+        self._update_field()
+        self._apply_coloring()
+        self._render()
+        if field == "jacobian":
+            n = int(self._display.point_data[fields.FOLDING_ARRAY].sum())
+            self._info(f"folding (det J <= 0) at {n} of {self.mesh.n_points} vertices")
+        self._notify("display")
+
+    def _apply_coloring(self) -> None:
+        name = fields.color_array_name(self._display)
+        if self._field is not None:
+            vmax = self._display.point_data[fields.DISPLACEMENT_ARRAY].max() if self._field == "displacement" else 1
+            fields.show_field(self.mesh_actor, self._field, vmax)
+        elif self._colors_on and name is not None:
+            fields.show_rgb(self.mesh_actor, name)
+        else:
+            fields.show_plain(self.mesh_actor)
+
+    def _update_field(self) -> None:
+        if self._field == "displacement":
+            mag = fields.displacement_magnitude(self.mesh.points, self._display_points)
+            self._display.point_data[fields.DISPLACEMENT_ARRAY] = mag
+            fields.set_field_range(self.mesh_actor, float(mag.max()) if len(mag) else 1.0)
+        elif self._field == "jacobian":
+            fold = fields.folding_mask(self._ffd, self.mesh.points).astype(np.float32)
+            self._display.point_data[fields.FOLDING_ARRAY] = fold
+
+    def screenshot(self, path: str | os.PathLike[str] | None = None) -> NDArray[np.uint8]:
+        """Render and return the image ``(h, w, 3)`` uint8; also write a PNG if ``path`` is given."""
+        self.plotter.render_window.Render()
+        img = self.plotter.screenshot(return_img=True)
+        if path is not None:
+            from PIL import Image
+
+            Image.fromarray(img).save(os.fspath(path))
+        return img
+
+    def widget_display_positions(self) -> list[dict[str, float]]:
+        """Where each sphere widget is on screen: ``{"index", "u", "v", "z"}``, normalised, origin bottom-left."""
+        ren = self.plotter.renderer
+        w, h = self.plotter.render_window.GetSize()
+        out = []
+        for i, widget in enumerate(self._lattice_actor.widgets):
+            ren.SetWorldPoint(*widget.GetCenter(), 1.0)
+            ren.WorldToDisplay()
+            x, y, z = ren.GetDisplayPoint()
+            out.append({"index": i, "u": x / w, "v": y / h, "z": z})
+        return out
+
+    # ------------------------------------------------------------------ trame
+    def register_triggers(self, server: Any) -> None:
+        """Register the ``ffd_widget_px`` and ``ffd_state`` triggers on a trame server (last editor wins)."""
+        server.controller.trigger("ffd_widget_px")(self._trigger_widget_px)
+        server.controller.trigger("ffd_state")(self._trigger_state)
+
+    def _trigger_widget_px(self) -> dict[str, Any]:
+        return {"size": list(self.plotter.render_window.GetSize()), "widgets": self.widget_display_positions()}
+
+    def _trigger_state(self) -> dict[str, Any]:
+        return {
+            "checksum": self.checksum(),
+            "offsets_abs_sum": float(np.abs(self.lattice.offsets).sum()),
+            "n_callbacks": self.n_callbacks,
+        }
+
+    def attach_viewer(self, viewer: Any) -> None:
+        """Let a trame viewer (with ``.update()``) receive a new image after programmatic changes."""
+        self._viewers.append(viewer)
+
+    def _ipython_display_(self) -> None:
+        from .notebook import display_editor
+
+        display_editor(self)
+
+    # ------------------------------------------------------------------ observers and messages
+    def observe(self, callback: Callable[[str], None]) -> None:
+        """Call ``callback(event)`` after changes (``"drag"``, ``"select"``, ``"offsets"``, ``"lattice"``,
+        ``"mesh"``, ``"display"``, ``"message"``); used by the control panels."""
+        self._listeners.append(callback)
+
+    def _notify(self, event: str) -> None:
+        for callback in list(self._listeners):
+            try:
+                callback(event)
+            except Exception as exc:
+                self.messages.append(f"Error: a view failed to follow the editor: {exc!r}")
+
+    def _info(self, text: str) -> None:
+        self.messages.append(text)
+        self._notify("message")
+
+    def _error(self, text: str) -> None:
+        self.messages.append(f"Error: {text}")
+        self._notify("message")
+
+    # ------------------------------------------------------------------ building the scene
+    def _install_mesh(self, mesh: pv.PolyData, ffd: FFD, source: pv.PolyData | None = None) -> None:
+        """Show ``mesh`` (rest shape) deformed by ``ffd``; replaces any previous mesh actor.
+
+        ``source`` is the mesh as loaded (what :meth:`decimate` starts from); ``mesh`` itself if omitted.
+        """
+        deformer = ffd.bind(mesh.points)
+        display = mesh.copy(deep=True)
+        if self.mesh_actor is not None:
+            self.plotter.remove_actor(self.mesh_actor, reset_camera=False, render=False)
+        self.mesh = mesh
+        self._source_mesh = mesh if source is None else source
+        self._display = display
+        self._deformer = deformer
+        self._display_points = display.points  # NumPy view of the plotted VTK points: written in place
+        self.mesh_actor = self.plotter.add_mesh(display, color="tan", smooth_shading=True, reset_camera=False)
+        self._display_points[:] = deformer.update()
+        self._update_field()
+        self._apply_coloring()
+
+    def _install_lattice(self, lattice: Lattice, basis: str) -> None:
+        """Use ``lattice`` with ``basis`` (rebinds the deformer; new widgets and lines)."""
+        ffd = FFD(lattice, basis)
+        deformer = ffd.bind(self.mesh.points)
+        self._ffd, self._deformer = ffd, deformer
+        if self._lattice_actor is not None:
+            self._lattice_actor.remove()
+        self._lattice_actor = LatticeActor(
+            self.plotter, lattice, self.on_widget_moved, self._on_widget_start, self._on_widget_end
+        )
+        self._rest_flat = lattice.control_points().reshape(-1, 3)
+        self._synced = lattice.offsets.copy()
+        self._selected = None
+        self._refresh(None, widgets=True)
+
+    def _refresh(self, changed: list[tuple[int, int, int]] | None, widgets: bool) -> None:
+        """Model -> view: deformed mesh points, lattice lines, (widget centres), field colours."""
+        self._display_points[:] = self._deformer.update(changed)
+        self._display.GetPoints().Modified()
+        positions = self._rest_flat + self.lattice.offsets.reshape(-1, 3)
+        self._lattice_actor.set_line_points(positions)
+        if widgets:
+            flat = None if changed is None else [np.ravel_multi_index(c, self.lattice.shape) for c in changed]
+            self._lattice_actor.set_widget_centers(positions, flat)
+        self._synced[...] = self.lattice.offsets
+        if self._field is not None:
+            self._update_field()
+
+    def _render(self) -> None:
+        self.plotter.render_window.Render()
+        for viewer in list(self._viewers):
+            try:
+                viewer.update()
+            except Exception as exc:
+                self.messages.append(f"Error: could not update a browser view: {exc!r}")
+
+    def close(self) -> None:
+        """Release the plotter, widgets and the trace file (the editor cannot be used afterwards)."""
+        if self._trace is not None:
+            self._trace.close()
+            self._trace = None
+        self._listeners.clear()
+        self._viewers.clear()
+        if self._lattice_actor is not None and self.plotter.render_window is not None:
+            self._lattice_actor.remove()
+        self.plotter.close()
+
+    def __repr__(self) -> str:
+        return (
+            f"Editor(mesh={self.mesh.n_points} points, lattice={'x'.join(map(str, self.lattice.shape))}, "
+            f"basis={self.basis!r}, history={len(self.history)})"
+        )
+
+    @staticmethod
+    def _read_mesh_arg(mesh_or_path: Any) -> pv.PolyData:
+        if mesh_or_path is None:
+            from ..datasets import sample_mesh
+
+            return as_surface(sample_mesh())
+        if isinstance(mesh_or_path, (str, os.PathLike)):
+            from ..io import read_mesh
+
+            return as_surface(read_mesh(mesh_or_path))
+        return as_surface(mesh_or_path)

@@ -1,0 +1,149 @@
+"""The editor in Jupyter: the plotter's trame view (server-side rendering) next to the control panel.
+
+The view is PyVista's own trame Jupyter widget (:func:`trame_pyvista.jupyter.show_trame` with
+``mode="server"``): an ``<iframe class="pyvista">`` served by the trame server that runs inside
+the kernel. Server-side rendering is what sphere widgets need: every mouse event reaches VTK in
+the kernel, the sphere-widget callback deforms the mesh and the server streams the new image.
+The iframe's address honours ``pyvista.global_theme.trame.server_proxy_enabled`` /
+``server_proxy_prefix`` (for jupyter-server-proxy), exactly like ``plotter.show()``.
+
+With the ``"static"`` (or ``"none"``) Jupyter backend, e.g. when notebooks run headless in CI, the
+view is a picture that the panel's actions refresh instead; either way the output also carries a
+PNG of the scene so a saved notebook shows it where widgets cannot run.
+"""
+
+from __future__ import annotations
+
+import base64
+from typing import Any
+
+import pyvista as pv
+
+from .editor import Editor
+
+__all__ = ["display_editor", "edit", "editor_widget"]
+
+STATIC_BACKENDS = ("static", "none")
+
+
+def edit(
+    mesh_or_path: Any = None,
+    lattice: Any = None,
+    shape: tuple[int, int, int] = (5, 5, 5),
+    basis: str = "bspline",
+    **kw: Any,
+) -> Editor:
+    """Open an FFD editor on a mesh in the notebook and return it.
+
+    Parameters
+    ----------
+    mesh_or_path, lattice, shape, basis, **kw
+        As for :class:`~ffd_notebook.view.editor.Editor` (``window_size``, ``off_screen``).
+
+    Returns
+    -------
+    Editor
+        Keep it to work with the result: ``editor.deformed_mesh``, ``editor.lattice``,
+        ``editor.save_ffd(...)``. Showing the returned editor again in the same cell does not
+        draw a second copy.
+
+    Examples
+    --------
+    >>> import pyvista as pv
+    >>> from ffd_notebook.view import edit
+    >>> editor = edit(pv.Sphere(), shape=(4, 4, 4), window_size=(300, 200))  # doctest: +SKIP
+    """
+    editor = Editor(mesh_or_path, lattice=lattice, shape=shape, basis=basis, **kw)
+    display_editor(editor)
+    editor._displayed_in = _execution_count()
+    return editor
+
+
+def _execution_count() -> int | None:
+    try:
+        from IPython import get_ipython
+    except ImportError:  # pragma: no cover - IPython comes with Jupyter
+        return None
+    shell = get_ipython()
+    return None if shell is None else shell.execution_count
+
+
+def _backend() -> str:
+    backend = pv.global_theme.jupyter_backend
+    return "trame" if backend is None else str(backend).lower()
+
+
+def _trame_view(editor: Editor) -> Any:
+    """PyVista's trame iframe widget for the editor's plotter, server-side rendering."""
+    from trame_pyvista.jupyter import show_trame
+
+    width, height = editor.plotter.window_size
+    widget = show_trame(editor.plotter, mode="server", collapse_menu=True, width=f"{width}px", height=f"{height}px")
+    editor.attach_viewer(widget.viewer)
+    editor.register_triggers(widget.viewer.server)
+    return widget
+
+
+def _static_view(editor: Editor) -> Any:
+    """A PNG of the scene that follows the editor's changes (no dragging without a trame view)."""
+    import io
+
+    import ipywidgets as widgets
+    from PIL import Image
+
+    def png() -> bytes:
+        buf = io.BytesIO()
+        Image.fromarray(editor.screenshot()).save(buf, format="PNG")
+        return buf.getvalue()
+
+    view = widgets.Image(value=png(), format="png")
+
+    def follow(event: str) -> None:
+        if event in ("offsets", "lattice", "mesh", "display", "select"):
+            view.value = png()
+
+    editor.observe(follow)
+    return view
+
+
+def editor_widget(editor: Editor) -> Any:
+    """The editor's notebook widget: ``ipywidgets.HBox([view, ControlPanel(editor)])`` (made once per editor)."""
+    box = getattr(editor, "_notebook_widget", None)
+    if box is None:
+        import ipywidgets as widgets
+
+        from .panel import ControlPanel
+
+        view = _static_view(editor) if _backend() in STATIC_BACKENDS else _trame_view(editor)
+        box = widgets.HBox([view, ControlPanel(editor)])
+        editor._notebook_widget = box
+    return box
+
+
+class _EditorOutput:
+    """Display bundle: the live widget plus a PNG of the scene for viewers without a kernel."""
+
+    def __init__(self, editor: Editor) -> None:
+        self.editor = editor
+
+    def _repr_mimebundle_(self, include: Any = None, exclude: Any = None) -> dict[str, Any]:
+        import io
+
+        from PIL import Image
+
+        bundle = editor_widget(self.editor)._repr_mimebundle_(include=include, exclude=exclude) or {}
+        buf = io.BytesIO()
+        Image.fromarray(self.editor.screenshot()).save(buf, format="PNG")
+        bundle = dict(bundle)
+        bundle["image/png"] = base64.b64encode(buf.getvalue()).decode("ascii")
+        bundle["text/plain"] = repr(self.editor)
+        return bundle
+
+
+def display_editor(editor: Editor) -> None:
+    """Show the editor in the notebook (once per cell: see :func:`edit`)."""
+    from IPython.display import display
+
+    if getattr(editor, "_displayed_in", None) is not None and editor._displayed_in == _execution_count():
+        return
+    display(_EditorOutput(editor))
