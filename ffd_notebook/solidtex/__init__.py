@@ -1,0 +1,36 @@
+"""Solid (volume) textures: exemplars from slice stacks, block synthesis, sampling on meshes.
+
+Plain NumPy/SciPy (and tqdm); the meshes, tetrahedra and the cutting-plane viewer are in
+:mod:`ffd_notebook.view.organ`.
+"""
+
+from __future__ import annotations
+
+from .blending import axis_ramp, block_weights
+from .blocks import box_mean, choose_block_size, classify_blocks, feature_inclusiveness
+from .quality import colour_histogram, gradient_energy, histogram_distance, seam_energy
+from .sampling import SolidTexture
+from .slices import as_rgb8, sliding_crops, volume_from_slices
+from .synthesis import Stage, plan_stages, synthesize
+from .tetra import boundary_faces
+
+__all__ = [
+    "SolidTexture",
+    "Stage",
+    "as_rgb8",
+    "axis_ramp",
+    "block_weights",
+    "boundary_faces",
+    "box_mean",
+    "choose_block_size",
+    "classify_blocks",
+    "colour_histogram",
+    "feature_inclusiveness",
+    "gradient_energy",
+    "histogram_distance",
+    "plan_stages",
+    "seam_energy",
+    "sliding_crops",
+    "synthesize",
+    "volume_from_slices",
+]
