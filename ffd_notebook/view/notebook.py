@@ -73,9 +73,55 @@ def _backend() -> str:
     return "trame" if backend is None else str(backend).lower()
 
 
+def _jupyter_server() -> Any:
+    """PyVista's Jupyter trame server, started if needed.
+
+    Does what :func:`trame_pyvista.jupyter.launch_server` does, minus initialising
+    trame-vtklocal when it is installed: that module downloads a WebAssembly build of VTK from
+    gitlab.kitware.com when a server starts, which this server-rendered view never uses (and
+    which fails, noisily, without internet).
+    """
+    import asyncio
+    import os
+
+    from trame.widgets import html, vuetify, vuetify3
+    from trame.widgets import vtk as vtk_widgets
+    from trame_pyvista.widgets import get_server
+
+    server = get_server(pv.global_theme.trame.jupyter_server_name)
+    if server.running:
+        return server
+    for module in (html, vtk_widgets, vuetify if server.client_type == "vue2" else vuetify3):
+        module.initialize(server)
+    if server._running_stage == 0:
+        backend = "jupyter" if pv.global_theme.trame.jupyter_extension_enabled else "aiohttp"
+        host = os.environ.get("TRAME_DEFAULT_HOST", "127.0.0.1")
+
+        async def start() -> None:
+            server.start(
+                exec_mode="task",
+                host=host,
+                port=pv.global_theme.trame.jupyter_server_port,
+                open_browser=False,
+                show_connection_info=False,
+                disable_logging=True,
+                timeout=0,
+                backend=backend,
+            )
+            await server.ready
+
+        import nest_asyncio2  # what PyVista uses to start the server without `await` in a cell
+
+        nest_asyncio2.apply()
+        asyncio.run(start())
+    return server
+
+
 def _trame_view(editor: Editor) -> Any:
     """PyVista's trame iframe widget for the editor's plotter, server-side rendering."""
     from trame_pyvista.jupyter import show_trame
+
+    _jupyter_server()
 
     width, height = editor.plotter.window_size
     widget = show_trame(editor.plotter, mode="server", collapse_menu=True, width=f"{width}px", height=f"{height}px")
