@@ -8,7 +8,7 @@ from pathlib import Path
 
 from ..errors import FileFormatError
 
-__all__ = ["parse_float", "parse_int", "read_lines", "read_text"]
+__all__ = ["end_line", "parse_float", "parse_int", "read_lines", "read_text", "split_lines"]
 
 # Plain decimal numbers only: Python's float() would also take "nan", "inf", "1_000" and "  1 ".
 _FLOAT = re.compile(r"[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?")
@@ -53,6 +53,11 @@ def split_lines(text: str) -> list[str]:
     if "\r" in text:
         lines = [line[:-1] if line.endswith("\r") else line for line in lines]
     return lines
+
+
+def end_line(lines: list[str]) -> int:
+    """Number of the last line of a file split by :func:`split_lines` (a final line end starts no line)."""
+    return max(len(lines) - (1 if lines and lines[-1] == "" else 0), 1)
 
 
 def read_lines(path: str | os.PathLike[str]) -> list[str]:

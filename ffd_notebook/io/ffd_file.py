@@ -27,7 +27,7 @@ import numpy as np
 from ..errors import FileFormatError
 from ..lattice import Lattice
 from ._atomic import atomic_open
-from ._text import parse_float, parse_int, read_lines
+from ._text import end_line, parse_float, parse_int, read_lines
 from .placement import quaternion_to_rotation, rotation_to_quaternion
 
 __all__ = ["load_ffd", "save_ffd"]
@@ -74,13 +74,8 @@ def _split_sections(path: str | os.PathLike[str], lines: list[str]) -> list[_Sec
         elif stripped:
             raise FileFormatError(path, number, f"expected a section header like #dimension#, got {text[:40]!r}")
     if not sections:
-        raise FileFormatError(path, _end_line(lines), "no sections: expected a .ffd file starting with #dimension#")
+        raise FileFormatError(path, end_line(lines), "no sections: expected a .ffd file starting with #dimension#")
     return sections
-
-
-def _end_line(lines: list[str]) -> int:
-    """Number of the last line (a final line end does not start another line)."""
-    return max(len(lines) - (1 if lines and lines[-1] == "" else 0), 1)
 
 
 def _tokens(section: _Section) -> list[tuple[int, str]]:
@@ -221,7 +216,7 @@ def load_ffd(path: str | os.PathLike[str]) -> Lattice:
     """
     lines = read_lines(path)
     sections = _split_sections(path, lines)
-    known = _index_sections(path, sections, _end_line(lines))
+    known = _index_sections(path, sections, end_line(lines))
     if "dimension" in known:
         (dim,) = _numbers(path, known["dimension"], ("the dimension",), parse_int)
         if dim != 3:

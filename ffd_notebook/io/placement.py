@@ -59,7 +59,9 @@ def rotation_to_quaternion(rotation: ArrayLike) -> tuple[float, float, float, fl
     ``qf`` is the sign of the determinant; the proper rotation ``rotation @ diag(1, 1, qf)`` goes
     through :class:`scipy.spatial.transform.Rotation`, with the quaternion's ``a >= 0``. Turning
     the result back with :func:`quaternion_to_rotation` gives the matrix again up to rounding
-    (a float matrix is in general not exactly the image of any float quaternion).
+    (a float matrix is in general not exactly the image of any float quaternion). The format
+    stores ``b, c, d`` but not ``a``, so close to a half turn (small ``a``) the error grows like
+    ``1e-16 / a``, and rotations with ``a**2 < 1e-7`` come back as the exact half turn (NIfTI rule).
 
     Examples
     --------

@@ -252,3 +252,16 @@ def test_binary_junk_is_a_file_format_error(tmp_path):
 def test_missing_file_is_file_not_found(tmp_path):
     with pytest.raises(FileNotFoundError):
         load_ffd(tmp_path / "nope.ffd")
+
+
+def test_near_half_turn_follows_nifti_precision(tmp_path):
+    """The file stores b, c, d (not a): near a half turn a is recovered poorly; NIfTI snaps a^2 < 1e-7 to 0."""
+    from scipy.spatial.transform import Rotation
+
+    for angle_gap, tolerance in ((1e-2, 1e-13), (1e-5, 2e-5)):
+        rotation = Rotation.from_rotvec((np.pi - angle_gap) * np.array([0.0, 0.6, 0.8])).as_matrix()
+        lat = Lattice((2, 2, 2), 1.0, rotation=rotation)
+        save_ffd(tmp_path / "turn.ffd", lat)
+        back = load_ffd(tmp_path / "turn.ffd")
+        np.testing.assert_allclose(back.rotation, rotation, rtol=0, atol=tolerance)
+        assert np.allclose(back.rotation.T @ back.rotation, np.eye(3), atol=1e-15)
