@@ -159,6 +159,10 @@ def _index_sections(path, sections: list[_Section], end: int) -> dict[str, _Sect
                 raise FileFormatError(path, sec.line, f"section #{sec.header}# appears twice "
                                       f"(first on line {known[key].line})")  # fmt: skip
             known[key] = sec
+    if not known:
+        first = sections[0]
+        raise FileFormatError(path, first.line, f"not a .ffd file: expected sections like #dimension# and "
+                              f"#control grid size#, found none (first header: #{first.header[:40]}#)")  # fmt: skip
     for key in ("control grid size", "control grid spacing", "offsets"):
         if key not in known:
             raise FileFormatError(path, end, f"missing section #{_HEADERS[key]}# (reached the end of the file)")

@@ -206,6 +206,7 @@ def test_save_refuses_nan_offsets(tmp_path):
 BAD = [
     # (what is wrong, file text, expected line, words of the message)
     ("empty file", "", 1, "no sections"),
+    ("an OBJ file", "####\n# Object\nv 1 2 3\nf 1 1 1\n", 1, "not a .ffd file"),
     ("text before the first header", "hello\n" + TINY, 1, "section header"),
     ("missing offsets", TINY.split("#offsets")[0], 12, "missing section #offsets of the control points#"),
     ("missing size", TINY.replace("#control grid size#\n2\n2\n2\n", ""), 15, "missing section #control grid size#"),
