@@ -35,6 +35,7 @@ _LAZY = {
     "write_obj": "ffd_notebook.io",
     "read_mesh": "ffd_notebook.io",
     "write_mesh": "ffd_notebook.io",
+    "place_at_mesh_minimum": "ffd_notebook.io",
     "edit": "ffd_notebook.view",
     "Editor": "ffd_notebook.view",
 }
