@@ -1,0 +1,124 @@
+"""Organ models with solid textures: tetrahedra, surface, dense colours, cutting, deformation."""
+
+import sys
+
+import numpy as np
+import pytest
+import pyvista as pv
+import skimage.data
+
+import ffd_notebook.view  # noqa: F401  (headless settings before any plotter)
+from ffd_notebook import FFD, Lattice
+from ffd_notebook.datasets import frog_liver
+from ffd_notebook.solidtex import SolidTexture, sliding_crops, volume_from_slices
+from ffd_notebook.view import organ as organ_module
+from ffd_notebook.view.organ import organ_surface, tetrahedralize, texture_surface
+from ffd_notebook.view.solid_cut import CutViewer, TexturedOrgan
+
+
+@pytest.fixture(scope="module")
+def liver():
+    return frog_liver(1200)
+
+
+@pytest.fixture(scope="module")
+def texture(liver):
+    # a real exemplar stack straight from an image: enough to see colours move (no synthesis needed)
+    vol = volume_from_slices(sliding_crops(skimage.data.immunohistochemistry(), 32, 48, step=(1, 1), start=(90, 90)))
+    return SolidTexture.fit(vol, liver.bounds)
+
+
+@pytest.fixture(scope="module")
+def grid(liver):
+    return tetrahedralize(liver, method="delaunay")
+
+
+@pytest.fixture
+def without_tetgen(monkeypatch):
+    monkeypatch.setitem(sys.modules, "tetgen", None)  # "import tetgen" now raises ImportError
+
+
+def _check_tet_model(grid, surface):
+    assert grid.n_cells == len(grid.cells_dict[pv.CellType.TETRA])
+    assert np.all(grid.compute_cell_sizes()["Volume"] >= 0)
+    outer = organ_surface(grid)
+    assert outer.n_open_edges == 0 and outer.is_manifold
+    # the boundary faces enclose exactly the tetrahedra, and about the organ's volume
+    assert outer.volume == pytest.approx(grid.volume, rel=1e-6)
+    assert outer.volume == pytest.approx(surface.volume, rel=0.03)
+    np.testing.assert_array_equal(outer.point_data["rest"], grid.points[outer.point_data["grid_point"]])
+    return outer
+
+
+def test_fallback_tetrahedralisation_without_tetgen(liver, without_tetgen):
+    grid = tetrahedralize(liver)  # "auto" falls back
+    assert grid.field_data["tetrahedralizer"][0] == "delaunay"
+    _check_tet_model(grid, liver)
+    with pytest.raises(ImportError, match=r"ffd_notebook\[tetgen\]"):
+        tetrahedralize(liver, method="tetgen")
+
+
+def test_tetgen_when_installed(liver):
+    pytest.importorskip("tetgen")
+    grid = tetrahedralize(liver)
+    assert grid.field_data["tetrahedralizer"][0] == "tetgen"
+    outer = _check_tet_model(grid, liver)
+    assert outer.n_points >= liver.n_points  # TetGen keeps every surface point (and may add some)
+
+
+def test_open_surface_is_refused():
+    with pytest.raises(ValueError, match="open edges"):
+        tetrahedralize(pv.Plane())
+    with pytest.raises(ValueError, match="method"):
+        tetrahedralize(pv.Sphere(), method="voxels")
+
+
+def test_dense_colours_are_the_texture_at_rest_positions(grid, texture):
+    outer = organ_surface(grid)
+    dense = texture_surface(outer, texture, subdivisions=2)
+    assert dense.n_cells == 16 * outer.n_cells
+    np.testing.assert_allclose(dense.points, dense.point_data["rest"], atol=1e-3)  # VTK keeps float32 points
+    np.testing.assert_array_equal(dense.point_data["RGB"], texture.sample(dense.point_data["rest"]))
+    # subdividing shows texture detail the coarse vertices miss: more distinct colours per triangle
+    coarse = texture_surface(outer, texture, subdivisions=0)
+    assert len(np.unique(dense.point_data["RGB"], axis=0)) > 4 * len(np.unique(coarse.point_data["RGB"], axis=0))
+    assert organ_module.auto_subdivisions(outer, texture) >= 1
+
+
+def test_cut_faces_sample_the_interior_and_follow_a_deformation(grid, texture):
+    organ = TexturedOrgan(grid, texture, subdivisions=1)
+    origin, normal = np.array(grid.center), np.array([0.6, 0.8, 0.0])
+    outside, face = organ.cut(origin, normal)
+    assert face.n_cells > 0 and outside.n_cells > 0
+    np.testing.assert_allclose((face.points - origin) @ normal, 0, atol=1e-3)
+    assert np.all((outside.points - origin) @ normal <= 1e-3)
+    colours = face.point_data["RGB"].copy()
+    np.testing.assert_array_equal(colours, texture.sample(face.points))
+    # move the organ by an FFD translation: the same material is cut by the moved plane
+    lattice = Lattice.around(grid.points, shape=(5, 5, 5))
+    lattice.offsets[...] = (7.0, -3.0, 2.0)
+    organ.deform(FFD(lattice).deform)
+    shift = organ.surface.points - organ.surface.point_data["rest"]
+    np.testing.assert_allclose(shift, np.broadcast_to([7.0, -3.0, 2.0], shift.shape), atol=1e-3)
+    _, moved = organ.cut(origin + (7.0, -3.0, 2.0), normal)
+    np.testing.assert_allclose(moved.point_data["rest"], moved.points - (7.0, -3.0, 2.0), atol=1e-3)
+    assert np.abs(moved.point_data["RGB"].astype(int).mean(0) - colours.astype(int).mean(0)).max() < 2
+    assert not np.array_equal(moved.point_data["RGB"], texture.sample(moved.points))  # not world-frame colours
+    organ.deform(None)
+    np.testing.assert_allclose(organ.grid.points, organ.grid.point_data["rest"])
+
+
+def test_viewer_recuts_in_place_when_the_plane_widget_moves(grid, texture):
+    organ = TexturedOrgan(grid, texture, subdivisions=1)
+    viewer = CutViewer(organ, normal=(1, 0, 0), window_size=(300, 200))
+    outside, face = viewer.outside, viewer.face
+    before = face.n_points
+    viewer.widget.SetOrigin(*(np.array(grid.center) + (25.0, 0.0, 0.0)))
+    viewer.widget.InvokeEvent("InteractionEvent")  # what a drag does, as the widget sees it
+    assert viewer.outside is outside and viewer.face is face
+    assert viewer.origin[0] == pytest.approx(grid.center[0] + 25.0)
+    assert face.n_points != before and np.allclose(face.points[:, 0], viewer.origin[0], atol=1e-3)
+    viewer.look_at_cut()
+    image = viewer.plotter.screenshot(return_img=True)
+    assert image.std() > 10  # a textured organ, not an empty frame
+    viewer.plotter.close()
