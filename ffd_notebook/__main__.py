@@ -1,0 +1,85 @@
+"""``python -m ffd_notebook``: the FFD editor as a standalone web app.
+
+Examples
+--------
+Open the bundled sample mesh and browse to the printed address::
+
+    python -m ffd_notebook
+    python -m ffd_notebook face.obj --ffd face.ffd --port 8765
+    python -m ffd_notebook --shape 6 6 4 --basis bernstein
+"""
+
+from __future__ import annotations
+
+import argparse
+import ipaddress
+import os
+import sys
+from collections.abc import Sequence
+
+__all__ = ["build_parser", "main"]
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The command line of ``python -m ffd_notebook``.
+
+    Examples
+    --------
+    >>> args = build_parser().parse_args(["mesh.obj", "--shape", "6", "5", "4", "--port", "0"])
+    >>> args.mesh, args.shape, args.port, args.host, args.basis
+    ('mesh.obj', [6, 5, 4], 0, '127.0.0.1', 'bspline')
+    """
+    parser = argparse.ArgumentParser(
+        prog="python -m ffd_notebook",
+        description="Deform a mesh by dragging the control points of a free-form deformation lattice, in the browser.",
+    )
+    parser.add_argument("mesh", nargs="?", help="mesh file (OBJ with colours, PLY, VTP, STL, ...); default: sample")
+    parser.add_argument("--ffd", metavar="FILE", help="a .ffd lattice file to start from")
+    parser.add_argument("--port", type=int, default=8080, help="port to listen on (0: any free port; default 8080)")
+    parser.add_argument("--host", default="127.0.0.1", help="address to listen on (default 127.0.0.1: this machine)")
+    parser.add_argument("--shape", type=int, nargs=3, default=[5, 5, 5], metavar=("NX", "NY", "NZ"),
+                        help="control points per axis of the fitted lattice (default 5 5 5)")  # fmt: skip
+    parser.add_argument("--basis", choices=["bspline", "bernstein"], default="bspline", help="FFD basis")
+    return parser
+
+
+def _is_loopback(host: str) -> bool:
+    if host == "localhost":
+        return True
+    try:
+        return ipaddress.ip_address(host).is_loopback
+    except ValueError:
+        return False
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Parse ``argv`` (``sys.argv[1:]`` by default), build the editor and serve it until interrupted."""
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    for path, what in ((args.mesh, "mesh"), (args.ffd, ".ffd file")):
+        if path is not None and not os.path.isfile(path):
+            parser.error(f"no such {what}: {path}")
+    if not _is_loopback(args.host):
+        print(
+            f"warning: listening on {args.host}: anyone who can reach it can edit, and read or write files "
+            "through the panel's paths, as this user",
+            file=sys.stderr,
+        )
+    # trame would parse sys.argv again on start; the arguments above are the only ones that count
+    os.environ.setdefault("TRAME_ARGS", "")
+    print("loading the editor...", flush=True)
+    from .errors import FileFormatError
+    from .view.app import run_app
+
+    try:
+        run_app(args.mesh, ffd=args.ffd, port=args.port, host=args.host, shape=tuple(args.shape), basis=args.basis)
+    except (FileFormatError, ValueError, OSError) as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 1
+    except KeyboardInterrupt:
+        pass
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

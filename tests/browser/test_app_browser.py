@@ -1,0 +1,136 @@
+"""The standalone app (``python -m ffd_notebook``) in headless Chromium: drag a control point, save, upload.
+
+Run: ``python -m pytest tests/browser/test_app_browser.py -m browser -s`` (``-s`` prints the latency figures,
+which are also written to ``test-artifacts/browser_metrics.json`` with before/after screenshots).
+"""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+import pyvista as pv
+from browser.helpers import (
+    ARTIFACTS,
+    callbacks,
+    drag_and_measure,
+    free_port,
+    image_frames,
+    launch_browser,
+    record_metrics,
+    server_env,
+    stop_process,
+    trigger,
+    wait_for,
+)
+
+pytestmark = [pytest.mark.browser, pytest.mark.slow]
+
+sync_playwright = pytest.importorskip("playwright.sync_api").sync_playwright
+
+
+def save_mesh(page, path: Path):
+    """Save the deformed mesh through the panel (path typed into its field, then the button) and read it."""
+    import pyvista as pv
+
+    page.fill("#ffd-mesh-save-path", str(path))
+    page.click("#ffd-save-mesh")
+    wait_for(path.exists, 20, f"the app to write {path.name}")
+    return pv.read(path)
+
+
+@pytest.fixture
+def app(tmp_path: Path):
+    """``python -m ffd_notebook`` on a free port, tracing callbacks; yields (url, trace path, log path)."""
+    port = free_port()
+    trace = tmp_path / "trace.jsonl"
+    log_path = tmp_path / "app.log"
+    with open(log_path, "w") as log:
+        proc = subprocess.Popen(
+            [sys.executable, "-m", "ffd_notebook", "--port", str(port)],
+            cwd=tmp_path, stdout=log, stderr=subprocess.STDOUT, env=server_env(FFD_NOTEBOOK_TRACE=str(trace)),
+        )  # fmt: skip
+        try:
+            url = f"http://127.0.0.1:{port}/"  # the URL it prints
+
+            def started() -> bool:
+                if proc.poll() is not None:
+                    raise RuntimeError(f"the app exited with {proc.returncode}:\n{log_path.read_text()}")
+                return f"running at {url}" in log_path.read_text()
+
+            wait_for(started, 90, "the app to print its URL")
+            yield url, trace, log_path
+        finally:
+            stop_process(proc)
+
+
+def test_drag_save_and_upload_in_the_app(app, tmp_path: Path):
+    from ffd_notebook import Lattice, load_ffd, save_ffd
+
+    url, trace, _ = app
+    ARTIFACTS.mkdir(exist_ok=True)
+    metrics: dict = {}
+    t0 = time.monotonic()
+    with sync_playwright() as pw:
+        context = launch_browser(pw, tmp_path / "profile")
+        try:
+            page = context.new_page()
+            errors: list[str] = []
+            page.on("pageerror", lambda e: errors.append(str(e)))
+            page.goto(url, wait_until="load")
+            view = page.locator("#ffd-view img").first
+            view.wait_for(state="visible", timeout=60_000)
+            wait_for(lambda: image_frames(page.main_frame), 60, "the first image")
+            metrics["first_image_s"] = round(time.monotonic() - t0, 1)
+            time.sleep(1.0)
+            page.screenshot(path=ARTIFACTS / "app_before_drag.png")
+            state0 = trigger(page, "ffd_state")
+            assert state0["n_callbacks"] == 0 and state0["offsets_abs_sum"] == 0
+            save_mesh(page, tmp_path / "rest.vtp")
+
+            metrics.update(drag_and_measure(page, page.main_frame, view, trace, shape=(5, 5, 5)))  # the app's default
+            page.screenshot(path=ARTIFACTS / "app_after_drag.png")
+
+            # the server side saw it: callbacks for the dragged sphere only, and the mesh moved
+            state1 = trigger(page, "ffd_state")
+            records = callbacks(trace)
+            assert records and {r["index"] for r in records} == {metrics["widget"]}
+            assert state1["n_callbacks"] == len(records) and state1["offsets_abs_sum"] > 0
+            rest, deformed = pv.read(tmp_path / "rest.vtp"), save_mesh(page, tmp_path / "deformed.vtp")
+            moved_by = np.linalg.norm(deformed.points - rest.points, axis=1)
+            spacing = (np.ptp(rest.points, axis=0) / 2).min()  # a 5x5x5 B-spline lattice: two cells span the mesh
+            assert moved_by.max() > 0.01 * spacing, "the deformed mesh saved by the app did not move"
+            assert metrics["stepped"]["event_to_callback_ms"] is not None
+            assert metrics["stepped"]["event_to_frame_ms"] is not None, "no new image after the callbacks"
+            assert metrics["paced"]["callbacks"] > 0
+
+            # save through the panel: a path typed into the field, then the button
+            saved = tmp_path / "dragged.ffd"
+            page.fill("#ffd-path", str(saved))
+            page.click("#ffd-save")
+            wait_for(saved.exists, 20, "the saved .ffd file")
+            lattice = load_ffd(saved)
+            ijk = tuple(records[-1]["ijk"])
+            moved = np.argwhere(np.any(lattice.offsets != 0, axis=-1))
+            assert [tuple(m) for m in moved] == [ijk], "only the dragged control point has an offset"
+            # its offset is where the sphere was last dragged to, minus its rest position
+            assert np.allclose(lattice.control_points(deformed=True)[ijk], records[-1]["center"], atol=1e-9)
+            assert np.isclose(np.abs(lattice.offsets).sum(), state1["offsets_abs_sum"])
+            assert page.locator("#ffd-messages").inner_text().count("saved the lattice") == 1
+
+            # upload a .ffd from the browser: its offsets replace the lattice
+            upload = Lattice(lattice.shape, spacing=lattice.spacing, origin=lattice.origin)
+            upload.offsets[1, 2, 3] = (0.5, -0.25, 1.0)
+            save_ffd(tmp_path / "upload.ffd", upload)
+            page.set_input_files("#ffd-upload", str(tmp_path / "upload.ffd"))
+            wait_for(lambda: trigger(page, "ffd_state")["offsets_abs_sum"] == 1.75, 20, "the uploaded lattice")
+            page.screenshot(path=ARTIFACTS / "app_after_upload.png")
+            assert not errors, errors
+        finally:
+            context.close()
+    metrics["test_s"] = round(time.monotonic() - t0, 1)
+    record_metrics("standalone_app", metrics)
