@@ -73,6 +73,7 @@ class TexturedOrgan:
         self.texture = texture
         self.face_subdivisions = int(face_subdivisions)
         self.surface = texture_surface(organ_surface(grid), texture, subdivisions)
+        self._triangles = self.surface.regular_faces
 
     def deform(self, transform: Callable[[NDArray[np.float64]], ArrayLike] | None) -> None:
         """Move the organ to ``transform(rest)`` (e.g. ``FFD(lattice).deform``); ``None`` restores it.
@@ -96,15 +97,37 @@ class TexturedOrgan:
         return face
 
     def clipped_surface(self, origin: ArrayLike, normal: ArrayLike) -> pv.PolyData:
-        """The outer surface behind the plane (the side ``normal`` points away from)."""
+        """The outer surface behind the plane (the side ``normal`` points away from).
+
+        Triangles wholly behind the plane are kept as they are (a NumPy selection); only the few
+        that cross it go through VTK's clipper, which keeps a cut of a dense surface fast.
+        """
         n = _unit(normal)
-        signed = (np.asarray(self.surface.points) - np.asarray(origin, float)) @ n
-        work = pv.PolyData(self.surface.points, self.surface.faces, deep=False)
-        work.point_data["RGB"] = self.surface.point_data["RGB"]
-        work.point_data["side"] = signed
-        kept = work.clip_scalar(scalars="side", value=0.0, invert=True)
-        out = pv.PolyData(kept.points, kept.faces, deep=False)
-        out.point_data["RGB"] = kept.point_data["RGB"]
+        points = np.asarray(self.surface.points)
+        rgb = np.asarray(self.surface.point_data["RGB"])
+        behind = (points - np.asarray(origin, float)) @ n <= 0
+        tri = self._triangles
+        inside = behind[tri]
+        whole = inside.all(axis=1)
+        crossing = tri[inside.any(axis=1) & ~whole]
+        # keep only the points the whole triangles use (a mask and a cumulative sum: no sorting)
+        used = np.zeros(len(points), dtype=bool)
+        used[tri[whole]] = True
+        new_index = np.cumsum(used) - 1
+        n_kept = int(used.sum())
+        pieces_pts, pieces_tri, pieces_rgb = [points[used]], [new_index[tri[whole]]], [rgb[used]]
+        if len(crossing):
+            ids, local = np.unique(crossing, return_inverse=True)
+            part = pv.PolyData.from_regular_faces(points[ids], local.reshape(-1, 3))
+            part.point_data["RGB"] = rgb[ids]
+            part.point_data["side"] = (points[ids] - np.asarray(origin, float)) @ n
+            kept = part.clip_scalar(scalars="side", value=0.0, invert=True).triangulate()
+            if kept.n_cells:
+                pieces_tri.append(kept.regular_faces + n_kept)
+                pieces_pts.append(np.asarray(kept.points))
+                pieces_rgb.append(np.asarray(kept.point_data["RGB"]))
+        out = pv.PolyData.from_regular_faces(np.vstack(pieces_pts), np.vstack(pieces_tri))
+        out.point_data["RGB"] = np.vstack(pieces_rgb)
         out.point_data.active_scalars_name = "RGB"
         return out
 
@@ -164,7 +187,9 @@ class CutViewer:
         self.normal = _unit(normal)
         self.outside, self.face = organ.cut(self.origin, self.normal)
         opts = {"scalars": "RGB", "rgb": True, "show_scalar_bar": False}
-        self.plotter.add_mesh(self.outside, smooth_shading=True, name="organ-outside", **opts)
+        # no smooth_shading: PyVista would draw a copy with normals, and in-place updates would not
+        # reach the screen; the display surface is dense enough to look smooth with flat shading
+        self.plotter.add_mesh(self.outside, name="organ-outside", **opts)
         # a cut is flat: unlit, it shows the texture's own colours whichever way it faces
         self.plotter.add_mesh(self.face, name="organ-cut", lighting=False, **opts)
         self.widget = self.plotter.add_plane_widget(

@@ -116,6 +116,8 @@ def test_viewer_recuts_in_place_when_the_plane_widget_moves(grid, texture):
     viewer.widget.SetOrigin(*(np.array(grid.center) + (25.0, 0.0, 0.0)))
     viewer.widget.InvokeEvent("InteractionEvent")  # what a drag does, as the widget sees it
     assert viewer.outside is outside and viewer.face is face
+    actors = viewer.plotter.actors
+    assert actors["organ-outside"].mapper.dataset is outside and actors["organ-cut"].mapper.dataset is face
     assert viewer.origin[0] == pytest.approx(grid.center[0] + 25.0)
     assert face.n_points != before and np.allclose(face.points[:, 0], viewer.origin[0], atol=1e-3)
     viewer.look_at_cut()
