@@ -99,7 +99,13 @@ class Editor(EditorFilesMixin):
         else:
             self._lattice_source = "given"
         ffd = FFD(lattice, basis)
-        self.plotter = pv.Plotter(off_screen=True if off_screen is None else off_screen, window_size=window_size)
+        off_screen = True if off_screen is None else bool(off_screen)
+        self.plotter = pv.Plotter(off_screen=off_screen, window_size=window_size)
+        if off_screen and self.plotter.iren is not None:
+            # Nobody looks at an off-screen window: the interactor need not render inside every
+            # mouse event (trame renders when it sends the image; the editor renders after its own
+            # changes). Saves a render per drag event and one per widget when widgets are removed.
+            self.plotter.iren.interactor.EnableRenderOff()
         self._install_mesh(mesh, ffd)
         self._install_lattice(lattice, basis)
         self.plotter.view_isometric(render=False)

@@ -73,6 +73,8 @@ class LatticeActor:
         )
         self._line_points = self.lines.points  # a NumPy view of the VTK points: written in place
         self.radius = widget_radius(lattice)
+        # coarser spheres for big lattices (an 11x12x11 .ffd has 1452): they are drawn every frame
+        theta, phi = (16, 12) if len(positions) <= 500 else (10, 8)
         widgets = plotter.add_sphere_widget(
             on_move,
             center=positions,
@@ -81,8 +83,8 @@ class LatticeActor:
             selected_color=SELECTED_COLOR,
             interaction_event="always",
             test_callback=False,
-            theta_resolution=16,
-            phi_resolution=12,
+            theta_resolution=theta,
+            phi_resolution=phi,
         )
         self.widgets: list[Any] = list(widgets)
         for index, widget in enumerate(self.widgets):
@@ -125,6 +127,15 @@ class LatticeActor:
         """Remove the widgets and the line actor from the plotter."""
         for widget in self.widgets:
             widget.RemoveAllObservers()
-        self.plotter.widgets.clear_sphere_widgets()
+        # each widget's Off() asks the interactor to render: N renders for N widgets unless disabled
+        iren = self.plotter.iren.interactor if self.plotter.iren is not None else None
+        enabled = iren.GetEnableRender() if iren is not None else None
+        if iren is not None:
+            iren.EnableRenderOff()
+        try:
+            self.plotter.widgets.clear_sphere_widgets()
+        finally:
+            if iren is not None:
+                iren.SetEnableRender(enabled)
         self.widgets = []
         self.plotter.remove_actor(self.line_actor, reset_camera=False, render=False)
