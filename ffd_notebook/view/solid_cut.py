@@ -220,7 +220,7 @@ class CutViewer:
         self.face.copy_from(face, deep=False)
         self.plotter.render()
 
-    def look_at_cut(self, distance: float = 2.2, elevation: float = 0.35) -> None:
+    def look_at_cut(self, distance: float = 1.5, elevation: float = 0.35) -> None:
         """Put the camera in front of the cut face (on the side that was cut away)."""
         size = float(np.linalg.norm(np.ptp(np.asarray(self.organ.grid.bounds).reshape(3, 2), axis=1)))
         up = np.array([0.0, 0.0, 1.0]) if abs(self.normal[2]) < 0.9 else np.array([0.0, 1.0, 0.0])
