@@ -37,16 +37,13 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.linalg as sla
 from numpy.typing import ArrayLike, NDArray
-from tqdm.auto import tqdm
 
+from .approximation import choose_rank, nystrom_basis, pivoted_cholesky_basis, select
 from .kernels import Kernel, as_points
 from .linalg import as_generator, cholesky
 from .process import GaussianProcess, noise_variances
 
 __all__ = ["LowRankGP"]
-
-_CHUNK = 4096  # rows of K(X, Z) evaluated at once: bounded temporary memory
-_RELATIVE_FLOOR = 1e-10  # eigenvalues below this fraction of the largest are numerical noise
 
 
 @dataclass(frozen=True)
@@ -57,106 +54,6 @@ class _Extension:
     inducing: NDArray[np.float64]  # (m, 3)
     extension: NDArray[np.float64]  # (m, q_c)
     columns: slice  # where these vectors sit among the model's scalar vectors
-
-
-@dataclass(frozen=True)
-class _ScalarBasis:
-    """Eigen-decomposition of one scalar component's approximate kernel matrix ``B B^T``.
-
-    ``B = F @ P`` over the point set and ``B(x) = k(x, Z) @ X`` anywhere: Nystrom keeps
-    ``F = K_XZ`` and ``P = X = K_ZZ^(-1/2)`` (one big product fewer than forming ``B``),
-    pivoted Cholesky keeps ``F = B = L`` with ``P = I`` and ``X = L_ZZ^-T``.
-    """
-
-    kernel_index: int
-    matrix: NDArray[np.float64]  # F (N, m)
-    right: NDArray[np.float64] | None  # P (m, m'), None for the identity
-    to_factor: NDArray[np.float64]  # X (m, m')
-    inducing: NDArray[np.float64]
-    eigenvalues: NDArray[np.float64]  # of B^T B, descending
-    eigenvectors: NDArray[np.float64]  # columns
-
-    @classmethod
-    def build(cls, kernel_index, matrix, right, to_factor, inducing) -> _ScalarBasis:
-        gram = matrix.T @ matrix
-        if right is not None:
-            gram = right.T @ gram @ right
-        s, w = np.linalg.eigh(gram)
-        s, w = s[::-1], w[:, ::-1]
-        keep = s > _RELATIVE_FLOOR * max(s[0], 0.0)
-        return cls(kernel_index, matrix, right, to_factor, inducing, s[keep], w[:, keep])
-
-    def vectors(self, used: NDArray[np.int64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        """Orthonormal eigenvectors as rows ``(len(used), N)`` over the point set, and their extension."""
-        w = self.eigenvectors[:, used] / np.sqrt(self.eigenvalues[used])
-        if self.right is not None:
-            w = self.right @ w
-            return w.T @ self.matrix.T, w
-        return w.T @ self.matrix.T, self.to_factor @ w
-
-
-def _nystrom_basis(kernel: Kernel, c: int, points, inducing, progress: bool) -> _ScalarBasis:
-    kzz = kernel.components(inducing, inducing)[c]
-    w, v = np.linalg.eigh(kzz)
-    keep = w > _RELATIVE_FLOOR * w.max()
-    inv_sqrt = v[:, keep] / np.sqrt(w[keep])
-    kxz = np.empty((len(points), len(inducing)))
-    for s in tqdm(range(0, len(points), _CHUNK), desc="K(X, Z)", disable=not progress, leave=False):
-        kxz[s : s + _CHUNK] = kernel.components(points[s : s + _CHUNK], inducing)[c]
-    return _ScalarBasis.build(c, kxz, inv_sqrt, inv_sqrt, inducing)
-
-
-def _pivoted_basis(kernel: Kernel, c: int, points, tolerance: float, max_rank: int, progress: bool) -> _ScalarBasis:
-    residual = kernel.diagonal(points)[c].copy()
-    total = residual.sum()
-    factor = np.zeros((max_rank, len(points)))  # row k is column k of L: contiguous updates
-    pivots = []
-    bar = tqdm(total=max_rank, desc="pivoted Cholesky", disable=not progress, leave=False)
-    for k in range(max_rank):
-        if residual.sum() <= tolerance * total:
-            break
-        p = int(np.argmax(residual))
-        col = kernel.components(points, points[p : p + 1])[c][:, 0] - factor[:k, p] @ factor[:k]
-        factor[k] = col / np.sqrt(residual[p])
-        residual -= factor[k] ** 2
-        residual[p] = 0.0
-        np.maximum(residual, 0.0, out=residual)
-        pivots.append(p)
-        bar.update()
-    bar.close()
-    factor = factor[: len(pivots)].T
-    lzz = factor[pivots]  # lower triangular in pivot order: K_ZZ = lzz lzz^T
-    to_factor = sla.solve_triangular(lzz, np.eye(len(pivots)), lower=True).T
-    return _ScalarBasis.build(c, factor, None, to_factor, points[pivots])
-
-
-def _select(bases: list[_ScalarBasis], n_components: int) -> tuple[NDArray, NDArray, NDArray]:
-    """All 3D basis functions sorted by eigenvalue: (eigenvalues, output axis, (basis, vector) index)."""
-    eig, axis, which = [], [], []
-    for b, basis in enumerate(bases):
-        outputs = (0, 1, 2) if n_components == 1 else (b,)
-        for a in outputs:
-            eig.append(basis.eigenvalues)
-            axis.append(np.full(len(basis.eigenvalues), a))
-            which.append(np.column_stack([np.full(len(basis.eigenvalues), b), np.arange(len(basis.eigenvalues))]))
-    eig, axis, which = np.concatenate(eig), np.concatenate(axis), np.concatenate(which)
-    order = np.lexsort((axis, which[:, 1], -eig))
-    return eig[order], axis[order], which[order]
-
-
-def _choose_rank(eigenvalues: NDArray, total: float, rank: int | None, variance: float | None) -> int:
-    if rank is not None and variance is not None:
-        raise ValueError("give either rank or variance, not both")
-    if rank is not None:
-        if rank < 1:
-            raise ValueError(f"rank must be at least 1, got {rank}")
-        return min(int(rank), len(eigenvalues))
-    if variance is not None:
-        if not 0 < variance <= 1:
-            raise ValueError(f"variance must be a fraction in (0, 1], got {variance}")
-        captured = np.cumsum(eigenvalues) / total
-        return int(min(np.searchsorted(captured, variance * (1 - 1e-12)) + 1, len(eigenvalues)))
-    return len(eigenvalues)
 
 
 @dataclass(frozen=True)
@@ -246,7 +143,7 @@ class LowRankGP:
         pts = as_points(points)
         gen = as_generator(rng)
         inducing = pts[np.sort(gen.choice(len(pts), size=min(n_inducing, len(pts)), replace=False))]
-        bases = [_nystrom_basis(process.kernel, c, pts, inducing, progress) for c in range(process.kernel.n_components)]
+        bases = [nystrom_basis(process.kernel, c, pts, inducing, progress) for c in range(process.kernel.n_components)]
         return cls._from_bases(process, pts, bases, rank, variance)
 
     @classmethod
@@ -271,15 +168,17 @@ class LowRankGP:
         if not 0 <= tolerance < 1:
             raise ValueError(f"tolerance must be in [0, 1), got {tolerance}")
         kernel = process.kernel
-        bases = [_pivoted_basis(kernel, c, pts, tolerance, max_rank, progress) for c in range(kernel.n_components)]
+        bases = [
+            pivoted_cholesky_basis(kernel, c, pts, tolerance, max_rank, progress) for c in range(kernel.n_components)
+        ]
         return cls._from_bases(process, pts, bases, rank, variance)
 
     @classmethod
     def _from_bases(cls, process, pts, bases, rank, variance) -> LowRankGP:
         kernel = process.kernel
         total = float(np.broadcast_to(kernel.diagonal(pts), (3, len(pts))).sum())
-        eig, axes, which = _select(bases, kernel.n_components)
-        r = _choose_rank(eig, total, rank, variance)
+        eig, axes, which = select(bases, kernel.n_components)
+        r = choose_rank(eig, total, rank, variance)
         eig, axes, which = eig[:r], axes[:r], which[:r]
         vectors, extensions, column_of = [], [], {}
         for b, basis in enumerate(bases):
