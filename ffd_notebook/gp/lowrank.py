@@ -295,6 +295,26 @@ class LowRankGP:
                 out[:, a] = out[:, same]
         return out
 
+    def covariance(self, points: ArrayLike | None = None) -> NDArray[np.float64]:
+        """The model's ``(3M, 3M)`` covariance matrix at points (row ``3 i + a``), like a dense process's.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from ffd_notebook.gp import GaussianKernel, GaussianProcess
+        >>> pts = np.random.default_rng(0).random((50, 3))
+        >>> gp = GaussianProcess(GaussianKernel(1.0))
+        >>> model = LowRankGP.nystrom(gp, pts, n_inducing=50, rng=0)      # full rank: exact
+        >>> bool(np.allclose(model.covariance(pts[:5]), gp.covariance(pts[:5]), atol=1e-8))
+        True
+        """
+        u_t = self._space.vectors_t if points is None else self._space.vectors_at(as_points(points)).T
+        out = np.zeros((3 * u_t.shape[1], 3 * u_t.shape[1]))
+        for a in range(3):
+            tu = self._factor[:, self._axes == a].T @ u_t
+            out[a::3, a::3] = tu.T @ tu
+        return out
+
     def basis_function(self, k: int) -> NDArray[np.float64]:
         """Unit-norm eigenfunction ``phi_k`` over the point set, ``(N, 3)``."""
         factor, axes, eig = self._eigen_form()
