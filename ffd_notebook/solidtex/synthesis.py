@@ -14,6 +14,9 @@ The method of the liver volume-texture paper, in 3D:
    kept where it is), until the target is covered. Each doubling places about as many blocks as
    the first stage, so the cost grows with the volume's size far more slowly than with fixed
    blocks; the pooling grows with the block so a match costs the same at every stage.
+5. after each stage, restore each channel's mean and standard deviation to the exemplar's
+   (``match_statistics``; not in the paper): feathering averages colours, and over several
+   doublings the texture would otherwise wash out (histogram distance 0.19 instead of 0.05 at 256^3).
 
 :func:`plan_stages` describes the stages without running them (the benchmarks use it to locate
 block borders).
