@@ -1,0 +1,106 @@
+"""edit() in Jupyter: the static fallback in-process, and the trame view inside a real kernel (nbclient)."""
+
+from __future__ import annotations
+
+import base64
+import io
+
+import numpy as np
+import pytest
+import pyvista as pv
+from editor_testing import colored_sphere
+
+
+@pytest.fixture
+def static_backend(monkeypatch):
+    monkeypatch.setattr(pv.global_theme, "_jupyter_backend", "static", raising=False)
+    assert pv.global_theme.jupyter_backend == "static"
+
+
+def test_static_view_follows_the_panel(static_backend):
+    from PIL import Image
+
+    from ffd_notebook.view.notebook import _EditorOutput, edit, editor_widget
+
+    editor = edit(colored_sphere(), shape=(4, 4, 4), window_size=(200, 150))
+    try:
+        bundle = _EditorOutput(editor)._repr_mimebundle_()
+        assert "application/vnd.jupyter.widget-view+json" in bundle and bundle["text/plain"] == repr(editor)
+        png = Image.open(io.BytesIO(base64.b64decode(bundle["image/png"])))
+        assert png.size == (200, 150)
+        box = editor_widget(editor)
+        assert editor_widget(editor) is box  # one widget per editor
+        view, panel = box.children
+        before = bytes(view.value)
+        panel.xyz[2].value = 0.5
+        panel.apply_button.click()
+        assert bytes(view.value) != before  # the picture follows the edit
+    finally:
+        editor.close()
+
+
+NOTEBOOK_CODE = r"""
+import json
+import pyvista as pv
+from ffd_notebook.view import edit
+from editor_testing import colored_sphere
+editor = edit(colored_sphere(), shape=(4, 4, 4), window_size=(320, 240))
+view, panel = editor._notebook_widget.children
+server = view.viewer.server
+state0 = server.controller.trigger_fn("ffd_state")()
+index = 21
+center = [c + 0.3 for c in editor.plotter.widgets.sphere_widgets[index].GetCenter()]
+editor.on_widget_moved(center, index)
+state1 = server.controller.trigger_fn("ffd_state")()
+pv.global_theme.trame.server_proxy_enabled = True
+pv.global_theme.trame.server_proxy_prefix = "/proxy/"
+second = edit(colored_sphere(12), shape=(4, 4, 4), window_size=(320, 240))
+proxied = second._notebook_widget.children[0].src
+print(json.dumps({
+    "iframe_class_pyvista": 'class="pyvista"' in view.value,
+    "src": view.src, "port": server.port, "proxied": proxied,
+    "state0": state0, "state1": state1,
+    "n_px": len(server.controller.trigger_fn("ffd_widget_px")()["widgets"]),
+    "panel": type(panel).__name__, "selected": list(editor.selected),
+}))
+"""
+
+
+@pytest.mark.slow
+def test_trame_view_in_a_kernel(tmp_path, monkeypatch):
+    """A real kernel: edit() serves the plotter through trame, registers the triggers, honours the proxy."""
+    import json
+    import os
+    import urllib.request
+
+    import nbformat
+    from nbclient import NotebookClient
+
+    monkeypatch.delenv("PYVISTA_JUPYTER_BACKEND", raising=False)  # the kernel inherits it: use the default
+    tests_dir = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    nb = nbformat.v4.new_notebook()
+    nb.cells = [
+        nbformat.v4.new_code_cell(f"import sys; sys.path.insert(0, {tests_dir!r})"),
+        nbformat.v4.new_code_cell(NOTEBOOK_CODE),
+    ]
+    client = NotebookClient(nb, timeout=120, kernel_name="python3", resources={"metadata": {"path": str(tmp_path)}})
+    with client.setup_kernel():
+        for i, cell in enumerate(nb.cells):
+            client.execute_cell(cell, i)
+        outputs = nb.cells[1].outputs
+        streams = "".join(o.get("text", "") for o in outputs if o["output_type"] == "stream")
+        result = json.loads(streams.strip().splitlines()[-1])
+        # the kernel is idle now: its trame server answers the iframe's address
+        with urllib.request.urlopen(result["src"], timeout=30) as page:
+            assert page.status == 200 and b"<html" in page.read().lower()
+    displays = [o for o in outputs if o["output_type"] == "display_data"]
+    assert len(displays) == 2  # one per edit(), not doubled
+    assert {"application/vnd.jupyter.widget-view+json", "image/png"} <= set(displays[0]["data"])
+    assert result["iframe_class_pyvista"]
+    assert result["src"].startswith(f"http://localhost:{result['port']}/index.html?ui=")
+    assert result["proxied"].startswith(f"/proxy/{result['port']}/index.html?ui=")
+    assert result["state0"]["n_callbacks"] == 0 and result["state1"]["n_callbacks"] == 1
+    assert result["state1"]["offsets_abs_sum"] == pytest.approx(0.9)
+    assert result["state1"]["checksum"] != result["state0"]["checksum"]
+    assert result["n_px"] == 64 and result["panel"] == "ControlPanel"
+    assert result["selected"] == [int(v) for v in np.unravel_index(21, (4, 4, 4))]
