@@ -41,11 +41,11 @@ def _frog_label_surface(label: int = 10, sigma: float = 2.0):
 
 
 def sample_mesh():
-    """The editor's default mesh: a frog's liver with per-vertex colours (offline, about 20k vertices).
+    """The editor's default mesh: a frog's liver with per-vertex colours (offline, about 12k vertices).
 
-    The surface of label 10 of :func:`pyvista.examples.load_frog_tissues` (bundled with PyVista),
-    smoothed and closed, with liver-coloured bands across its long axis as per-vertex ``"RGB"``
-    (uint8) point data, so that deformations and colour-keeping decimation are easy to see.
+    :func:`frog_liver` (label 10 of :func:`pyvista.examples.load_frog_tissues`, bundled with
+    PyVista: smoothed and closed) with liver-coloured bands across its long axis as per-vertex
+    ``"RGB"`` (uint8) point data, so that deformations and colour-keeping decimation are easy to see.
 
     Returns
     -------
@@ -58,7 +58,7 @@ def sample_mesh():
     >>> mesh.n_points > 10000, mesh.point_data["RGB"].dtype.name, mesh.n_open_edges
     (True, 'uint8', 0)
     """
-    mesh = _frog_label_surface(10)
+    mesh = frog_liver(12000)
     pts = np.asarray(mesh.points, dtype=np.float64)
     centred = pts - pts.mean(axis=0)
     # bands across the principal axis: a shear or bend of the lattice shows as bent bands
