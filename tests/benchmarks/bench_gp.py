@@ -9,17 +9,21 @@ rank-200 low-rank model (Nystrom, and pivoted Cholesky for comparison), drawing 
 posterior mean at every vertex from 20 landmarks, each with its target; then the dense exact
 posterior on a 2,000-vertex subset (the accuracy reference and the time baseline) and the
 low-rank model's error against it; and the blog post's point-by-point kernel loop against the
-vectorised kernel as a second baseline.
+vectorised kernel as a second baseline. The posterior is timed twice: with OpenBLAS's default
+threads and with one (through threadpoolctl) because on a busy shared machine the threads of small
+products wait for each other; the load average is printed at the start and the end.
 """
 
 from __future__ import annotations
 
 import math
+import os
 import statistics
 import time
 from pathlib import Path
 
 import numpy as np
+from threadpoolctl import threadpool_limits  # installed with scikit-learn (the test extra)
 
 from ffd_notebook.gp import GaussianKernel, GaussianProcess, LowRankGP
 
@@ -62,7 +66,7 @@ def main() -> None:
     sigma, scale = 0.2 * size, 0.02 * size
     gp = GaussianProcess(GaussianKernel(sigma=sigma, scale=scale))
     print(f"face: {n} vertices, bounding-box diagonal {size:.4g}; GaussianKernel(sigma={sigma:.4g}, scale={scale:.4g})")
-    print("2 shared cores; medians of repeats\n")
+    print(f"2 shared cores, load average {os.getloadavg()[0]:.1f} at the start; medians of repeats\n")
 
     # ---------------------------------------------------------------- build
     print("building (first run with a progress bar):")
@@ -79,18 +83,22 @@ def main() -> None:
 
     # ---------------------------------------------------------------- sample, posterior
     rng = np.random.default_rng(1)
-    sample_s = median_s(lambda: model.sample(1, rng=rng), repeat=30)
+    sample_s = median_s(lambda: model.sample(1, rng=rng), repeat=100)
     row("draw one sample at all vertices (rank 200)", sample_s, 0.020)
-    row("draw one sample at all vertices (rank 600)", median_s(lambda: big.sample(1, rng=rng), repeat=30))
+    row("draw one sample at all vertices (rank 600)", median_s(lambda: big.sample(1, rng=rng), repeat=100))
 
     subset = np.sort(rng.choice(n, 2000, replace=False))
     sub = points[subset]
     landmarks = sub[rng.choice(2000, 20, replace=False)]
     observed = gp.sample(landmarks, 1, rng=rng)[0]  # plausible observations: the prior at the landmarks
     noise = (0.01 * scale) ** 2
-    post_s = median_s(lambda: model.posterior(landmarks, observed, noise).mean(), repeat=30)
+    post_s = median_s(lambda: model.posterior(landmarks, observed, noise).mean(), repeat=100)
     row("posterior mean at all vertices, 20 landmarks (rank 200)", post_s, 0.050)
-    big_post_s = median_s(lambda: big.posterior(landmarks, observed, noise).mean(), repeat=30)
+    # On a shared machine OpenBLAS threads wait for each other on small products: one thread is steadier
+    with threadpool_limits(1):
+        one_thread_s = median_s(lambda: model.posterior(landmarks, observed, noise).mean(), repeat=100)
+    row("  the same with one BLAS thread (threadpoolctl)", one_thread_s, 0.050)
+    big_post_s = median_s(lambda: big.posterior(landmarks, observed, noise).mean(), repeat=100)
     row("posterior mean at all vertices, 20 landmarks (rank 600)", big_post_s)
     var_s = median_s(lambda: model.posterior(landmarks, observed, noise).variance(), repeat=10)
     row("posterior variance at all vertices (rank 200)", var_s)
@@ -119,6 +127,7 @@ def main() -> None:
     vec_s = median_s(lambda: gp.kernel.matrix(grid), repeat=30)
     print(f"\nblog-style Python loop, 375 x 375 kernel matrix of 125 grid points: {1000 * loop_s:.1f} ms")
     row("vectorised Kernel.matrix, same matrix", vec_s, None, f"({loop_s / vec_s:.0f}x faster)")
+    print(f"\nload average {os.getloadavg()[0]:.1f} at the end")
     assert np.allclose(blog_loop_kernel(grid[:10], grid[:10], sigma, scale), gp.kernel.matrix(grid[:10]))
 
 
