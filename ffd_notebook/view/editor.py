@@ -13,7 +13,6 @@ each. Loading a mesh starts a new history (the old steps belong to the old mesh)
 
 from __future__ import annotations
 
-import json
 import os
 import time
 from collections.abc import Callable
@@ -25,8 +24,8 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..deform import FFD
 from ..lattice import Lattice
-from . import fields
-from .editor_files import EditorFilesMixin, as_surface
+from .editor_display import EditorDisplayMixin
+from .editor_files import EditorFilesMixin
 from .history import History, LatticeSwap, OffsetEdit
 from .lattice_actor import LatticeActor
 
@@ -35,7 +34,7 @@ __all__ = ["Editor"]
 TRACE_ENV = "FFD_NOTEBOOK_TRACE"
 
 
-class Editor(EditorFilesMixin):
+class Editor(EditorDisplayMixin, EditorFilesMixin):
     """Interactive FFD editor (see the module docstring and docs of each method).
 
     Parameters
@@ -153,21 +152,6 @@ class Editor(EditorFilesMixin):
         """The selected control point ``(i, j, k)`` (last dragged or :meth:`select`-ed), or None."""
         return self._selected
 
-    @property
-    def field(self) -> str | None:
-        """The deformation field shown on the mesh: None, ``"displacement"`` or ``"jacobian"``."""
-        return self._field
-
-    @property
-    def colors_shown(self) -> bool:
-        """Whether per-vertex colours are shown (when the mesh has them and no field is shown)."""
-        return self._colors_on
-
-    @property
-    def has_colors(self) -> bool:
-        """Whether the mesh has per-vertex colours."""
-        return fields.color_array_name(self.mesh) is not None
-
     # ------------------------------------------------------------------ the drag path
     def on_widget_moved(self, center: ArrayLike, index: int) -> None:
         """Sphere-widget callback: control point ``index`` (flat C order) was dragged to ``center``.
@@ -202,22 +186,6 @@ class Editor(EditorFilesMixin):
     def _on_widget_end(self, index: int) -> None:
         self.history.close()
         self._notify("offsets")
-
-    def _write_trace(self, index: int, ijk: tuple[int, int, int], center: ArrayLike) -> None:
-        record = {
-            "t": time.time(),
-            "ev": "cb",
-            "index": index,
-            "ijk": list(ijk),
-            "center": [float(c) for c in np.asarray(center).ravel()],
-            "ms": self.last_callback_ms,
-            "checksum": self.checksum(),
-        }
-        self._trace.write(json.dumps(record) + "\n")
-
-    def checksum(self) -> float:
-        """``sum |deformed points|``: a cheap fingerprint of the shown mesh (for tests and traces)."""
-        return float(np.abs(self._display_points).sum())
 
     # ------------------------------------------------------------------ programmatic edits
     def update(self, changed: Any = None) -> None:
@@ -354,95 +322,6 @@ class Editor(EditorFilesMixin):
         self.set_lattice(lattice, basis, label="basis")
         self._info(f"basis: {basis}")
 
-    # ------------------------------------------------------------------ display
-    def show_colors(self, show: bool = True) -> None:
-        """Show the mesh's per-vertex colours (or a plain colour)."""
-        self._colors_on = bool(show)
-        if show and not self.has_colors:
-            self._info("this mesh has no per-vertex colours")
-        self._apply_coloring()
-        self._render()
-        self._notify("display")
-
-    def set_field(self, field: str | None) -> None:
-        """Colour the mesh by a deformation field: None, ``"displacement"`` or ``"jacobian"`` (folding)."""
-        if field not in fields.FIELDS:
-            raise ValueError(f"field must be one of {fields.FIELDS}, got {field!r}")
-        self._field = field
-        self._update_field()
-        self._apply_coloring()
-        self._render()
-        if field == "jacobian":
-            n = int(self._display.point_data[fields.FOLDING_ARRAY].sum())
-            self._info(f"folding (det J <= 0) at {n} of {self.mesh.n_points} vertices")
-        self._notify("display")
-
-    def _apply_coloring(self) -> None:
-        name = fields.color_array_name(self._display)
-        if self._field is not None:
-            vmax = self._display.point_data[fields.DISPLACEMENT_ARRAY].max() if self._field == "displacement" else 1
-            fields.show_field(self.mesh_actor, self._field, vmax)
-        elif self._colors_on and name is not None:
-            fields.show_rgb(self.mesh_actor, name)
-        else:
-            fields.show_plain(self.mesh_actor)
-
-    def _update_field(self) -> None:
-        if self._field == "displacement":
-            mag = fields.displacement_magnitude(self.mesh.points, self._display_points)
-            self._display.point_data[fields.DISPLACEMENT_ARRAY] = mag
-            fields.set_field_range(self.mesh_actor, float(mag.max()) if len(mag) else 1.0)
-        elif self._field == "jacobian":
-            fold = fields.folding_mask(self._ffd, self.mesh.points).astype(np.float32)
-            self._display.point_data[fields.FOLDING_ARRAY] = fold
-
-    def screenshot(self, path: str | os.PathLike[str] | None = None) -> NDArray[np.uint8]:
-        """Render and return the image ``(h, w, 3)`` uint8; also write a PNG if ``path`` is given."""
-        self.plotter.render_window.Render()
-        img = self.plotter.screenshot(return_img=True)
-        if path is not None:
-            from PIL import Image
-
-            Image.fromarray(img).save(os.fspath(path))
-        return img
-
-    def widget_display_positions(self) -> list[dict[str, float]]:
-        """Where each sphere widget is on screen: ``{"index", "u", "v", "z"}``, normalised, origin bottom-left."""
-        ren = self.plotter.renderer
-        w, h = self.plotter.render_window.GetSize()
-        out = []
-        for i, widget in enumerate(self._lattice_actor.widgets):
-            ren.SetWorldPoint(*widget.GetCenter(), 1.0)
-            ren.WorldToDisplay()
-            x, y, z = ren.GetDisplayPoint()
-            out.append({"index": i, "u": x / w, "v": y / h, "z": z})
-        return out
-
-    # ------------------------------------------------------------------ trame
-    def register_triggers(self, server: Any) -> None:
-        """Register the ``ffd_widget_px`` and ``ffd_state`` triggers on a trame server (last editor wins)."""
-        server.controller.trigger("ffd_widget_px")(self._trigger_widget_px)
-        server.controller.trigger("ffd_state")(self._trigger_state)
-
-    def _trigger_widget_px(self) -> dict[str, Any]:
-        return {"size": list(self.plotter.render_window.GetSize()), "widgets": self.widget_display_positions()}
-
-    def _trigger_state(self) -> dict[str, Any]:
-        return {
-            "checksum": self.checksum(),
-            "offsets_abs_sum": float(np.abs(self.lattice.offsets).sum()),
-            "n_callbacks": self.n_callbacks,
-        }
-
-    def attach_viewer(self, viewer: Any) -> None:
-        """Let a trame viewer (with ``.update()``) receive a new image after programmatic changes."""
-        self._viewers.append(viewer)
-
-    def _ipython_display_(self) -> None:
-        from .notebook import display_editor
-
-        display_editor(self)
-
     # ------------------------------------------------------------------ observers and messages
     def observe(self, callback: Callable[[str], None]) -> None:
         """Call ``callback(event)`` after changes (``"drag"``, ``"select"``, ``"offsets"``, ``"lattice"``,
@@ -510,7 +389,7 @@ class Editor(EditorFilesMixin):
             self._lattice_actor.set_widget_centers(positions, flat)
         self._synced[...] = self.lattice.offsets
         if self._field is not None:
-            self._update_field()
+            self._update_field(changed)
 
     def _render(self) -> None:
         self.plotter.render_window.Render()
@@ -536,15 +415,3 @@ class Editor(EditorFilesMixin):
             f"Editor(mesh={self.mesh.n_points} points, lattice={'x'.join(map(str, self.lattice.shape))}, "
             f"basis={self.basis!r}, history={len(self.history)})"
         )
-
-    @staticmethod
-    def _read_mesh_arg(mesh_or_path: Any) -> pv.PolyData:
-        if mesh_or_path is None:
-            from ..datasets import sample_mesh
-
-            return as_surface(sample_mesh())
-        if isinstance(mesh_or_path, (str, os.PathLike)):
-            from ..io import read_mesh
-
-            return as_surface(read_mesh(mesh_or_path))
-        return as_surface(mesh_or_path)

@@ -103,6 +103,18 @@ def decimate_keeping_colors(mesh: pv.PolyData, reduction: float, attribute_error
 class EditorFilesMixin:
     """Load/save/decimate methods of :class:`~ffd_notebook.view.editor.Editor` (see the module docstring)."""
 
+    @staticmethod
+    def _read_mesh_arg(mesh_or_path: Any) -> pv.PolyData:
+        if mesh_or_path is None:
+            from ..datasets import sample_mesh
+
+            return as_surface(sample_mesh())
+        if isinstance(mesh_or_path, (str, os.PathLike)):
+            from ..io import read_mesh
+
+            return as_surface(read_mesh(mesh_or_path))
+        return as_surface(mesh_or_path)
+
     # ------------------------------------------------------------------ .ffd files
     def load_ffd(self, path: str | os.PathLike[str]) -> Lattice:
         """Load a lattice from a .ffd file (undoable). A bad file raises and changes nothing."""
