@@ -17,6 +17,9 @@ _LAZY = {
     "Editor": "ffd_notebook.view.editor",
     "edit": "ffd_notebook.view.notebook",
     "ControlPanel": "ffd_notebook.view.panel",
+    "GPExplorer": "ffd_notebook.view.gp_view",
+    "TexturedOrgan": "ffd_notebook.view.solid_cut",
+    "CutViewer": "ffd_notebook.view.solid_cut",
 }
 
 __all__ = ["configure_rendering", "is_headless", *sorted(_LAZY)]
