@@ -47,7 +47,7 @@ class EditorDisplayMixin:
 
     def checksum(self) -> float:
         """``sum |deformed points|``: a cheap fingerprint of the shown mesh (for tests and traces)."""
-        return float(np.abs(self._display_points).sum())
+        return float(np.abs(self._display_points).sum(dtype=np.float64))  # float32 sums hide small moves
 
     def show_colors(self, show: bool = True) -> None:
         """Show the mesh's per-vertex colours (or a plain colour)."""

@@ -88,11 +88,66 @@ class LatticeActor:
         )
         self.widgets: list[Any] = list(widgets)
         for index, widget in enumerate(self.widgets):
+            widget.AddObserver("StartInteractionEvent", lambda *_: self._restore_pickable())
             if on_start is not None:
                 widget.AddObserver("StartInteractionEvent", lambda *_, i=index: on_start(i))
             if on_end is not None:
                 widget.AddObserver("EndInteractionEvent", lambda *_, i=index: on_end(i))
         self._highlighted: int | None = None
+        self._sphere_actors = self._find_sphere_actors()
+        self._actor_index = {a.__this__: i for i, a in enumerate(self._sphere_actors) if a is not None}
+        self._picker: Any = None
+        # before the widgets see a click (higher priority), make only the nearest sphere under it pickable
+        iren = plotter.iren.interactor if plotter.iren is not None else None
+        self._tags = []
+        if iren is not None:
+            self._tags.append(iren.AddObserver("LeftButtonPressEvent", self._grab_nearest, 10.0))
+            self._tags.append(iren.AddObserver("LeftButtonReleaseEvent", lambda *_: self._restore_pickable(), 10.0))
+
+    def _find_sphere_actors(self) -> list[Any]:
+        """Each widget's sphere actor (VTK does not expose it; it is the actor drawn with the widget's property)."""
+        by_property = {}
+        for actor in self.plotter.renderer.GetActors():
+            by_property[actor.GetProperty().__this__] = actor
+        return [by_property.get(w.GetSphereProperty().__this__) for w in self.widgets]
+
+    def nearest_widget_at(self, x: float, y: float) -> int | None:
+        """Index of the nearest sphere under display position ``(x, y)`` (pixels, origin bottom-left), or None.
+
+        Uses a ``vtkCellPicker`` over the sphere actors only, the geometry the widgets pick with
+        themselves, and takes the hit nearest to the camera.
+        """
+        from vtkmodules.vtkRenderingCore import vtkCellPicker
+
+        if self._picker is None:
+            self._picker = vtkCellPicker()
+            self._picker.SetTolerance(0.0005)
+            self._picker.PickFromListOn()
+            for actor in self._sphere_actors:
+                if actor is not None:
+                    self._picker.AddPickList(actor)
+        if not self._picker.Pick(x, y, 0.0, self.plotter.renderer):
+            return None
+        return self._actor_index.get(self._picker.GetActor().__this__)
+
+    def _grab_nearest(self, iren: Any, _event: str) -> None:
+        """VTK hands a click to the first widget (in creation order) whose sphere is under the cursor, even
+        one hidden behind another; leaving only the nearest sphere pickable makes the visible one move."""
+        nearest = self.nearest_widget_at(*iren.GetEventPosition())
+        if nearest is None:
+            return
+        for index, actor in enumerate(self._sphere_actors):
+            if actor is not None:
+                actor.SetPickable(index == nearest)
+        self._restricted = True
+
+    def _restore_pickable(self) -> None:
+        """Every sphere pickable again (once the press has been handed to a widget, or the button released)."""
+        if getattr(self, "_restricted", False):
+            for actor in self._sphere_actors:
+                if actor is not None:
+                    actor.PickableOn()
+            self._restricted = False
 
     @property
     def n_widgets(self) -> int:
@@ -127,6 +182,9 @@ class LatticeActor:
         """Remove the widgets and the line actor from the plotter."""
         for widget in self.widgets:
             widget.RemoveAllObservers()
+        for tag in self._tags:
+            self.plotter.iren.interactor.RemoveObserver(tag)
+        self._tags = []
         # each widget's Off() asks the interactor to render: N renders for N widgets unless disabled
         iren = self.plotter.iren.interactor if self.plotter.iren is not None else None
         enabled = iren.GetEnableRender() if iren is not None else None

@@ -241,3 +241,40 @@ def test_observers_follow_changes(editor):
     editor.set_shape((4, 4, 4))
     assert events[:3] == ["select", "drag", "offsets"]
     assert "lattice" in events
+
+
+def mouse_drag(editor, start, delta):
+    """Press, move and release the left button through the VTK interactor (what trame's mouse handler does)."""
+    iren = editor.plotter.iren.interactor
+    x, y = (round(v) for v in start)
+    iren.SetEventInformation(x, y, 0, 0, "\0", 0, None)
+    iren.LeftButtonPressEvent()
+    iren.SetEventInformation(x + delta[0], y + delta[1], 0, 0, "\0", 0, None)
+    iren.MouseMoveEvent()
+    iren.LeftButtonReleaseEvent()
+
+
+@pytest.mark.parametrize("from_below", [False, True])
+def test_a_click_grabs_the_nearest_sphere(editor, from_below):
+    """Looking straight down a lattice column every sphere of the column is under the cursor; the nearest
+    must move. (VTK alone hands the click to the first-created widget under the cursor: the far end.)"""
+    editor.plotter.enable_parallel_projection()
+    editor.plotter.view_xy(negative=from_below)
+    editor.screenshot()
+    w, h = editor.plotter.window_size
+    nz = editor.lattice.shape[2]
+    nearest_k = 0 if from_below else nz - 1
+    positions = editor.widget_display_positions()
+    for i, j in [(1, 1), (2, 3), (3, 2)]:
+        column = [widget_index(editor, (i, j, k)) for k in range(nz)]
+        u = [positions[c]["u"] for c in column]
+        v = [positions[c]["v"] for c in column]
+        assert np.ptp(u) * w < 0.01 and np.ptp(v) * h < 0.01  # the column's spheres overlap exactly on screen
+        assert editor._lattice_actor.nearest_widget_at(u[0] * w, v[0] * h) == column[nearest_k]
+        mouse_drag(editor, (u[0] * w, v[0] * h), (4, 0))
+        assert editor.selected == (i, j, nearest_k)
+        moved = np.flatnonzero(np.any(editor.lattice.offsets.reshape(-1, 3) != 0, axis=1))
+        assert moved.tolist() == [column[nearest_k]] and editor.lattice.offsets[i, j, nearest_k, 0] != 0
+        editor.undo()
+    # every sphere is pickable again after the drags (other pickers are not affected)
+    assert all(actor.GetPickable() for actor in editor._lattice_actor._sphere_actors)
