@@ -7,8 +7,10 @@ section through the tetrahedra), whose colours are sampled from the texture at t
 positions that the section interpolates from the tetrahedra's point data ``"rest"``. Deforming
 the organ (:meth:`TexturedOrgan.deform`) only moves points, so the texture follows the tissue.
 
-:class:`CutViewer` puts it in a PyVista plotter with a plane widget; dragging the plane recuts
-in place (the actors are never re-created).
+:func:`add_cut` draws one cut (or the intact organ) into a plotter or subplot, for static figures
+(with :func:`~ffd_notebook.view.camera.frame_camera` to face the cut and fill the frame).
+:class:`CutViewer` puts it in a PyVista plotter with a plane widget; dragging the plane recuts in
+place (the actors are never re-created).
 """
 
 from __future__ import annotations
@@ -18,11 +20,16 @@ from collections.abc import Callable
 import numpy as np
 import pyvista as pv
 from numpy.typing import ArrayLike, NDArray
+from vtkmodules.vtkCommonCore import vtkUnsignedCharArray
 
 from ..solidtex.sampling import SolidTexture
+from .camera import frame_camera, view_direction
 from .organ import REST, organ_surface, rest_points, texture_surface
 
-__all__ = ["CutViewer", "TexturedOrgan"]
+__all__ = ["CutViewer", "TexturedOrgan", "add_cut"]
+
+#: colour of the line drawn around a cut face (dark liver brown: reads as an incision edge)
+RIM_COLOUR = "#3d1a0c"
 
 
 def _unit(normal: ArrayLike) -> NDArray[np.float64]:
@@ -126,6 +133,8 @@ class TexturedOrgan:
                 pieces_tri.append(kept.regular_faces + n_kept)
                 pieces_pts.append(np.asarray(kept.points))
                 pieces_rgb.append(np.asarray(kept.point_data["RGB"]))
+        if sum(len(t) for t in pieces_tri) == 0:  # the plane is behind the whole organ
+            return _empty_coloured()
         out = pv.PolyData.from_regular_faces(np.vstack(pieces_pts), np.vstack(pieces_tri))
         out.point_data["RGB"] = np.vstack(pieces_rgb)
         out.point_data.active_scalars_name = "RGB"
@@ -137,13 +146,76 @@ class TexturedOrgan:
 
 
 def _empty_coloured() -> pv.PolyData:
+    """A mesh with no points but an (empty) ``"RGB"`` array, so a plane missing the organ still draws."""
     empty = pv.PolyData()
-    empty.point_data["RGB"] = np.zeros((0, 3), np.uint8)
+    rgb = vtkUnsignedCharArray()  # PyVista refuses zero-length arrays; VTK's own array is fine
+    rgb.SetNumberOfComponents(3)
+    rgb.SetName("RGB")
+    empty.GetPointData().AddArray(rgb)
     return empty
+
+
+def _rim(face: pv.PolyData) -> pv.PolyData:
+    """The boundary of a cut face: where the knife met the organ's surface."""
+    if face.n_cells == 0:
+        return pv.PolyData()
+    return face.extract_feature_edges(
+        boundary_edges=True, feature_edges=False, manifold_edges=False, non_manifold_edges=False
+    )
+
+
+def add_cut(
+    plotter: pv.Plotter,
+    organ: TexturedOrgan,
+    origin: ArrayLike | None = None,
+    normal: ArrayLike | None = None,
+    rim: bool = True,
+    name: str = "organ",
+) -> tuple[pv.PolyData, pv.PolyData]:
+    """Draw ``organ`` cut by a plane (or whole, if ``normal`` is None) in the active (sub)plot.
+
+    The outer surface is lit; the cut face is unlit, so it shows the texture's own colours whichever
+    way it faces, with a dark rim where it meets the surface. The meshes are new ones: deforming or
+    recutting the organ later does not change this picture.
+
+    Parameters
+    ----------
+    plotter : pyvista.Plotter
+    organ : TexturedOrgan
+    origin, normal : array_like, optional
+        The plane (``origin`` defaults to the organ's centre). The part ``normal`` points to is removed.
+    rim : bool
+        Draw the cut face's boundary.
+    name : str
+        Actor names are ``name + "-outside"``, ``"-cut"`` and ``"-rim"``.
+
+    Returns
+    -------
+    (pyvista.PolyData, pyvista.PolyData)
+        The outer surface and the cut face on screen (the face is empty for the whole organ).
+    """
+    if normal is None:
+        outside, face = organ.surface.copy(), _empty_coloured()
+    else:
+        origin = organ.grid.center if origin is None else origin
+        outside, face = organ.cut(origin, normal)
+    opts = {"scalars": "RGB", "rgb": True, "show_scalar_bar": False}
+    # no smooth_shading: PyVista would draw a copy with normals, and in-place updates would not
+    # reach the screen; the display surface is dense enough to look smooth with flat shading
+    plotter.add_mesh(outside, name=f"{name}-outside", **opts)
+    if face.n_cells:
+        plotter.add_mesh(face, name=f"{name}-cut", lighting=False, **opts)
+        if rim:
+            plotter.add_mesh(_rim(face), name=f"{name}-rim", color=RIM_COLOUR, line_width=2, lighting=False)
+    return outside, face
 
 
 class CutViewer:
     """A PyVista plotter showing a textured organ cut by a draggable plane.
+
+    The plane widget's box is drawn faint and grey (it marks the reach of the plane, the organ is
+    what matters) and the camera faces the cut face with the organ filling the picture
+    (:meth:`look_at_cut`).
 
     Parameters
     ----------
@@ -163,8 +235,10 @@ class CutViewer:
 
     Attributes
     ----------
-    outside, face : pyvista.PolyData
+    outside, face, rim : pyvista.PolyData
         The meshes on screen; :meth:`update` replaces their contents in place.
+    widget : vtkImplicitPlaneWidget
+        The plane widget.
     """
 
     def __init__(
@@ -186,20 +260,40 @@ class CutViewer:
         self.origin = np.asarray(organ.grid.center if origin is None else origin, dtype=np.float64)
         self.normal = _unit(normal)
         self.outside, self.face = organ.cut(self.origin, self.normal)
+        self.rim = _rim(self.face)
         opts = {"scalars": "RGB", "rgb": True, "show_scalar_bar": False}
-        # no smooth_shading: PyVista would draw a copy with normals, and in-place updates would not
-        # reach the screen; the display surface is dense enough to look smooth with flat shading
         self.plotter.add_mesh(self.outside, name="organ-outside", **opts)
-        # a cut is flat: unlit, it shows the texture's own colours whichever way it faces
         self.plotter.add_mesh(self.face, name="organ-cut", lighting=False, **opts)
+        self.plotter.add_mesh(self.rim, name="organ-rim", color=RIM_COLOUR, line_width=2, lighting=False)
         self.widget = self.plotter.add_plane_widget(
             self._on_plane,
             normal=self.normal,
             origin=self.origin,
             bounds=organ.grid.bounds,
+            factor=1.05,
+            color="#9a9a9a",
             interaction_event=interaction_event,
             outline_translation=False,
+            outline_opacity=0.25,
+            test_callback=False,
         )
+        self._placed_bounds = tuple(organ.grid.bounds)
+        self._style_widget()
+        self.look_at_cut()
+
+    def _style_widget(self) -> None:
+        w = self.widget
+        w.SetScaleEnabled(False)  # a stray drag on the box would resize it, not cut
+        w.SetDiagonalRatio(0.15)  # a shorter normal arrow
+        edges = w.GetEdgesProperty()  # the plane's trace on the box
+        edges.SetColor(0.5, 0.5, 0.5)
+        edges.SetOpacity(0.5)
+        props = self.plotter.renderer.GetViewProps()
+        for i in range(props.GetNumberOfItems()):
+            actor = props.GetItemAsObject(i)
+            if hasattr(actor, "GetProperty") and actor.GetProperty() is edges:
+                actor.GetMapper().ScalarVisibilityOff()  # else VTK colours the trace red from scalars
+        w.GetSelectedOutlineProperty().SetOpacity(0.4)
 
     def _on_plane(self, normal, origin) -> None:
         try:
@@ -209,8 +303,22 @@ class CutViewer:
 
             warnings.warn(f"cutting plane update failed: {exc!r}", RuntimeWarning, stacklevel=2)
 
+    def _sync_widget(self) -> None:
+        """Put the widget on the current plane, around the organ where it is now (after a deformation)."""
+        bounds = tuple(self.organ.grid.bounds)
+        if bounds != self._placed_bounds:
+            self.widget.PlaceWidget(bounds)
+            self._placed_bounds = bounds
+        if not np.allclose(self.widget.GetOrigin(), self.origin):
+            self.widget.SetOrigin(*self.origin)
+        if not np.allclose(self.widget.GetNormal(), self.normal):
+            self.widget.SetNormal(*self.normal)
+
     def update(self, origin: ArrayLike | None = None, normal: ArrayLike | None = None) -> None:
-        """Recut with a new plane (or the same plane after :meth:`TexturedOrgan.deform`)."""
+        """Recut with a new plane (or the same plane after :meth:`TexturedOrgan.deform`).
+
+        The widget follows a plane set here (it is not re-placed while the user drags it).
+        """
         if origin is not None:
             self.origin = np.asarray(origin, dtype=np.float64)
         if normal is not None:
@@ -218,17 +326,28 @@ class CutViewer:
         outside, face = self.organ.cut(self.origin, self.normal)
         self.outside.copy_from(outside, deep=False)
         self.face.copy_from(face, deep=False)
+        self.rim.copy_from(_rim(face), deep=False)
+        self._sync_widget()
         self.plotter.render()
 
-    def look_at_cut(self, distance: float = 1.5, elevation: float = 0.35) -> None:
-        """Put the camera in front of the cut face (on the side that was cut away)."""
-        size = float(np.linalg.norm(np.ptp(np.asarray(self.organ.grid.bounds).reshape(3, 2), axis=1)))
-        up = np.array([0.0, 0.0, 1.0]) if abs(self.normal[2]) < 0.9 else np.array([0.0, 1.0, 0.0])
-        direction = self.normal + elevation * up
-        eye = self.origin + distance * size * direction / np.linalg.norm(direction)
-        self.plotter.camera_position = [tuple(eye), tuple(self.origin), tuple(up)]
+    def look_at_cut(self, elevation: float = 0.4, margin: float = 1.04) -> None:
+        """Face the cut (from the side that was cut away), the organ filling the picture.
+
+        The camera looks along :func:`~ffd_notebook.view.camera.view_direction` and is fitted to
+        the organ's meshes with :func:`~ffd_notebook.view.camera.frame_camera`, not to the
+        widget's box.
+        """
+        points = [np.asarray(m.points) for m in (self.outside, self.face) if m.n_cells]
+        if not points:  # the plane cuts everything away: frame the whole organ
+            points = [np.asarray(self.organ.surface.points)]
+        frame_camera(self.plotter, np.vstack(points), view_direction(self.normal, elevation), margin=margin)
         self.plotter.render()
 
     def show(self, **kwargs):
-        """Show the plotter (in a notebook: the interactive trame view, or a picture when static)."""
+        """Show the plotter (in a notebook: the interactive trame view, or a picture when static).
+
+        The picture is of the current cut: PyVista's static backend would otherwise show the
+        picture of an earlier ``show``.
+        """
+        self.plotter.last_image = None
         return self.plotter.show(**kwargs)

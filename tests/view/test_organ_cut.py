@@ -13,7 +13,7 @@ from ffd_notebook.datasets import frog_liver
 from ffd_notebook.solidtex import SolidTexture, sliding_crops, volume_from_slices
 from ffd_notebook.view import organ as organ_module
 from ffd_notebook.view.organ import organ_surface, tetrahedralize, texture_surface
-from ffd_notebook.view.solid_cut import CutViewer, TexturedOrgan
+from ffd_notebook.view.solid_cut import CutViewer, TexturedOrgan, add_cut
 
 
 @pytest.fixture(scope="module")
@@ -124,3 +124,63 @@ def test_viewer_recuts_in_place_when_the_plane_widget_moves(grid, texture):
     image = viewer.plotter.screenshot(return_img=True)
     assert image.std() > 10  # a textured organ, not an empty frame
     viewer.plotter.close()
+
+
+def _widget_outline(widget):
+    import vtk
+
+    poly = vtk.vtkPolyData()
+    widget.GetPolyData(poly)  # the plane clipped to the widget's box
+    return poly
+
+
+def test_viewer_widget_follows_the_plane_and_the_camera_frames_the_organ(grid, texture):
+    organ = TexturedOrgan(grid.copy(), texture, subdivisions=1)  # deformed below: not the shared fixture
+    viewer = CutViewer(organ, normal=(0, 1, 0), window_size=(300, 200))
+    # the widget box is faint and grey, its plane trace not coloured by scalars (VTK's default red)
+    assert viewer.widget.GetOutlineProperty().GetOpacity() < 0.5
+    assert not viewer.widget.GetScaleEnabled() and not viewer.widget.GetOutlineTranslation()
+    # the camera is fitted to the organ, not the widget's box: the cut organ spans the picture
+    image = viewer.plotter.screenshot(return_img=True)
+    organ_pixels = np.argwhere(np.abs(image.astype(int) - 255).sum(axis=2) > 120)
+    assert np.ptp(organ_pixels[:, 1]) > 0.85 * image.shape[1]
+    # a plane set in code moves the widget too, and the widget follows a deformed organ's bounds
+    target = np.array(grid.center) + (0.0, 10.0, 0.0)
+    viewer.update(origin=target, normal=(0.0, 0.6, 0.8))
+    np.testing.assert_allclose(viewer.widget.GetOrigin(), target, atol=1e-6)
+    np.testing.assert_allclose(viewer.widget.GetNormal(), [0, 0.6, 0.8], atol=1e-6)
+    lattice = Lattice.around(grid.points, shape=(4, 4, 4))
+    lattice.offsets[...] = (30.0, 0.0, 0.0)
+    organ.deform(FFD(lattice).deform)
+    viewer.update()
+    outline = pv.wrap(_widget_outline(viewer.widget))
+    # the plane has no x tilt: its patch spans the widget's box along x, now around the moved organ
+    assert outline.center[0] == pytest.approx(organ.grid.center[0], abs=0.5)
+    assert outline.center[0] == pytest.approx(grid.center[0] + 30.0, abs=0.5)
+    np.testing.assert_allclose(viewer.widget.GetOrigin(), target, atol=1e-6)  # the plane stays put
+    # a plane beyond the organ leaves nothing to cut: empty meshes, no error, a picture still renders
+    viewer.update(origin=np.array(grid.center) + (0.0, -500.0, 0.0))
+    assert viewer.outside.n_cells == 0 and viewer.face.n_cells == 0
+    viewer.look_at_cut()
+    viewer.plotter.screenshot(return_img=True)
+    viewer.plotter.close()
+
+
+def test_add_cut_draws_a_snapshot_that_later_deformations_do_not_change(grid, texture):
+    organ = TexturedOrgan(grid.copy(), texture, subdivisions=1)
+    pl = pv.Plotter(off_screen=True, shape=(1, 2), window_size=(400, 200))
+    pl.subplot(0, 0)
+    whole, empty = add_cut(pl, organ)
+    pl.subplot(0, 1)
+    outside, face = add_cut(pl, organ, normal=(1, 0, 0))
+    assert np.all(outside.points[:, 0] <= grid.center[0] + 1e-3)
+    assert empty.n_cells == 0 and whole.n_cells == organ.surface.n_cells
+    assert face.n_cells > 0 and {"organ-outside", "organ-cut", "organ-rim"} <= set(pl.renderer.actors)
+    rim = pl.renderer.actors["organ-rim"].mapper.dataset
+    assert rim.n_lines > 0 and np.allclose(rim.points[:, 0], grid.center[0], atol=1e-3)  # the face's edge
+    before = whole.points.copy()
+    lattice = Lattice.around(grid.points, shape=(4, 4, 4))
+    lattice.offsets[...] = (0.0, 0.0, 12.0)
+    organ.deform(FFD(lattice).deform)
+    np.testing.assert_array_equal(whole.points, before)
+    pl.close()
