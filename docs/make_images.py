@@ -1,0 +1,74 @@
+"""Pictures for the README, made from the package itself (offline, headless).
+
+Run from the repository root::
+
+    python docs/make_images.py
+
+Each picture has its own function taking the output path; :func:`main` writes them all into
+``docs/images/``. Writes are atomic (a temporary file in the same folder, then ``os.replace``).
+"""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from pathlib import Path
+
+import numpy as np
+from PIL import Image
+
+IMAGES = Path(__file__).resolve().parent / "images"
+
+
+def _save_png(pixels: np.ndarray, path: Path) -> None:
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(suffix=".png", dir=path.parent)
+    os.close(fd)
+    try:
+        Image.fromarray(pixels).save(tmp, format="png", optimize=True)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+def solid_texture_image(path: str | Path, window_size: tuple[int, int] = (900, 400)) -> Path:
+    """The frog liver with a synthesised solid texture, cut open: the cut face shows the interior.
+
+    The texture is grown (reuse synthesis, 128^3) from an exemplar stacked from scikit-image's
+    bundled immunohistochemistry image, as in ``notebooks/05_solid_texture_liver.ipynb``.
+    """
+    import pyvista as pv
+    import skimage.data
+
+    import ffd_notebook.view  # noqa: F401  (headless settings before any plotter)
+    from ffd_notebook.datasets import frog_liver
+    from ffd_notebook.solidtex import SolidTexture, sliding_crops, synthesize, volume_from_slices
+    from ffd_notebook.view.camera import frame_camera, view_direction
+    from ffd_notebook.view.organ import tetrahedralize
+    from ffd_notebook.view.solid_cut import TexturedOrgan, add_cut
+
+    slices = sliding_crops(skimage.data.immunohistochemistry(), n_slices=64, size=96, step=(1, 1), start=(84, 84))
+    exemplar = volume_from_slices(slices, roi=(16, 80, 16, 80))
+    grid = tetrahedralize(frog_liver(2500))
+    organ = TexturedOrgan(grid, SolidTexture.fit(synthesize(exemplar, 128, seed=0, progress=False), grid.bounds))
+
+    normal = np.array([0.3, 1.0, 0.0])
+    pl = pv.Plotter(off_screen=True, window_size=window_size)
+    outside, face = add_cut(pl, organ, grid.center, normal)
+    frame_camera(pl, np.vstack([outside.points, face.points]), view_direction(normal), margin=1.03)
+    pixels = pl.screenshot(return_img=True)
+    pl.close()
+    _save_png(pixels, Path(path))
+    return Path(path)
+
+
+def main() -> None:
+    """Write every README picture into ``docs/images/``."""
+    for made in (solid_texture_image(IMAGES / "solid_texture.png"),):
+        print(f"{made}: {made.stat().st_size / 1024:.0f} KB")
+
+
+if __name__ == "__main__":
+    main()
