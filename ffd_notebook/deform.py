@@ -12,6 +12,7 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+from scipy.linalg.blas import dger
 
 from .basis import bernstein, bernstein_derivative, bspline, bspline_derivative
 from .lattice import Lattice, _as_points
@@ -300,14 +301,17 @@ class Deformer:
             # inverse permutation: original point p sits at sorted position inverse[p]
             self._inverse = np.empty_like(cells.order)
             self._inverse[cells.order] = np.arange(n, dtype=cells.order.dtype)
-            self._local = np.zeros((n, 3))  # displacement in sorted order
-            self._gathered = np.empty((n, 3))
+            # deformed positions in sorted order: affine image + displacement, brought back to the
+            # points' order by one gather (np.take) per update
+            self._sorted = np.zeros((n, 3))
         else:
             bx, by, bz = self.ffd._bernstein_values(uvw)
             nx, ny, _ = lat.shape
             self._bxy = (bx[:, :, None] * by[:, None, :]).reshape(n, nx * ny).astype(self.dtype)
             self._bz = bz.astype(self.dtype)
         self._base = np.asarray(self.ffd.apply_affine(self.points), dtype=np.float64)
+        if self._cells is not None:
+            self._base = self._base[self._cells.order]  # only ever used in sorted order
         self._out = np.empty((n, 3), dtype=np.float64)
         self._last_offsets = lat.offsets.copy()
         self._full()
@@ -316,8 +320,8 @@ class Deformer:
     def cache_bytes(self) -> int:
         """Bytes of weights and indices held for fast updates.
 
-        Not counted: the rest points, the affine image of the points and the working
-        displacement/output buffers (three ``(N, 3)`` float64 arrays any evaluation needs).
+        Not counted: the rest points, the affine image of the points and the working and
+        output buffers (three ``(N, 3)`` float64 arrays any evaluation needs).
         """
         arrays = [getattr(self, k) for k in ("_buv", "_bw", "_inverse", "_bxy", "_bz") if hasattr(self, k)]
         if self._cells is not None:
@@ -366,13 +370,12 @@ class Deformer:
             np.add(self._base, local, out=self._out)
             return
         local = self._cells.sum(_pad(offsets, self.dtype), self._buv, self._bw)
-        self._local[...] = local
+        np.add(self._base, local, out=self._sorted)
         self._refresh_all()
 
     def _refresh_all(self) -> None:
-        """Output = affine image + displacement brought back to the points' order (one gather)."""
-        np.take(self._local, self._inverse, axis=0, out=self._gathered)
-        np.add(self._base, self._gathered, out=self._out)
+        """Bring the sorted deformed positions back to the points' order (one gather)."""
+        np.take(self._sorted, self._inverse, axis=0, out=self._out)
 
     def _add_control_point(self, i: int, j: int, k: int, delta: NDArray[np.float64]) -> None:
         if self.ffd.basis == "bernstein":
@@ -389,10 +392,10 @@ class Deformer:
         gather_all = n_hit > len(self.points) // 4
         for r, (s, e) in zip(hit, spans, strict=True):
             l, m, n = rel[r]
-            w = self._buv[s:e, l * 4 + m].astype(np.float64) * self._bw[s:e, n]
-            contribution = w[:, None] * delta
-            self._local[s:e] += contribution
+            w = np.multiply(self._buv[s:e, l * 4 + m], self._bw[s:e, n], dtype=np.float64)
+            # rank-one update sorted += w delta^T in place (BLAS dger on the F-ordered transpose)
+            dger(1.0, delta, w, a=self._sorted[s:e].T, overwrite_a=1)
             if not gather_all:
-                self._out[cells.order[s:e]] += contribution
+                self._out[cells.order[s:e]] += w[:, None] * delta
         if gather_all:
             self._refresh_all()
