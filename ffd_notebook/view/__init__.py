@@ -20,6 +20,9 @@ _LAZY = {
     "GPExplorer": "ffd_notebook.view.gp_view",
     "TexturedOrgan": "ffd_notebook.view.solid_cut",
     "CutViewer": "ffd_notebook.view.solid_cut",
+    "add_cut": "ffd_notebook.view.solid_cut",
+    "frame_camera": "ffd_notebook.view.camera",
+    "view_direction": "ffd_notebook.view.camera",
 }
 
 __all__ = ["configure_rendering", "is_headless", *sorted(_LAZY)]
