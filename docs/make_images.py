@@ -64,9 +64,60 @@ def solid_texture_image(path: str | Path, window_size: tuple[int, int] = (900, 4
     return Path(path)
 
 
+def editor_image(path: str | Path, window_size: tuple[int, int] = (900, 560)) -> Path:
+    """The editor on its bundled sample mesh: top layers sheared from code, one point dragged out."""
+    import ffd_notebook.view  # noqa: F401  (headless settings before any plotter)
+    from ffd_notebook.view.editor import Editor
+
+    editor = Editor(off_screen=True, window_size=window_size)
+    spacing = editor.lattice.spacing
+    editor.lattice.offsets[:, :, 3:] += (0.5 * spacing[0], 0.0, 0.0)  # shear the top, from code
+    editor.update()
+    editor.move_control_point((2, 1, 2), (0.0, -1.0 * spacing[1], 0.0))  # as a drag or the panel would
+    editor.set_field("displacement")
+    editor.select((2, 1, 2))
+    pixels = editor.screenshot()
+    editor.close()
+    _save_png(pixels, Path(path))
+    return Path(path)
+
+
+def gp_image(path: str | Path, window_size: tuple[int, int] = (900, 320)) -> Path:
+    """Random smooth deformation fields of Gaussian processes: the kernel width sets smoothness."""
+    import pyvista as pv
+
+    import ffd_notebook.view  # noqa: F401  (headless settings before any plotter)
+    from ffd_notebook.gp import GaussianKernel, GaussianProcess, grid_points
+
+    points = grid_points([-1, 1, -1, 1, -1, 1], 6)
+    pl = pv.Plotter(off_screen=True, shape=(1, 3), window_size=window_size, border=False)
+    for col, sigma in enumerate((0.5, 1.0, 2.0)):
+        field = GaussianProcess(GaussianKernel(sigma=sigma, scale=0.25)).sample(points, 1, rng=3)[0]
+        cloud = pv.PolyData(points)
+        cloud["u"] = field
+        cloud["|u|"] = np.linalg.norm(field, axis=1)
+        pl.subplot(0, col)
+        pl.add_mesh(
+            cloud.glyph(orient="u", scale="|u|", factor=0.8), scalars="|u|", cmap="plasma", show_scalar_bar=False
+        )
+        pl.add_mesh(pv.Box((-1, 1, -1, 1, -1, 1)).outline(), color="grey")
+        pl.add_text(f"sigma = {sigma}", font_size=11, color="black")
+        pl.view_isometric()
+        pl.camera.zoom(1.25)
+    pl.set_background("white")
+    pixels = pl.screenshot(return_img=True)
+    pl.close()
+    _save_png(pixels, Path(path))
+    return Path(path)
+
+
 def main() -> None:
     """Write every README picture into ``docs/images/``."""
-    for made in (solid_texture_image(IMAGES / "solid_texture.png"),):
+    for made in (
+        editor_image(IMAGES / "editor.png"),
+        gp_image(IMAGES / "gp_fields.png"),
+        solid_texture_image(IMAGES / "solid_texture.png"),
+    ):
         print(f"{made}: {made.stat().st_size / 1024:.0f} KB")
 
 

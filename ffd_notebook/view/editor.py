@@ -107,8 +107,22 @@ class Editor(EditorDisplayMixin, EditorFilesMixin):
             self.plotter.iren.interactor.EnableRenderOff()
         self._install_mesh(mesh, ffd)
         self._install_lattice(lattice, basis)
-        self.plotter.view_isometric(render=False)
-        self.plotter.reset_camera(render=False)
+        self.frame()
+
+    def frame(self) -> None:
+        """Point the camera at the mesh: it fills the view, with the lattice's outer ring at the edges.
+
+        The outer ring of a B-spline lattice lies a whole spacing outside the mesh; fitting the
+        camera to all of it leaves the mesh small. This fits the lattice box shrunk by half a
+        spacing on each side instead (rotate or zoom out to reach the corners).
+        """
+        from .camera import frame_camera
+
+        lat = self.lattice
+        inset = 0.5 if min(lat.shape) > 2 else 0.0
+        corners = np.array(np.meshgrid(*[[inset, n - 1 - inset] for n in lat.shape], indexing="ij")).reshape(3, -1).T
+        points = np.vstack([lat.to_world(corners), self.mesh.points])
+        frame_camera(self.plotter, points, direction=(1.0, -1.0, 0.8), up=(0.0, 0.0, 1.0))
 
     # ------------------------------------------------------------------ model objects
     @property

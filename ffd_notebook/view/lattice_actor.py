@@ -25,13 +25,13 @@ SELECTED_COLOR = "gold"
 LINE_COLOR = "dimgray"
 
 
-def widget_radius(lattice: Lattice, fraction: float = 0.1) -> float:
+def widget_radius(lattice: Lattice, fraction: float = 0.07) -> float:
     """Sphere-widget radius for a lattice: a fraction of its smallest spacing.
 
     Examples
     --------
-    >>> widget_radius(Lattice((4, 4, 4), spacing=(10.0, 20.0, 5.0)))
-    0.5
+    >>> round(widget_radius(Lattice((4, 4, 4), spacing=(10.0, 20.0, 5.0))), 6)
+    0.35
     """
     return float(fraction * np.min(lattice.spacing))
 
