@@ -170,8 +170,8 @@ def pick_widget(
 ) -> tuple[int, float, float]:
     """A widget to drag and a drag vector.
 
-    The widget is an inner control point of the ``shape`` lattice (outer ones may influence no vertex of
-    the mesh), in the view's middle, not covered by a nearer sphere, and the nearest such to the camera.
+    The widget is the inner control point of the ``shape`` lattice (outer ones may influence no vertex of
+    the mesh) in the view's middle that is farthest on screen from every other sphere.
     The direction (of ``distance`` px) keeps farthest from the other widgets and inside the view.
     """
     positions = [(w["index"], *widget_xy(info, box, w["index"]), w["z"]) for w in info["widgets"]]
@@ -180,16 +180,18 @@ def pick_widget(
         ijk = np.unravel_index(index, shape)
         return all(1 <= v <= n - 2 for v, n in zip(ijk, shape, strict=True))
 
-    def uncovered(p: tuple[int, float, float, float]) -> bool:
-        return all(math.hypot(p[1] - q[1], p[2] - q[2]) > 25 for q in positions if q[0] != p[0] and q[3] <= p[3])
+    def room(p: tuple[int, float, float, float]) -> float:
+        # overlapping sphere widgets do not pick by depth: any of them may take the click
+        return min(math.hypot(p[1] - q[1], p[2] - q[2]) for q in positions if q[0] != p[0])
 
     candidates = [
         p for p in positions
-        if inner(p[0]) and uncovered(p)
-        and 0.2 < (p[1] - box["x"]) / box["width"] < 0.8 and 0.2 < (p[2] - box["y"]) / box["height"] < 0.8
+        if inner(p[0]) and 0.15 < (p[1] - box["x"]) / box["width"] < 0.85
+        and 0.15 < (p[2] - box["y"]) / box["height"] < 0.85
     ]  # fmt: skip
-    assert candidates, "no inner control point is free to grab in the view"
-    index, x0, y0, _ = min(candidates, key=lambda p: p[3])
+    assert candidates, "no inner control point in the view"
+    index, x0, y0, _ = max(candidates, key=room)
+    assert room((index, x0, y0, 0.0)) > 12, "every inner control point overlaps another sphere on screen"
     best = None
     for degrees in range(0, 360, 15):
         dx, dy = distance * math.cos(math.radians(degrees)), distance * math.sin(math.radians(degrees))
@@ -201,7 +203,7 @@ def pick_widget(
             math.hypot(x0 + dx * f - x, y0 + dy * f - y)
             for i, x, y, _ in positions
             if i != index
-            for f in (0.0, 0.25, 0.5, 0.75, 1.0)
+            for f in (0.25, 0.5, 0.75, 1.0, 1.3)  # the widget overshoots the cursor by ~1.26x
         )
         if best is None or clearance > best[0]:
             best = (clearance, dx, dy)
