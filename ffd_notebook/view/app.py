@@ -289,9 +289,6 @@ def run_app(
     editor = Editor(mesh, shape=tuple(shape), basis=basis)
     if ffd is not None:
         editor.load_ffd(ffd)
-    # The sphere widget asks the interactor to render inside every mouse event; the remote view renders
-    # again to stream the image. Rendering once per event makes a frame ~20 % faster on software GL.
-    editor.plotter.iren.interactor.EnableRenderOff()
     app = EditorApp(editor)
     app.start(port=port, host=host)
     return app
