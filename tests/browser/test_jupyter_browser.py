@@ -178,6 +178,8 @@ def test_quickstart_notebook_drag_and_save(lab, tmp_path: Path):
 
     port, work, trace = lab
     ARTIFACTS.mkdir(exist_ok=True)
+    for stale in ARTIFACTS.glob("jupyter_failure.*"):
+        stale.unlink()
     metrics: dict = {}
     t0 = time.monotonic()
     with sync_playwright() as pw:
