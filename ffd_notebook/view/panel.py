@@ -19,14 +19,36 @@ from .editor import Editor
 
 __all__ = ["ControlPanel"]
 
-FIELD_OPTIONS = [("mesh colours", None), ("|displacement|", "displacement"), ("folding (det J <= 0)", "jacobian")]
-_NARROW = widgets.Layout(width="64px")
-_FIELD = widgets.Layout(width="96px")
-_BUTTON = widgets.Layout(width="auto")
+# ipywidgets shows a ``None`` value as an empty dropdown: the panel uses "none" for "no field"
+FIELD_OPTIONS = [("mesh colours", "none"), ("|displacement|", "displacement"), ("folding (det J <= 0)", "jacobian")]
+PANEL_WIDTH = "410px"
 
 
-def _button(description: str, tooltip: str, on_click: Callable[[], Any], icon: str = "") -> widgets.Button:
-    button = widgets.Button(description=description, tooltip=tooltip, icon=icon, layout=_BUTTON)
+def _narrow() -> widgets.Layout:
+    return widgets.Layout(width="58px")
+
+
+def _number() -> widgets.Layout:
+    return widgets.Layout(width="84px")
+
+
+def _stretch() -> widgets.Layout:
+    """A text field that takes the room its row leaves."""
+    return widgets.Layout(flex="1 1 auto", width="auto", min_width="90px")
+
+
+def _button(
+    description: str, tooltip: str, on_click: Callable[[], Any], icon: str = "", css: str = ""
+) -> widgets.Button:
+    # buttons never shrink below their label (flex-shrink 0); css classes let tests and users style them
+    button = widgets.Button(
+        description=description,
+        tooltip=tooltip or description,
+        icon=icon,
+        layout=widgets.Layout(width="auto", flex="0 0 auto"),
+    )
+    if css:
+        button.add_class(css)
     button.on_click(lambda _b: on_click())
     return button
 
@@ -58,41 +80,76 @@ class ControlPanel(widgets.VBox):
         self._syncing = False
         nx, ny, nz = editor.lattice.shape
         # lattice
-        self.shape = [widgets.BoundedIntText(value=n, min=2, max=40, layout=_NARROW) for n in (nx, ny, nz)]
+        self.shape = [widgets.BoundedIntText(value=n, min=2, max=40, layout=_narrow()) for n in (nx, ny, nz)]
         self.rebuild_button = _button(
-            "Rebuild lattice", "Fit a new lattice of this size around the mesh", self._rebuild
+            "Rebuild", "Fit a new lattice of this size around the mesh", self._rebuild, css="ffd-rebuild"
         )
-        self.basis = widgets.Dropdown(options=["bspline", "bernstein"], value=editor.basis, layout=_FIELD)
+        self.basis = widgets.Dropdown(options=["bspline", "bernstein"], value=editor.basis, layout=_number())
         self.basis.observe(lambda ch: self._call(editor.set_basis, ch["new"]), names="value")
         # control point
-        self.ijk = [widgets.BoundedIntText(value=0, min=0, max=n - 1, layout=_NARROW) for n in (nx, ny, nz)]
+        self.ijk = [widgets.BoundedIntText(value=0, min=0, max=n - 1, layout=_narrow()) for n in (nx, ny, nz)]
         for w in self.ijk:
             w.observe(self._on_ijk, names="value")
-        self.xyz = [widgets.FloatText(value=0.0, layout=_FIELD) for _ in range(3)]
-        self.apply_button = _button("Apply", "Set the displacement of control point (i, j, k)", self._apply)
-        self.reset_point_button = _button("Reset point", "Zero this control point's displacement", self._reset_point)
-        self.reset_all_button = _button("Reset all", "Zero every displacement", lambda: self._call(editor.reset))
-        self.undo_button = _button("Undo", "Undo the last change", lambda: self._call(editor.undo), "undo")
-        self.redo_button = _button("Redo", "Redo", lambda: self._call(editor.redo), "repeat")
+        self.xyz = [widgets.FloatText(value=0.0, layout=_number()) for _ in range(3)]
+        self.apply_button = _button(
+            "Apply", "Set the displacement of control point (i, j, k)", self._apply, css="ffd-apply"
+        )
+        self.reset_point_button = _button(
+            "Reset point", "Zero this control point's displacement", self._reset_point, css="ffd-reset-point"
+        )
+        self.reset_all_button = _button(
+            "Reset all", "Zero every displacement", lambda: self._call(editor.reset), css="ffd-reset-all"
+        )
+        self.undo_button = _button("Undo", "Undo the last change", lambda: self._call(editor.undo), "undo", "ffd-undo")
+        self.redo_button = _button("Redo", "Redo", lambda: self._call(editor.redo), "repeat", "ffd-redo")
         # files
-        self.ffd_path = widgets.Text(value="lattice.ffd", placeholder="path/to/lattice.ffd")
-        self.load_ffd_button = _button("Load .ffd", "", lambda: self._call(editor.load_ffd, self.ffd_path.value))
-        self.save_ffd_button = _button("Save .ffd", "", lambda: self._call(editor.save_ffd, self.ffd_path.value))
-        self.mesh_path = widgets.Text(value="deformed.obj", placeholder="mesh.obj / .ply / .vtp / ...")
-        self.load_mesh_button = _button("Load mesh", "", lambda: self._call(editor.load_mesh, self.mesh_path.value))
+        self.ffd_path = widgets.Text(value="lattice.ffd", placeholder="path/to/lattice.ffd", layout=_stretch())
+        self.ffd_path.add_class("ffd-ffd-path")
+        self.load_ffd_button = _button(
+            "Load .ffd",
+            "Load a lattice file",
+            lambda: self._call(editor.load_ffd, self.ffd_path.value),
+            css="ffd-load-ffd",
+        )
+        self.save_ffd_button = _button(
+            "Save .ffd",
+            "Save the lattice",
+            lambda: self._call(editor.save_ffd, self.ffd_path.value),
+            css="ffd-save-ffd",
+        )
+        self.mesh_path = widgets.Text(
+            value="deformed.obj", placeholder="mesh.obj / .ply / .vtp / ...", layout=_stretch()
+        )
+        self.mesh_path.add_class("ffd-mesh-path")
+        self.load_mesh_button = _button(
+            "Load",
+            "Load a mesh (OBJ with colours, PLY, VTP, STL, anything PyVista reads)",
+            lambda: self._call(editor.load_mesh, self.mesh_path.value),
+            css="ffd-load-mesh",
+        )
         self.save_mesh_button = _button(
-            "Save deformed mesh",
-            "OBJ keeps colours; PLY, VTP, STL...",
+            "Save deformed",
+            "Save the deformed mesh: OBJ keeps colours; PLY, VTP, STL...",
             lambda: self._call(editor.save_mesh, self.mesh_path.value),
+            css="ffd-save-mesh",
         )
         # display
         self.colors = widgets.Checkbox(value=editor.colors_shown, description="colours", indent=False)
         self.colors.observe(lambda ch: self._call(editor.show_colors, ch["new"]), names="value")
-        self.field = widgets.Dropdown(options=FIELD_OPTIONS, value=editor.field, description="show")
-        self.field.observe(lambda ch: self._call(editor.set_field, ch["new"]), names="value")
-        self.reduction = widgets.FloatSlider(value=0.0, min=0.0, max=0.95, step=0.05, description="reduce")
+        self.field = widgets.Dropdown(
+            options=FIELD_OPTIONS, value=editor.field or "none", layout=widgets.Layout(width="170px")
+        )
+        self.field.observe(
+            lambda ch: self._call(editor.set_field, None if ch["new"] == "none" else ch["new"]), names="value"
+        )
+        self.reduction = widgets.FloatSlider(
+            value=0.0, min=0.0, max=0.95, step=0.05, readout_format=".0%", layout=_stretch()
+        )
         self.decimate_button = _button(
-            "Decimate", "Remove this fraction of the faces (0 restores the mesh)", self._decimate
+            "Decimate",
+            "Remove this fraction of the faces, keeping colours (0 restores the mesh)",
+            self._decimate,
+            css="ffd-decimate",
         )
         self.message = widgets.HTML(value="")
 
@@ -100,27 +157,29 @@ class ControlPanel(widgets.VBox):
             return widgets.HBox(list(children))
 
         def label(text: str) -> widgets.Label:
-            return widgets.Label(text, layout=widgets.Layout(width="110px"))
+            return widgets.Label(text, layout=widgets.Layout(width="104px", flex="0 0 auto"))
 
         super().__init__(
             [
                 widgets.HTML("<b>Lattice</b>"),
-                row(label("size (nx ny nz)"), *self.shape, self.rebuild_button),
+                row(label("points per axis"), *self.shape, self.rebuild_button),
                 row(label("basis"), self.basis),
-                widgets.HTML("<b>Control point</b>"),
-                row(label("(i, j, k)"), *self.ijk),
-                row(label("displacement"), *self.xyz, self.apply_button),
-                row(self.reset_point_button, self.reset_all_button, self.undo_button, self.redo_button),
+                widgets.HTML("<b>Control point</b> <small>(drag a sphere, or pick one and type)</small>"),
+                row(label("i, j, k"), *self.ijk),
+                row(label("displacement"), *self.xyz),
+                row(self.apply_button, self.reset_point_button, self.reset_all_button),
+                row(self.undo_button, self.redo_button),
                 widgets.HTML("<b>Files</b>"),
                 row(self.ffd_path, self.load_ffd_button, self.save_ffd_button),
                 row(self.mesh_path, self.load_mesh_button, self.save_mesh_button),
                 widgets.HTML("<b>Display</b>"),
-                row(self.colors, self.field),
-                row(self.reduction, self.decimate_button),
+                row(self.colors, label("colour by"), self.field),
+                row(label("decimate"), self.reduction, self.decimate_button),
                 self.message,
             ],
-            layout=widgets.Layout(padding="0 0 0 12px"),
+            layout=widgets.Layout(padding="0 0 0 12px", width=PANEL_WIDTH, flex="0 0 auto"),
         )
+        self.add_class("ffd-panel")
         editor.observe(self._follow)
         self._sync_all()
 
@@ -176,7 +235,7 @@ class ControlPanel(widgets.VBox):
                 w.max = n - 1
             self.basis.value = ed.basis
             self.colors.value = ed.colors_shown
-            self.field.value = ed.field
+            self.field.value = ed.field or "none"
         finally:
             self._syncing = False
         self._sync_point()

@@ -116,3 +116,5 @@ def test_mesh_files_decimation_and_display(panel, editor, shared_data, tmp_path)
     assert editor.field == "displacement"
     panel.field.value = "jacobian"
     assert editor.field == "jacobian" and panel.message.value.count("folding (det J") == 1
+    panel.field.value = "none"  # shown as "mesh colours", never as an empty dropdown
+    assert editor.field is None and panel.field.label == "mesh colours"
