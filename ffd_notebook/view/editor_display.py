@@ -46,8 +46,17 @@ class EditorDisplayMixin:
         self._trace.write(json.dumps(record) + "\n")
 
     def checksum(self) -> float:
-        """``sum |deformed points|``: a cheap fingerprint of the shown mesh (for tests and traces)."""
-        return float(np.abs(self._display_points).sum(dtype=np.float64))  # float32 sums hide small moves
+        """A cheap fingerprint of the shown mesh (for tests and traces): changes when any point moves.
+
+        The points projected on a fixed random pattern, summed in float64. ``sum |p|`` would hardly
+        change when points move across their position vectors (a drag seen along the view axis).
+        """
+        points = np.asarray(self._display_points, dtype=np.float64).ravel()
+        pattern = getattr(self, "_checksum_pattern", None)
+        if pattern is None or len(pattern) != len(points):
+            pattern = np.random.default_rng(0).standard_normal(len(points))
+            self._checksum_pattern = pattern
+        return float(points @ pattern)
 
     def show_colors(self, show: bool = True) -> None:
         """Show the mesh's per-vertex colours (or a plain colour)."""

@@ -187,6 +187,24 @@ def test_callback_errors_become_messages(editor):
     assert not editor.lattice.offsets.any() and editor.n_callbacks == 0
 
 
+def fingerprint(points):
+    """The documented checksum, computed independently: points projected on a seeded pattern."""
+    flat = np.asarray(points, dtype=np.float64).ravel()
+    return float(flat @ np.random.default_rng(0).standard_normal(len(flat)))
+
+
+def test_checksum_sees_moves_across_the_position_vector(editor):
+    before = editor.checksum()
+    assert before == pytest.approx(fingerprint(shown_points(editor)))
+    points = shown_points(editor)
+    k = int(np.argmax(np.linalg.norm(points, axis=1)))
+    p = points[k].astype(float)
+    across = np.cross(p, [0.0, 0.0, 1.0]) if abs(p[2]) < np.linalg.norm(p) * 0.9 else np.cross(p, [1.0, 0, 0])
+    across *= 1e-3 / np.linalg.norm(across)  # |p| unchanged to first order: sum |p| would not see it
+    editor._display_points[k] = p + across
+    assert editor.checksum() != pytest.approx(before, rel=1e-12, abs=1e-9)
+
+
 def test_trace_file_records_each_callback(sphere, tmp_path, monkeypatch):
     trace = tmp_path / "trace.jsonl"
     monkeypatch.setenv("FFD_NOTEBOOK_TRACE", str(trace))
@@ -197,7 +215,7 @@ def test_trace_file_records_each_callback(sphere, tmp_path, monkeypatch):
         records = [json.loads(line) for line in trace.read_text().splitlines()]
         assert [r["index"] for r in records] == [62, 61]
         assert records[1]["ijk"] == [2, 2, 1] and records[1]["ev"] == "cb"
-        assert records[1]["checksum"] == pytest.approx(float(np.abs(shown_points(editor)).sum()), rel=1e-6)
+        assert records[1]["checksum"] == pytest.approx(fingerprint(shown_points(editor)), rel=1e-9)
         np.testing.assert_allclose(records[1]["center"], widget_centers(editor)[61])
         assert records[0]["ms"] > 0 and records[0]["t"] > 1e9
     finally:
@@ -225,7 +243,7 @@ def test_widget_display_positions_and_triggers(editor):
     drag(editor, (2, 2, 2), (0.1, 0, 0))
     state = server.controller.trigger_fn("ffd_state")()
     assert state == {
-        "checksum": pytest.approx(float(np.abs(shown_points(editor)).sum()), rel=1e-6),
+        "checksum": pytest.approx(fingerprint(shown_points(editor)), rel=1e-9),
         "offsets_abs_sum": pytest.approx(0.1),
         "n_callbacks": 1,
     }
