@@ -14,11 +14,11 @@ from numpy.typing import ArrayLike, NDArray
 __all__ = ["frame_camera", "view_direction"]
 
 
-def _unit(vector: ArrayLike) -> NDArray[np.float64]:
+def _unit(vector: ArrayLike, what: str = "the direction") -> NDArray[np.float64]:
     v = np.asarray(vector, dtype=np.float64).reshape(3)
     length = float(np.linalg.norm(v))
     if not length > 0:
-        raise ValueError("the direction must not be zero")
+        raise ValueError(f"{what} must not be zero")
     return v / length
 
 

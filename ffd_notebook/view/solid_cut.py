@@ -23,6 +23,7 @@ from numpy.typing import ArrayLike, NDArray
 from vtkmodules.vtkCommonCore import vtkUnsignedCharArray
 
 from ..solidtex.sampling import SolidTexture
+from .camera import _unit as camera_unit
 from .camera import frame_camera, view_direction
 from .organ import REST, organ_surface, rest_points, texture_surface
 
@@ -33,11 +34,7 @@ RIM_COLOUR = "#3d1a0c"
 
 
 def _unit(normal: ArrayLike) -> NDArray[np.float64]:
-    n = np.asarray(normal, dtype=np.float64).reshape(3)
-    length = float(np.linalg.norm(n))
-    if not length > 0:
-        raise ValueError("the plane normal must not be zero")
-    return n / length
+    return camera_unit(normal, "the plane normal")
 
 
 class TexturedOrgan:

@@ -27,10 +27,9 @@ from browser.helpers import (
     trigger,
     wait_for,
 )
+from playwright.sync_api import sync_playwright
 
 pytestmark = [pytest.mark.browser, pytest.mark.slow]
-
-sync_playwright = pytest.importorskip("playwright.sync_api").sync_playwright
 
 
 def save_mesh(page, path: Path):

@@ -37,10 +37,10 @@ from browser.helpers import (
     trigger,
     wait_for,
 )
+from playwright.sync_api import sync_playwright
 
 pytestmark = [pytest.mark.browser, pytest.mark.slow]
 
-sync_playwright = pytest.importorskip("playwright.sync_api").sync_playwright
 
 TOKEN = "ffd-notebook-test-token"
 NOTEBOOK = "01_quickstart.ipynb"

@@ -59,7 +59,6 @@ def test_fallback_tetrahedralisation_without_tetgen(liver, without_tetgen):
 
 
 def test_tetgen_when_installed(liver):
-    pytest.importorskip("tetgen")
     grid = tetrahedralize(liver)
     assert grid.field_data["tetrahedralizer"][0] == "tetgen"
     outer = _check_tet_model(grid, liver)
