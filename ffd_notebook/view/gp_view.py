@@ -24,6 +24,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..gp import ExponentialKernel, GaussianKernel, GaussianProcess, LowRankGP, grid_points
 from . import configure_rendering
+from .notebook import push_to_browser, show_plotter
 
 __all__ = ["KERNELS", "GPExplorer"]
 
@@ -216,8 +217,11 @@ class GPExplorer:
         return self.plotter.screenshot(filename, return_img=True)
 
     def show(self, **kwargs: Any) -> Any:
-        """Show the plotter (in Jupyter through PyVista's backend)."""
-        return self.plotter.show(**kwargs)
+        """Show the explorer: in Jupyter the server-rendered trame view its widgets need.
+
+        See :func:`ffd_notebook.view.notebook.show_plotter`; outside a kernel, ``plotter.show(**kwargs)``.
+        """
+        return show_plotter(self.plotter, **kwargs)
 
     def close(self) -> None:
         """Close the plotter and free its render window."""
@@ -329,3 +333,4 @@ class GPExplorer:
             status += "\nright-click or P over the mesh: add a landmark; drag its sphere to move it"
         self._status.SetText(2, status)
         self.plotter.render()
+        push_to_browser(self.plotter)  # changes made from code reach an open notebook view

@@ -21,7 +21,7 @@ import pyvista as pv
 
 from .editor import Editor
 
-__all__ = ["display_editor", "edit", "editor_widget"]
+__all__ = ["display_editor", "edit", "editor_widget", "push_to_browser", "show_plotter"]
 
 STATIC_BACKENDS = ("static", "none")
 
@@ -117,14 +117,58 @@ def _jupyter_server() -> Any:
     return server
 
 
-def _trame_view(editor: Editor) -> Any:
-    """PyVista's trame iframe widget for the editor's plotter, server-side rendering."""
+def _server_rendered(plotter: pv.Plotter) -> Any:
+    """PyVista's trame iframe widget for a plotter, with server-side rendering (VTK widgets need it)."""
     from trame_pyvista.jupyter import show_trame
 
     _jupyter_server()
+    width, height = plotter.window_size
+    widget = show_trame(plotter, mode="server", collapse_menu=True, width=f"{width}px", height=f"{height}px")
+    plotter._ffd_notebook_viewer = widget.viewer  # for push_to_browser
+    return widget
 
-    width, height = editor.plotter.window_size
-    widget = show_trame(editor.plotter, mode="server", collapse_menu=True, width=f"{width}px", height=f"{height}px")
+
+def _in_kernel() -> bool:
+    try:
+        from IPython import get_ipython
+    except ImportError:  # pragma: no cover - IPython comes with Jupyter
+        return False
+    shell = get_ipython()
+    return shell is not None and "IPKernelApp" in getattr(shell, "config", {})
+
+
+def show_plotter(plotter: pv.Plotter, **kwargs: Any) -> Any:
+    """Show a plotter whose VTK widgets (sliders, spheres, planes) must stay interactive.
+
+    In a Jupyter kernel with an interactive backend this is the editor's own view: PyVista's
+    trame iframe with server-side rendering, on a server started without trame-vtklocal (which
+    downloads VTK's WebAssembly build at start-up). Elsewhere (a script, or the ``static`` backend
+    of a headless notebook run) it is ``plotter.show(**kwargs)``.
+
+    Examples
+    --------
+    >>> import pyvista as pv
+    >>> from ffd_notebook.view.notebook import show_plotter
+    >>> pl = pv.Plotter(off_screen=True, window_size=(120, 90))
+    >>> _ = pl.add_mesh(pv.Sphere())
+    >>> show_plotter(pl, screenshot=False) is None      # outside a kernel: plotter.show()
+    True
+    """
+    if not _in_kernel() or _backend() in STATIC_BACKENDS:
+        return plotter.show(**kwargs)
+    return _server_rendered(plotter)
+
+
+def push_to_browser(plotter: pv.Plotter) -> None:
+    """Send a new image to the browser view of ``plotter`` after a change made from code."""
+    viewer = getattr(plotter, "_ffd_notebook_viewer", None)
+    if viewer is not None:
+        viewer.update()
+
+
+def _trame_view(editor: Editor) -> Any:
+    """The editor's trame view: server-side rendering, and the editor pushes frames after its changes."""
+    widget = _server_rendered(editor.plotter)
     editor.attach_viewer(widget.viewer)
     editor.register_triggers(widget.viewer.server)
     return widget

@@ -25,6 +25,7 @@ from vtkmodules.vtkCommonCore import vtkUnsignedCharArray
 from ..solidtex.sampling import SolidTexture
 from .camera import _unit as camera_unit
 from .camera import frame_camera, view_direction
+from .notebook import push_to_browser, show_plotter
 from .organ import REST, organ_surface, rest_points, texture_surface
 
 __all__ = ["CutViewer", "TexturedOrgan", "add_cut"]
@@ -326,6 +327,7 @@ class CutViewer:
         self.rim.copy_from(_rim(face), deep=False)
         self._sync_widget()
         self.plotter.render()
+        push_to_browser(self.plotter)
 
     def look_at_cut(self, elevation: float = 0.4, margin: float = 1.04) -> None:
         """Face the cut (from the side that was cut away), the organ filling the picture.
@@ -339,12 +341,15 @@ class CutViewer:
             points = [np.asarray(self.organ.surface.points)]
         frame_camera(self.plotter, np.vstack(points), view_direction(self.normal, elevation), margin=margin)
         self.plotter.render()
+        push_to_browser(self.plotter)
 
     def show(self, **kwargs):
-        """Show the plotter (in a notebook: the interactive trame view, or a picture when static).
+        """Show the viewer: in Jupyter the server-rendered trame view its plane widget needs.
+
+        See :func:`ffd_notebook.view.notebook.show_plotter`; with the static backend, a picture.
 
         The picture is of the current cut: PyVista's static backend would otherwise show the
         picture of an earlier ``show``.
         """
         self.plotter.last_image = None
-        return self.plotter.show(**kwargs)
+        return show_plotter(self.plotter, **kwargs)

@@ -104,3 +104,59 @@ def test_trame_view_in_a_kernel(tmp_path, monkeypatch):
     assert result["state1"]["checksum"] != result["state0"]["checksum"]
     assert result["n_px"] == 64 and result["panel"] == "ControlPanel"
     assert result["selected"] == [int(v) for v in np.unravel_index(21, (4, 4, 4))]
+
+
+VIEWERS_CODE = r"""
+import json
+import numpy as np
+import pyvista as pv
+from ffd_notebook.solidtex import SolidTexture
+from ffd_notebook.view import CutViewer, GPExplorer, TexturedOrgan
+from ffd_notebook.view.organ import tetrahedralize
+
+explorer = GPExplorer(pv.Sphere(radius=10, theta_resolution=16, phi_resolution=12), sigma=8.0, rank=20,
+                      n_inducing=60, window_size=(320, 240))
+gp_widget = explorer.show()
+pushed = []
+original_update = gp_widget.viewer.update
+gp_widget.viewer.update = lambda *a, **k: (pushed.append(1), original_update(*a, **k))
+explorer.sample(3)                      # a change made from code reaches the browser view
+
+grid = tetrahedralize(pv.Sphere(radius=10, theta_resolution=16, phi_resolution=12), method="delaunay")
+rng = np.random.default_rng(0)
+texture = SolidTexture.fit(rng.integers(0, 255, (8, 8, 8, 3), dtype=np.uint8), grid.bounds)
+cut_widget = CutViewer(TexturedOrgan(grid, texture, subdivisions=0), window_size=(320, 240)).show()
+print(json.dumps({
+    "gp_src": gp_widget.src, "cut_src": cut_widget.src,
+    "gp_server_side": explorer.plotter._ffd_notebook_viewer is gp_widget.viewer,
+    "pushed": len(pushed),
+    "gp_iframe": 'class="pyvista"' in gp_widget.value,
+}))
+"""
+
+
+@pytest.mark.slow
+def test_gp_explorer_and_cut_viewer_show_server_rendered_views_in_a_kernel(tmp_path, monkeypatch):
+    """Their VTK widgets need server-side rendering: show() gives the editor's trame view, served for real."""
+    import json
+    import urllib.request
+
+    import nbformat
+    from nbclient import NotebookClient
+
+    monkeypatch.delenv("PYVISTA_JUPYTER_BACKEND", raising=False)
+    nb = nbformat.v4.new_notebook()
+    nb.cells = [nbformat.v4.new_code_cell(VIEWERS_CODE)]
+    client = NotebookClient(nb, timeout=180, kernel_name="python3", resources={"metadata": {"path": str(tmp_path)}})
+    with client.setup_kernel():
+        client.execute_cell(nb.cells[0], 0)
+        outputs = nb.cells[0].outputs
+        errors = [o for o in outputs if o["output_type"] == "error"]
+        assert not errors, errors[0].get("traceback") if errors else None
+        streams = "".join(o.get("text", "") for o in outputs if o["output_type"] == "stream")
+        result = json.loads(streams.strip().splitlines()[-1])
+        for src in (result["gp_src"], result["cut_src"]):
+            with urllib.request.urlopen(src, timeout=30) as page:
+                assert page.status == 200 and b"<html" in page.read().lower()
+    assert result["gp_server_side"] and result["gp_iframe"]
+    assert result["pushed"] >= 1
