@@ -24,6 +24,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..gp import ExponentialKernel, GaussianKernel, GaussianProcess, LowRankGP, grid_points
 from . import configure_rendering
+from .editor_files import as_surface
 from .notebook import push_to_browser, show_plotter
 
 __all__ = ["KERNELS", "GPExplorer"]
@@ -35,12 +36,6 @@ log = logging.getLogger(__name__)
 KERNELS = {"gaussian": GaussianKernel, "exponential": ExponentialKernel}
 VARIANCE_ARRAY = "gp_variance"
 VECTORS_ARRAY = "gp_displacement"
-
-
-def _surface(mesh: Any) -> pv.PolyData:
-    mesh = pv.wrap(mesh)
-    surface = mesh if isinstance(mesh, pv.PolyData) else mesh.extract_surface()
-    return surface.copy()
 
 
 class GPExplorer:
@@ -102,7 +97,7 @@ class GPExplorer:
     ) -> None:
         if kernel not in KERNELS:
             raise ValueError(f"kernel must be one of {sorted(KERNELS)}, got {kernel!r}")
-        self.mesh = _surface(mesh)
+        self.mesh = as_surface(mesh)
         self.rest_points = np.array(self.mesh.points, dtype=np.float64)
         bounds = np.asarray(self.mesh.bounds, dtype=np.float64)
         self.size = float(np.linalg.norm(bounds[1::2] - bounds[::2])) or 1.0
