@@ -94,6 +94,7 @@ class LatticeActor:
             if on_end is not None:
                 widget.AddObserver("EndInteractionEvent", lambda *_, i=index: on_end(i))
         self._highlighted: int | None = None
+        self._restricted = False  # only the sphere under the last click is pickable
         self._sphere_actors = self._find_sphere_actors()
         self._actor_index = {a.__this__: i for i, a in enumerate(self._sphere_actors) if a is not None}
         self._picker: Any = None
@@ -143,16 +144,11 @@ class LatticeActor:
 
     def _restore_pickable(self) -> None:
         """Every sphere pickable again (once the press has been handed to a widget, or the button released)."""
-        if getattr(self, "_restricted", False):
+        if self._restricted:
             for actor in self._sphere_actors:
                 if actor is not None:
                     actor.PickableOn()
             self._restricted = False
-
-    @property
-    def n_widgets(self) -> int:
-        """Number of sphere widgets (one per control point)."""
-        return len(self.widgets)
 
     def set_line_points(self, positions: ArrayLike) -> None:
         """Write all ``(N, 3)`` control-point positions into the line dataset, in place."""
@@ -165,10 +161,6 @@ class LatticeActor:
         which = range(len(self.widgets)) if indices is None else np.asarray(indices, dtype=np.int64).ravel()
         for i in which:
             self.widgets[int(i)].SetCenter(*pos[int(i)])
-
-    def widget_centers(self) -> NDArray[np.float64]:
-        """Current widget centres, ``(N, 3)``."""
-        return np.array([w.GetCenter() for w in self.widgets])
 
     def highlight(self, index: int | None) -> None:
         """Draw widget ``index`` in the selection colour (and the previous one normally again)."""

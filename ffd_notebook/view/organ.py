@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 import pyvista as pv
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import NDArray
 from scipy.spatial import Delaunay
 
 from ..solidtex.sampling import SolidTexture
@@ -248,9 +248,3 @@ def rest_points(mesh: pv.DataSet) -> NDArray[np.float64]:
     if REST in mesh.point_data:
         return np.asarray(mesh.point_data[REST], dtype=np.float64)
     return np.asarray(mesh.points, dtype=np.float64)
-
-
-def deform_mesh(mesh: pv.DataSet, transform, rest: ArrayLike | None = None) -> None:
-    """Move a mesh's points in place to ``transform(rest)`` (an FFD's ``deform``, or any callable)."""
-    r = rest_points(mesh) if rest is None else np.asarray(rest, dtype=np.float64)
-    mesh.points = np.asarray(transform(r), dtype=np.float64)

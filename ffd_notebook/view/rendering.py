@@ -13,8 +13,6 @@ import sys
 
 __all__ = ["configure_rendering", "is_headless"]
 
-_configured = False
-
 
 def is_headless() -> bool:
     """True on Linux with no X11/Wayland display (a server, a container, CI).
@@ -42,7 +40,6 @@ def configure_rendering(force: bool | None = None) -> bool:
         ``True`` to apply the settings anyway, ``False`` to skip them; ``None`` decides by
         :func:`is_headless`.
     """
-    global _configured
     apply = is_headless() if force is None else force
     if os.environ.get("FFD_NOTEBOOK_NO_HEADLESS") == "1" and force is None:
         apply = False
@@ -53,5 +50,4 @@ def configure_rendering(force: bool | None = None) -> bool:
 
     # Mesa's software rasteriser pays ~3.5x per frame for anti-aliasing
     pv.global_theme.multi_samples = 0
-    _configured = True
     return True
