@@ -28,6 +28,7 @@ __all__ = [
     "bernstein",
     "bernstein_derivative",
     "bspline",
+    "bspline_cells",
     "bspline_derivative",
     "bspline_second_derivative",
 ]
@@ -76,6 +77,37 @@ def bspline(t: ArrayLike) -> NDArray[np.float64]:
         [s * s * s / 6.0, (3.0 * t3 - 6.0 * t2 + 4.0) / 6.0, (-3.0 * t3 + 3.0 * t2 + 3.0 * t + 1.0) / 6.0, t3 / 6.0],
         axis=-1,
     )
+
+
+def bspline_cells(u: ArrayLike) -> tuple[NDArray[np.int64], NDArray[np.float64]]:
+    """Where lattice coordinates fall: first index of their four-point support and the fraction.
+
+    A coordinate ``u`` (control point ``i`` at ``u = i``) is moved by control points
+    ``first .. first + 3`` with weights ``bspline(t)``, where ``first = floor(u) - 1`` and
+    ``t = u - floor(u)`` (the FFD report's convention, shared by the FFD engine and the
+    B-spline GP kernel).
+
+    Parameters
+    ----------
+    u : array_like
+        Lattice coordinates, any shape.
+
+    Returns
+    -------
+    first : numpy.ndarray
+        ``floor(u) - 1`` as int64, the shape of ``u``.
+    t : numpy.ndarray
+        ``u - floor(u)`` in [0, 1), the shape of ``u``.
+
+    Examples
+    --------
+    >>> first, t = bspline_cells([2.25, -0.5])
+    >>> first.tolist(), t.tolist()
+    ([1, -2], [0.25, 0.5])
+    """
+    u = np.asarray(u, dtype=np.float64)
+    fl = np.floor(u)
+    return fl.astype(np.int64) - 1, u - fl
 
 
 def bspline_derivative(t: ArrayLike) -> NDArray[np.float64]:

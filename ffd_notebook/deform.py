@@ -14,7 +14,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.linalg.blas import dger
 
-from .basis import bernstein, bernstein_derivative, bspline, bspline_derivative
+from .basis import bernstein, bernstein_derivative, bspline, bspline_cells, bspline_derivative
 from .lattice import Lattice, _as_points
 
 __all__ = ["BASES", "FFD", "Deformer"]
@@ -31,12 +31,6 @@ def _check_affine(affine: ArrayLike | None) -> NDArray[np.float64]:
     if a.shape != (4, 4) or not np.allclose(a[3], [0, 0, 0, 1]) or not np.all(np.isfinite(a)):
         raise ValueError("affine must be a finite 4x4 homogeneous matrix (or 3x4 [A | b])")
     return a
-
-
-def _bspline_cells(uvw: NDArray[np.float64]) -> tuple[NDArray[np.int64], NDArray[np.float64]]:
-    """First control-point index of each point's 4x4x4 support and its fractional position."""
-    fl = np.floor(uvw)
-    return fl.astype(np.int64) - 1, uvw - fl
 
 
 class FFD:
@@ -199,7 +193,7 @@ class _CellGroups:
 
     def __init__(self, uvw: NDArray[np.float64], shape: tuple[int, int, int]) -> None:
         n = len(uvw)
-        first, t = _bspline_cells(uvw)
+        first, t = bspline_cells(uvw)
         dims = np.array(shape)
         self.inside = np.all((first >= -3) & (first <= dims - 1), axis=1)
         first = np.where(self.inside[:, None], first, 0)
