@@ -30,7 +30,7 @@ import scipy.sparse as sp
 from numpy.typing import ArrayLike, NDArray
 from scipy.spatial.distance import cdist
 
-from ..basis import bspline
+from ..basis import bspline, bspline_cells
 from ..lattice import Lattice
 from .linalg import as_generator, cholesky
 
@@ -237,18 +237,22 @@ def bspline_weights(lattice: Lattice, points: ArrayLike) -> sp.csr_matrix:
     >>> W.shape, W.sum(axis=1).round(12).ravel().tolist()
     ((2, 64), [1.0, 1.0])
     """
-    uvw = lattice.to_lattice(as_points(points))
-    floor = np.floor(uvw)
-    first = floor.astype(np.int64) - 1
-    per_axis = [bspline(uvw[:, a] - floor[:, a]) for a in range(3)]  # (N, 4) each
-    shape = np.array(lattice.shape)
-    offs = np.stack(np.meshgrid(np.arange(4), np.arange(4), np.arange(4), indexing="ij"), -1).reshape(64, 3)
-    idx = first[:, None, :] + offs[None]  # (N, 64, 3)
-    values = per_axis[0][:, offs[:, 0]] * per_axis[1][:, offs[:, 1]] * per_axis[2][:, offs[:, 2]]
-    inside = np.all((idx >= 0) & (idx < shape), axis=2)
-    flat = np.ravel_multi_index(tuple(np.where(inside[..., None], idx, 0).transpose(2, 0, 1)), lattice.shape)
-    rows = np.broadcast_to(np.arange(len(uvw))[:, None], inside.shape)
-    return sp.csr_matrix((values[inside], (rows[inside], flat[inside])), shape=(len(uvw), lattice.n_points))
+    first, t = bspline_cells(lattice.to_lattice(as_points(points)))
+    n = len(t)
+    index, weight = [], []
+    for a, size in enumerate(lattice.shape):
+        i = first[:, a, None] + np.arange(4)  # (N, 4) control-point indices along this axis
+        inside = (i >= 0) & (i < size)
+        index.append(np.where(inside, i, 0))
+        weight.append(np.where(inside, bspline(t[:, a]), 0.0))  # control points outside count zero
+    (ix, iy, iz), (wx, wy, wz) = index, weight
+    _, ny, nz = lattice.shape
+    columns = (ix[:, :, None, None] * ny + iy[:, None, :, None]) * nz + iz[:, None, None, :]
+    values = wx[:, :, None, None] * wy[:, None, :, None] * wz[:, None, None, :]
+    # 64 entries a row in C order (sorted columns); clamped outside entries carry zero weight and go
+    w = sp.csr_matrix((values.ravel(), columns.ravel(), np.arange(0, 64 * n + 1, 64)), shape=(n, lattice.n_points))
+    w.eliminate_zeros()
+    return w
 
 
 class BSplineKernel(Kernel):
