@@ -166,14 +166,7 @@ class EditorApp:
     # ------------------------------------------------------------------ page -> editor
     def _act(self, action: Callable[[], Any]) -> bool:
         """Run an editor action; a failure becomes a message on the page instead of a traceback."""
-        n_messages = len(self.editor.messages)
-        try:
-            action()
-            ok = True
-        except Exception as exc:
-            if len(self.editor.messages) == n_messages:  # the editor did not explain it itself
-                self.editor.messages.append(f"Error: {exc}")
-            ok = False
+        ok = self.editor.attempt(action)
         self.sync()
         return ok
 

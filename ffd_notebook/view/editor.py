@@ -349,6 +349,37 @@ class Editor(EditorDisplayMixin, EditorFilesMixin):
             except Exception as exc:
                 self.messages.append(f"Error: a view failed to follow the editor: {exc!r}")
 
+    def attempt(self, action: Callable[..., Any], *args: Any) -> bool:
+        """Run ``action(*args)`` for a user interface: a failure becomes a message, not an exception.
+
+        The editor's own methods log what went wrong themselves; any other failure (e.g. a value
+        typed in a panel that is not a number) is logged as ``"Error: <exception>"``. Both control
+        panels (notebook and app) run every action through here.
+
+        Returns
+        -------
+        bool
+            Whether ``action`` succeeded.
+
+        Examples
+        --------
+        >>> import pyvista as pv
+        >>> editor = Editor(pv.Sphere(), shape=(4, 4, 4), window_size=(100, 80))
+        >>> editor.attempt(editor.move_control_point, (9, 9, 9), (0.0, 0.0, 1.0))
+        False
+        >>> editor.messages[-1]
+        'Error: control point index must be (i, j, k) within the lattice (4, 4, 4), got (9, 9, 9)'
+        >>> editor.close()
+        """
+        n_messages = len(self.messages)
+        try:
+            action(*args)
+        except Exception as exc:
+            if len(self.messages) == n_messages:  # the editor did not explain it itself
+                self._error(str(exc))
+            return False
+        return True
+
     def _info(self, text: str) -> None:
         self.messages.append(text)
         self._notify("message")

@@ -184,18 +184,11 @@ class ControlPanel(widgets.VBox):
         self._sync_all()
 
     # ------------------------------------------------------------------ actions (one editor call each)
-    def _call(self, method: Callable[..., Any], *args: Any) -> Any:
+    def _call(self, method: Callable[..., Any], *args: Any) -> None:
         if self._syncing:
-            return None
-        n_messages = len(self.editor.messages)
-        try:
-            return method(*args)
-        except Exception as exc:  # shown to the user; the editor logs its own failures
-            if len(self.editor.messages) == n_messages:
-                self._show(f"Error: {exc}")
-            return None
-        finally:
-            self._sync_all()
+            return
+        self.editor.attempt(method, *args)  # a failure becomes the editor's last message, shown below
+        self._sync_all()
 
     def _rebuild(self) -> None:
         self._call(self.editor.set_shape, tuple(w.value for w in self.shape))
