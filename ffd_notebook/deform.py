@@ -212,9 +212,9 @@ class _CellGroups:
         bw[~self.inside] = 0.0
         return bw
 
-    def sum(self, padded: NDArray[Any], buv: NDArray[Any], bw: NDArray[Any], out: NDArray[Any] | None = None):
+    def sum(self, padded: NDArray[Any], buv: NDArray[Any], bw: NDArray[Any]) -> NDArray[Any]:
         """``sum_lmn buv[4l+m] bw[n] offsets[first + (l, m, n)]`` per point, in sorted order."""
-        out = np.empty((len(buv), 3), dtype=np.result_type(buv, padded)) if out is None else out
+        out = np.empty((len(buv), 3), dtype=np.result_type(buv, padded))
         for (s, e), (i, j, k) in zip(self.runs, self.run_first + 3, strict=True):
             # (l m) x (n d): contract the 16 (l, m) weights by BLAS, then the 4 n weights
             x = (buv[s:e] @ padded[i : i + 4, j : j + 4, k : k + 4].reshape(16, 12)).reshape(-1, 4, 3)
