@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..lattice import Lattice
+from ..lattice import Lattice, _as_points
 
 __all__ = ["place_at_mesh_minimum", "quaternion_to_rotation", "rotation_to_quaternion"]
 
@@ -108,11 +108,7 @@ def place_at_mesh_minimum(lattice: Lattice, points_or_mesh: Any) -> Lattice:
     >>> placed.origin.tolist(), placed.spacing.tolist()
     ([1.0, 5.0, -2.0], [2.0, 2.0, 2.0])
     """
-    pts = np.asarray(getattr(points_or_mesh, "points", points_or_mesh), dtype=np.float64)
-    if pts.ndim != 2 or pts.shape[1] != 3 or len(pts) == 0:
-        raise ValueError(f"expected a non-empty (N, 3) point array or a mesh, got shape {pts.shape}")
-    if not np.isfinite(pts).all():
-        raise ValueError("points contain NaN or infinite values")
+    pts = _as_points(points_or_mesh)
     placed = lattice.copy()
     placed.origin = pts.min(axis=0)
     placed.rotation = np.eye(3)

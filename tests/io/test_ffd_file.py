@@ -177,6 +177,10 @@ def test_place_at_mesh_minimum(real_ffd, shared_data):
     assert np.array_equal(lat.rotation, np.eye(3)) and lat.spacing.tolist() == [20.0] * 3
     assert lat.metadata["placement"] is None
     assert lat.control_points()[0, 0, 0].tolist() == list(mesh.bounds[::2])
+    with pytest.raises(ValueError, match=r"\(N, 3\)"):
+        place_at_mesh_minimum(lat, np.zeros((0, 3)))
+    with pytest.raises(ValueError, match="NaN"):
+        place_at_mesh_minimum(lat, [[0.0, np.nan, 0.0]])
 
 
 def test_save_is_atomic(real_ffd, tmp_path, monkeypatch):
