@@ -174,23 +174,26 @@ def _trame_view(editor: Editor) -> Any:
     return widget
 
 
-def _static_view(editor: Editor) -> Any:
-    """A PNG of the scene that follows the editor's changes (no dragging without a trame view)."""
+def _png(editor: Editor) -> bytes:
+    """The editor's scene, rendered now, as PNG bytes."""
     import io
 
-    import ipywidgets as widgets
     from PIL import Image
 
-    def png() -> bytes:
-        buf = io.BytesIO()
-        Image.fromarray(editor.screenshot()).save(buf, format="PNG")
-        return buf.getvalue()
+    buf = io.BytesIO()
+    Image.fromarray(editor.screenshot()).save(buf, format="PNG")
+    return buf.getvalue()
 
-    view = widgets.Image(value=png(), format="png")
+
+def _static_view(editor: Editor) -> Any:
+    """A PNG of the scene that follows the editor's changes (no dragging without a trame view)."""
+    import ipywidgets as widgets
+
+    view = widgets.Image(value=_png(editor), format="png")
 
     def follow(event: str) -> None:
         if event in ("offsets", "lattice", "mesh", "display", "select"):
-            view.value = png()
+            view.value = _png(editor)
 
     editor.observe(follow)
     return view
@@ -217,15 +220,8 @@ class _EditorOutput:
         self.editor = editor
 
     def _repr_mimebundle_(self, include: Any = None, exclude: Any = None) -> dict[str, Any]:
-        import io
-
-        from PIL import Image
-
-        bundle = editor_widget(self.editor)._repr_mimebundle_(include=include, exclude=exclude) or {}
-        buf = io.BytesIO()
-        Image.fromarray(self.editor.screenshot()).save(buf, format="PNG")
-        bundle = dict(bundle)
-        bundle["image/png"] = base64.b64encode(buf.getvalue()).decode("ascii")
+        bundle = dict(editor_widget(self.editor)._repr_mimebundle_(include=include, exclude=exclude) or {})
+        bundle["image/png"] = base64.b64encode(_png(self.editor)).decode("ascii")
         bundle["text/plain"] = repr(self.editor)
         return bundle
 
