@@ -29,7 +29,7 @@ import numpy as np
 import pyvista as pv
 
 from ..errors import FileFormatError
-from ._text import end_line, read_text, split_lines
+from ._text import end_line, parse_float, read_text, split_lines
 from .obj_write import write_obj
 
 __all__ = ["read_obj", "write_obj"]
@@ -182,16 +182,6 @@ def _logical_lines(text: str):
         yield start, pending.split("#", 1)[0]
 
 
-def _float(path, number: int, token: str, what: str) -> float:
-    try:
-        value = float(token)
-    except ValueError:
-        value = None
-    if value is None or value - value != 0.0:
-        raise FileFormatError(path, number, f"expected {what} (a finite number), got {token[:40]!r}")
-    return value
-
-
 def _indices(path, number: int, tokens: list[str], n_so_far: int, kind: str) -> list[int]:
     """0-based vertex indices of a face or line statement (negative ones count back from here)."""
     out = []
@@ -230,7 +220,7 @@ def _parse_lines(path, text: str) -> _ObjData:
                 raise FileFormatError(path, number, f"this vertex has {'no ' if len(args) != 6 else ''}colour "
                                       f"but the first vertex has {'one' if width == 6 else 'none'}")  # fmt: skip
             names = ("x", "y", "z", "w") if len(args) == 4 else ("x", "y", "z", "red", "green", "blue")
-            points.append([_float(path, number, t, f"the vertex {n}") for t, n in zip(args, names, strict=False)])
+            points.append([parse_float(path, number, t, f"the vertex {n}") for t, n in zip(args, names, strict=False)])
             point_lines.append(number)
         elif keyword in cells:
             kind, least = ("face", 3) if keyword == "f" else ("line", 2)

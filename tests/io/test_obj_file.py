@@ -185,6 +185,7 @@ BAD = [
     ("two coordinates", "v 0 0 0\nv 1 0\nv 0 1 0\nf 1 2 3\n", 2, "'v x y z'"),
     ("not a number", "v 0 0 0\nv 1 0 x\nv 0 1 0\nf 1 2 3\n", 2, "the vertex z"),
     ("NaN coordinate", "v 0 0 0\nv 1 nan 0\nv 0 1 0\nf 1 2 3\n", 2, "finite"),
+    ("Python-only number form", "v 0 0 0\nv 1_000 0 0\nv 0 1 0\nf 1 2 3\n", 2, "the vertex x"),
     ("inf colour", "v 0 0 0 1 1 1\nv 1 0 0 1 inf 1\n", 2, "the vertex green"),
     ("negative colour", "v 0 0 0 1 1 1\nv 1 0 0 1 -1 1\n", 2, "colour components"),
     ("colour above 255", "v 0 0 0 1 1 1\nv 1 0 0 1 300 1\n", 2, "colour components"),
