@@ -196,7 +196,7 @@ class EditorFilesMixin:
             mesh = source.copy(deep=True) if reduction == 0.0 else decimate_keeping_colors(source, reduction)
             if mesh.n_points == 0:
                 raise ValueError("nothing left after decimation")
-        except ValueError as exc:
+        except (TypeError, ValueError) as exc:
             self._error(f"could not decimate: {exc}")
             raise
         self._install_mesh(mesh, self._ffd, source=source)

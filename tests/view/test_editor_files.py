@@ -214,9 +214,15 @@ def test_decimation_keeps_colours(editor):
     assert_view_matches_model(editor)  # the deformer re-bound to the new vertices
     assert editor.decimate(0.6).n_cells == mesh.n_cells  # from the loaded mesh: does not compound
     assert editor.decimate(0.0).n_points == original.n_points
+    snap = snapshot(editor)
     with pytest.raises(ValueError):
         editor.decimate(1.0)
     assert editor.messages[-1].startswith("Error: could not decimate")
+    n_messages = len(editor.messages)
+    with pytest.raises(TypeError):
+        editor.decimate(None)
+    assert len(editor.messages) == n_messages + 1 and editor.messages[-1].startswith("Error: could not decimate")
+    assert_unchanged(editor, snap)  # a failed decimation changes nothing
 
 
 def test_decimation_of_a_real_coloured_scan(shared_data):
