@@ -1,6 +1,4 @@
 import itertools
-import subprocess
-import sys
 
 import numpy as np
 import pytest
@@ -93,12 +91,3 @@ def test_progress_bar_and_bad_input(exemplar, capsys):
     assert "solid texture" in capsys.readouterr().err
     with pytest.raises(ValueError, match="exemplar"):
         synthesize(exemplar[..., 0], 20)
-
-
-def test_model_layer_imports_no_vtk():
-    code = (
-        "import ffd_notebook.solidtex, sys; "
-        "print(sorted({m.split('.')[0] for m in sys.modules} & {'vtk', 'vtkmodules', 'pyvista', 'trame'}))"
-    )
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
-    assert out.strip() == "[]"
