@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import numpy as np
-import pytest
 import pyvista as pv
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
@@ -219,9 +218,14 @@ def test_corrupted_obj_loads_or_raises_file_format_error(tmp_path, data):
             assert connectivity.size == 0 or (connectivity.min() >= 0 and connectivity.max() < mesh.n_points)
 
 
-@pytest.mark.parametrize("data", [VALID_FFD, VALID_OBJ])
-def test_uncorrupted_inputs_are_valid(tmp_path, data):
-    path = tmp_path / ("ok.ffd" if data is VALID_FFD else "ok.obj")
-    path.write_bytes(data)
-    loaded = load_ffd(path) if data is VALID_FFD else read_obj(path)
-    assert loaded is not None
+def test_uncorrupted_inputs_are_valid(tmp_path):
+    """The seeds of the corruption tests read as what they say (so a corruption is a real change)."""
+    (tmp_path / "ok.ffd").write_bytes(VALID_FFD)
+    lat = load_ffd(tmp_path / "ok.ffd")
+    assert lat.shape == (2, 2, 2) and lat.spacing.tolist() == [20.0] * 3
+    assert lat.offsets[1, 1, 1].tolist() == [0.0, -2.0, 0.0] and lat.origin.tolist() == [90.0, -126.0, -72.0]
+    (tmp_path / "ok.obj").write_bytes(VALID_OBJ)
+    mesh = read_obj(tmp_path / "ok.obj")
+    assert mesh.n_points == 4 and mesh.point_data["RGB"][1].tolist() == [0, 255, 0]
+    assert [f.tolist() for f in mesh.irregular_faces] == [[0, 1, 2], [0, 2, 3], [0, 1, 2, 3]]
+    assert mesh.lines.tolist() == [2, 0, 2]
