@@ -115,7 +115,18 @@ def reached_points(ffd: Any, points: ArrayLike, changed: Any) -> NDArray[np.bool
 
 
 def show_rgb(actor: Any, name: str) -> None:
-    """Colour the actor by its per-vertex colour array ``name`` (used as is, no lookup table)."""
+    """Colour the actor by its per-vertex colour array ``name`` (used as is, no lookup table).
+
+    Examples
+    --------
+    >>> import numpy as np, pyvista as pv
+    >>> mesh = pv.Sphere()
+    >>> mesh.point_data["RGB"] = np.zeros((mesh.n_points, 3), dtype=np.uint8)
+    >>> actor = pv.Plotter(off_screen=True).add_mesh(mesh)
+    >>> show_rgb(actor, "RGB")
+    >>> actor.GetMapper().GetArrayName(), bool(actor.GetMapper().GetScalarVisibility())
+    ('RGB', True)
+    """
     mapper = actor.GetMapper()
     mapper.SetScalarVisibility(True)
     mapper.SetScalarModeToUsePointFieldData()
@@ -125,7 +136,16 @@ def show_rgb(actor: Any, name: str) -> None:
 
 
 def show_plain(actor: Any) -> None:
-    """Show the actor in its property's single colour."""
+    """Show the actor in its property's single colour.
+
+    Examples
+    --------
+    >>> import pyvista as pv
+    >>> actor = pv.Plotter(off_screen=True).add_mesh(pv.Sphere(), scalars=pv.Sphere().points[:, 2])
+    >>> show_plain(actor)
+    >>> bool(actor.GetMapper().GetScalarVisibility())
+    False
+    """
     actor.GetMapper().SetScalarVisibility(False)
     actor.GetMapper().Modified()
 
@@ -140,7 +160,21 @@ def _lookup_table(field: str) -> Any:
 
 
 def show_field(actor: Any, field: str, vmax: float) -> None:
-    """Colour the actor by a field array through a lookup table (range ``0..vmax``)."""
+    """Colour the actor by a field array through a lookup table (range ``0..vmax``).
+
+    Examples
+    --------
+    >>> import numpy as np, pyvista as pv
+    >>> mesh = pv.Sphere()
+    >>> mesh.point_data[DISPLACEMENT_ARRAY] = np.linspace(0, 2, mesh.n_points)
+    >>> actor = pv.Plotter(off_screen=True).add_mesh(mesh)
+    >>> show_field(actor, "displacement", 2.0)
+    >>> actor.GetMapper().GetArrayName(), actor.GetMapper().GetScalarRange()
+    ('ffd_displacement', (0.0, 2.0))
+    >>> set_field_range(actor, 0.5)
+    >>> actor.GetMapper().GetScalarRange()
+    (0.0, 0.5)
+    """
     name = FOLDING_ARRAY if field == "jacobian" else DISPLACEMENT_ARRAY
     mapper = actor.GetMapper()
     lut = _lookup_table(field)
@@ -157,7 +191,7 @@ def show_field(actor: Any, field: str, vmax: float) -> None:
 
 
 def set_field_range(actor: Any, vmax: float) -> None:
-    """Update the colour range of a displacement view (keeps the lookup table)."""
+    """Update the colour range of a displacement view (keeps the lookup table; see :func:`show_field`)."""
     vmax = max(float(vmax), 1e-12)
     actor.GetMapper().SetScalarRange(0.0, vmax)
     actor.GetMapper().GetLookupTable().SetTableRange(0.0, vmax)

@@ -22,7 +22,7 @@ import pyvista as pv
 import vtk
 from numpy.typing import ArrayLike, NDArray
 
-from ..gp import ExponentialKernel, GaussianKernel, GaussianProcess, LowRankGP, grid_points
+from ..gp import ExponentialKernel, GaussianKernel, GaussianProcess, Kernel, LowRankGP, grid_points
 from . import configure_rendering
 from .editor_files import as_surface
 from .notebook import push_to_browser, show_plotter
@@ -120,7 +120,7 @@ class GPExplorer:
 
     # ------------------------------------------------------------------ model
     @property
-    def kernel(self):
+    def kernel(self) -> Kernel:
         """The current kernel (a new object for every width)."""
         return KERNELS[self.kernel_name](sigma=self.sigma, scale=self.scale)
 

@@ -160,7 +160,17 @@ def show_plotter(plotter: pv.Plotter, **kwargs: Any) -> Any:
 
 
 def push_to_browser(plotter: pv.Plotter) -> None:
-    """Send a new image to the browser view of ``plotter`` after a change made from code."""
+    """Send a new image to the browser view of ``plotter`` after a change made from code.
+
+    Does nothing for a plotter that :func:`show_plotter` has not served through trame.
+
+    Examples
+    --------
+    >>> import pyvista as pv
+    >>> pl = pv.Plotter(off_screen=True)
+    >>> push_to_browser(pl)   # not shown in a browser: nothing to send
+    >>> pl.close()
+    """
     viewer = getattr(plotter, "_ffd_notebook_viewer", None)
     if viewer is not None:
         viewer.update()

@@ -244,7 +244,17 @@ def texture_surface(surface: pv.PolyData, texture: SolidTexture, subdivisions: i
 
 
 def rest_points(mesh: pv.DataSet) -> NDArray[np.float64]:
-    """The rest-frame positions of a mesh's points (point data ``"rest"``, else the points)."""
+    """The rest-frame positions of a mesh's points (point data ``"rest"``, else the points).
+
+    Examples
+    --------
+    >>> mesh = pv.Sphere()
+    >>> bool(np.array_equal(rest_points(mesh), mesh.points))
+    True
+    >>> mesh.point_data[REST] = mesh.points * 2
+    >>> bool(np.allclose(rest_points(mesh), 2 * mesh.points))
+    True
+    """
     if REST in mesh.point_data:
         return np.asarray(mesh.point_data[REST], dtype=np.float64)
     return np.asarray(mesh.points, dtype=np.float64)

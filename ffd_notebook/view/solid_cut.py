@@ -16,6 +16,7 @@ place (the actors are never re-created).
 from __future__ import annotations
 
 from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 import pyvista as pv
@@ -191,6 +192,17 @@ def add_cut(
     -------
     (pyvista.PolyData, pyvista.PolyData)
         The outer surface and the cut face on screen (the face is empty for the whole organ).
+
+    Examples
+    --------
+    >>> from ffd_notebook.view.organ import tetrahedralize
+    >>> grid = tetrahedralize(pv.Sphere(theta_resolution=10, phi_resolution=10), method="delaunay")
+    >>> organ = TexturedOrgan(grid, SolidTexture.fit(np.full((4, 4, 4, 3), 120, np.uint8), grid.bounds), 0)
+    >>> pl = pv.Plotter(off_screen=True, window_size=(160, 120))
+    >>> outside, face = add_cut(pl, organ, normal=(0, 0, 1))
+    >>> sorted(pl.actors), face.n_cells > 0
+    (['organ-cut', 'organ-outside', 'organ-rim'], True)
+    >>> pl.close()
     """
     if normal is None:
         outside, face = organ.surface.copy(), _empty_coloured()
@@ -293,7 +305,7 @@ class CutViewer:
                 actor.GetMapper().ScalarVisibilityOff()  # else VTK colours the trace red from scalars
         w.GetSelectedOutlineProperty().SetOpacity(0.4)
 
-    def _on_plane(self, normal, origin) -> None:
+    def _on_plane(self, normal: ArrayLike, origin: ArrayLike) -> None:
         try:
             self.update(origin, normal)
         except Exception as exc:  # PyVista turns callback errors into warnings: say what failed
@@ -343,7 +355,7 @@ class CutViewer:
         self.plotter.render()
         push_to_browser(self.plotter)
 
-    def show(self, **kwargs):
+    def show(self, **kwargs: Any) -> Any:
         """Show the viewer: in Jupyter the server-rendered trame view its plane widget needs.
 
         See :func:`ffd_notebook.view.notebook.show_plotter`; with the static backend, a picture.
