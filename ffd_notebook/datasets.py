@@ -3,13 +3,17 @@
 from __future__ import annotations
 
 from functools import lru_cache
+from typing import TYPE_CHECKING
 
 import numpy as np
+
+if TYPE_CHECKING:  # PyVista is imported only when a mesh is built
+    import pyvista as pv
 
 __all__ = ["frog_liver", "sample_mesh"]
 
 
-def _frog_label_surface(label: int = 10, sigma: float = 2.0):
+def _frog_label_surface(label: int = 10, sigma: float = 2.0) -> pv.PolyData:
     """Smooth closed surface of one label of PyVista's bundled frog tissue volume (in its world units).
 
     The label mask is blurred (``sigma`` world units) before contouring at 0.5, which removes the
@@ -40,7 +44,7 @@ def _frog_label_surface(label: int = 10, sigma: float = 2.0):
     return image.contour([0.5], scalars="mask").clean().connectivity("largest")
 
 
-def sample_mesh():
+def sample_mesh() -> pv.PolyData:
     """The editor's default mesh: a frog's liver with per-vertex colours (offline, about 12k vertices).
 
     :func:`frog_liver` (label 10 of :func:`pyvista.examples.load_frog_tissues`, bundled with
@@ -74,7 +78,7 @@ def sample_mesh():
 
 
 @lru_cache(maxsize=4)
-def _frog_liver(n_points: int):
+def _frog_liver(n_points: int) -> pv.PolyData:
     surface = _frog_label_surface(10)
     if n_points < surface.n_points:
         # quadric decimation keeps this surface closed and manifold; a light Taubin pass (no
@@ -85,7 +89,7 @@ def _frog_liver(n_points: int):
     return surface
 
 
-def frog_liver(n_points: int = 12000):
+def frog_liver(n_points: int = 12000) -> pv.PolyData:
     """A closed, smooth surface of a frog's liver (offline): label 10 of PyVista's frog tissues.
 
     Label 10 of :func:`pyvista.examples.load_frog_tissues` (a 500x470x136 label volume bundled

@@ -75,7 +75,17 @@ class FFD:
         return pts @ self.affine[:3, :3].T + self.affine[:3, 3]
 
     def displacement(self, points: ArrayLike) -> NDArray[np.float64]:
-        """The local part ``T_local(x)``: lattice-driven displacement of each point, ``(N, 3)``."""
+        """The local part ``T_local(x)``: lattice-driven displacement of each point, ``(N, 3)``.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from ffd_notebook import Lattice, FFD
+        >>> lat = Lattice((4, 4, 4), 1.0, origin=(-1, -1, -1))
+        >>> lat.offsets[...] = (0.0, 2.0, 0.0)
+        >>> FFD(lat, affine=np.diag([3.0, 3.0, 3.0, 1.0])).displacement([[0.5, 0.5, 0.5]]).round(12).tolist()
+        [[0.0, 2.0, 0.0]]
+        """
         pts = _as_points(points)
         uvw = self.lattice.to_lattice(pts)
         if self.basis == "bernstein":

@@ -39,7 +39,15 @@ class ScalarBasis:
     eigenvectors: NDArray[np.float64]  # columns
 
     @classmethod
-    def build(cls, kernel_index, matrix, right, to_factor, inducing) -> ScalarBasis:
+    def build(
+        cls,
+        kernel_index: int,
+        matrix: NDArray[np.float64],
+        right: NDArray[np.float64] | None,
+        to_factor: NDArray[np.float64],
+        inducing: NDArray[np.float64],
+    ) -> ScalarBasis:
+        """Eigen-decompose the small ``P^T F^T F P`` and keep the eigenpairs above the noise floor."""
         gram = matrix.T @ matrix
         if right is not None:
             gram = right.T @ gram @ right
@@ -57,7 +65,10 @@ class ScalarBasis:
         return w.T @ self.matrix.T, self.to_factor @ w
 
 
-def nystrom_basis(kernel: Kernel, c: int, points, inducing, progress: bool) -> ScalarBasis:
+def nystrom_basis(
+    kernel: Kernel, c: int, points: NDArray[np.float64], inducing: NDArray[np.float64], progress: bool
+) -> ScalarBasis:
+    """Nystrom basis of kernel component ``c``: ``K ~= K_XZ K_ZZ^+ K_ZX`` (``K_XZ`` evaluated in chunks)."""
     kzz = kernel.components(inducing, inducing)[c]
     w, v = np.linalg.eigh(kzz)
     keep = w > _RELATIVE_FLOOR * w.max()
@@ -69,8 +80,9 @@ def nystrom_basis(kernel: Kernel, c: int, points, inducing, progress: bool) -> S
 
 
 def pivoted_cholesky_basis(
-    kernel: Kernel, c: int, points, tolerance: float, max_rank: int, progress: bool
+    kernel: Kernel, c: int, points: NDArray[np.float64], tolerance: float, max_rank: int, progress: bool
 ) -> ScalarBasis:
+    """Pivoted-Cholesky basis of kernel component ``c``, stopped at ``trace(residual) <= tolerance * trace(K)``."""
     residual = kernel.diagonal(points)[c].copy()
     total = residual.sum()
     factor = np.zeros((max_rank, len(points)))  # row k is column k of L: contiguous updates
@@ -109,6 +121,7 @@ def select(bases: list[ScalarBasis], n_components: int) -> tuple[NDArray, NDArra
 
 
 def choose_rank(eigenvalues: NDArray, total: float, rank: int | None, variance: float | None) -> int:
+    """How many sorted ``eigenvalues`` to keep: ``rank``, the fewest holding ``variance`` of ``total``, or all."""
     if rank is not None and variance is not None:
         raise ValueError("give either rank or variance, not both")
     if rank is not None:

@@ -88,6 +88,15 @@ def arrow_field(
         The grid, see :func:`grid_points`.
     rng : int or Generator, optional
         Random state for a process sample.
+
+    Examples
+    --------
+    >>> from ffd_notebook import FFD, Lattice
+    >>> lat = Lattice((4, 4, 4), 1.0, origin=(-1, -1, -1))
+    >>> lat.offsets[..., 2] = 0.5
+    >>> field = arrow_field(FFD(lat).displacement, [0, 1, 0, 1, 0, 1], shape=2)
+    >>> field.points.shape, field.magnitudes.round(6).tolist()
+    ((8, 3), [0.5, 0.5, 0.5, 0.5, 0.5, 0.5, 0.5, 0.5])
     """
     pts = grid_points(bounds, shape, margin)
     if isinstance(source, GaussianProcess):
