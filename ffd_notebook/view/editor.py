@@ -288,7 +288,7 @@ class Editor(EditorDisplayMixin, EditorFilesMixin):
 
     def _apply_change(self, change: OffsetEdit | LatticeSwap, forward: bool) -> None:
         if isinstance(change, LatticeSwap):
-            lattice, basis = change.after if forward else change.before
+            lattice, basis, self._lattice_source = change.after if forward else change.before
             self._install_lattice(lattice.copy(), basis)
             self._notify("lattice")
         else:
@@ -300,15 +300,25 @@ class Editor(EditorDisplayMixin, EditorFilesMixin):
 
     # ------------------------------------------------------------------ lattice and basis
     def set_lattice(self, lattice: Lattice, basis: str | None = None, label: str = "lattice") -> None:
-        """Replace the lattice (and optionally the basis); one undo step. Invalid input changes nothing."""
+        """Replace the lattice (and optionally the basis); one undo step. Invalid input changes nothing.
+
+        A lattice given this way stays where it is when another mesh is loaded (see
+        :meth:`load_mesh`).
+        """
+        self._swap_lattice(lattice, basis, label, source="given")
+
+    def _swap_lattice(self, lattice: Lattice, basis: str | None, label: str, source: str) -> None:
+        """Install ``lattice`` as one undo step; ``source`` (how it was made: ``"fit"``, ``"given"``,
+        ``"ffd-placed"``, ``"ffd-min"``) decides what :meth:`load_mesh` does with it, and is undone with it."""
         basis = self.basis if basis is None else basis
         if not isinstance(lattice, Lattice):
             raise TypeError(f"lattice must be a Lattice, got {type(lattice).__name__}")
         FFD(lattice, basis)  # validates (e.g. a B-spline lattice needs 4 points per axis) before any change
         self.history.close()
-        before = (self.lattice.copy(), self.basis)
+        before = (self.lattice.copy(), self.basis, self._lattice_source)
         self._install_lattice(lattice, basis)
-        self.history.record_lattice(before, (lattice.copy(), basis), label=label)
+        self._lattice_source = source
+        self.history.record_lattice(before, (lattice.copy(), basis, source), label=label)
         self._render()
         self._notify("lattice")
 
@@ -319,8 +329,7 @@ class Editor(EditorDisplayMixin, EditorFilesMixin):
         except (ValueError, TypeError) as exc:
             self._error(f"cannot build a {shape!r} lattice: {exc}")
             raise
-        self._lattice_source = "fit"
-        self.set_lattice(lattice, label="shape")
+        self._swap_lattice(lattice, None, "shape", source="fit")
         self._info(f"new {'x'.join(map(str, lattice.shape))} lattice around the mesh")
 
     def set_basis(self, basis: str) -> None:
@@ -332,8 +341,7 @@ class Editor(EditorDisplayMixin, EditorFilesMixin):
         except ValueError as exc:
             self._error(f"cannot switch to the {basis!r} basis: {exc}")
             raise
-        self._lattice_source = "fit"
-        self.set_lattice(lattice, basis, label="basis")
+        self._swap_lattice(lattice, basis, "basis", source="fit")
         self._info(f"basis: {basis}")
 
     # ------------------------------------------------------------------ observers and messages

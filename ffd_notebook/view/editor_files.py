@@ -9,9 +9,10 @@ Where a loaded lattice goes
     put where the FFD platform put it: control point (0, 0, 0) at the minimum corner of the
     mesh's bounding box (:func:`ffd_notebook.io.place_at_mesh_minimum`).
 What happens to the lattice when a mesh is loaded
-    A lattice placed by a file's quaternion (or passed to the editor) stays where it is; a .ffd
-    lattice without placement is placed again at the new mesh's minimum corner (offsets kept);
-    a lattice fitted by the editor is fitted again around the new mesh (same size, offsets zero).
+    A lattice placed by a file's quaternion (or passed to the editor, or assigned with
+    ``editor.lattice = ...``) stays where it is; a .ffd lattice without placement is placed again
+    at the new mesh's minimum corner (offsets kept); a lattice fitted by the editor is fitted again
+    around the new mesh (same size, offsets zero). Undo brings back a lattice together with this rule.
 """
 
 from __future__ import annotations
@@ -129,8 +130,7 @@ class EditorFilesMixin:
         except (OSError, ValueError) as exc:
             self._error(f"could not load the lattice {os.fspath(path)!r}: {exc}")
             raise
-        self.set_lattice(lattice, label="load .ffd")
-        self._lattice_source = "ffd-placed" if placed else "ffd-min"
+        self._swap_lattice(lattice, None, "load .ffd", source="ffd-placed" if placed else "ffd-min")
         where = "its quaternion placement" if placed else "the mesh's minimum corner"
         self._info(f"loaded a {'x'.join(map(str, lattice.shape))} lattice from {os.fspath(path)} (at {where})")
         return lattice

@@ -39,10 +39,13 @@ class OffsetEdit:
 
 @dataclass
 class LatticeSwap:
-    """The lattice and basis were replaced: ``before = (lattice, basis)`` and ``after`` likewise."""
+    """The lattice and basis were replaced: ``before = (lattice, basis, ...)`` and ``after`` likewise.
 
-    before: tuple[Any, str]
-    after: tuple[Any, str]
+    The tuples are the caller's (the editor adds how the lattice was made); the history only keeps them.
+    """
+
+    before: tuple[Any, ...]
+    after: tuple[Any, ...]
     label: str = "lattice"
 
 
@@ -115,8 +118,8 @@ class History:
         self._push(OffsetEdit(ijk_arr, before_arr, after_arr, label))
         self._open_key = key
 
-    def record_lattice(self, before: tuple[Any, str], after: tuple[Any, str], label: str = "lattice") -> None:
-        """Record a whole-lattice replacement (``(lattice, basis)`` pairs; pass copies)."""
+    def record_lattice(self, before: tuple[Any, ...], after: tuple[Any, ...], label: str = "lattice") -> None:
+        """Record a whole-lattice replacement (``(lattice, basis, ...)`` tuples; pass copies)."""
         self._undone.clear()
         self._push(LatticeSwap(before, after, label))
         self._open_key = None

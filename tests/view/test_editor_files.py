@@ -234,3 +234,33 @@ def test_decimation_of_a_real_coloured_scan(shared_data):
     spread = np.abs(face.point_data["RGB"].astype(float) - face.point_data["RGB"].mean(axis=0)).mean()
     assert nearest_color_error(face, out) < 0.5 * spread
     assert decimate_keeping_colors(face, 0.8, attribute_error=True).point_data["RGB"].dtype == np.uint8
+
+
+def test_undo_and_assignment_keep_how_the_lattice_follows_a_new_mesh(editor, tmp_path):
+    """A fitted lattice is refitted around a newly loaded mesh, a placed or assigned one stays: also after undo."""
+    from ffd_notebook import Lattice
+
+    other = tmp_path / "moved.vtp"
+    moved = colored_sphere(16)
+    moved.points += (5.0, 0.0, 0.0)
+    write_mesh(other, moved)
+    path = tmp_path / "placed.ffd"
+    editor.move_control_point((1, 2, 1), (0.0, 0.0, 0.2))
+    editor.save_ffd(path)  # with its quaternion placement
+    editor.load_ffd(path)
+    editor.set_shape((6, 6, 6))
+    editor.undo()  # back to the placed .ffd lattice: it must stay where it is
+    placed = editor.lattice.copy()
+    editor.load_mesh(other)
+    assert editor.lattice == placed
+    editor.set_shape((5, 5, 5))  # fitted around the moved sphere
+    editor.load_ffd(path)
+    editor.undo()  # back to the fitted lattice: refitted around the next mesh
+    home = tmp_path / "home.vtp"
+    write_mesh(home, colored_sphere(16))
+    editor.load_mesh(home)
+    assert editor.lattice.bounds()[0] < -1.0  # around the sphere at the origin, not the moved one
+    assigned = Lattice((4, 4, 4), spacing=1.0, origin=(-1.5, -1.5, -1.5))
+    editor.lattice = assigned  # a lattice given by the user stays where it is
+    editor.load_mesh(other)
+    assert editor.lattice == assigned
