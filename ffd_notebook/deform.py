@@ -139,14 +139,15 @@ class FFD:
                 d_uvw[:, :, axis] = np.einsum("pi,pj,pk,ijkd->pd", *factors, lat.offsets, optimize=True)
         else:
             cells = _CellGroups(uvw, lat.shape)
-            padded = _pad(lat.offsets)
-            vals = [bspline(cells.t[:, a]) for a in range(3)]
-            ders = [bspline_derivative(cells.t[:, a]) for a in range(3)]
-            for axis in range(3):
-                bu, bv, bw = (ders[a] if a == axis else vals[a] for a in range(3))
-                d_uvw[:, :, axis] = cells.unsort(cells.sum(padded, _outer(bu, bv), cells.masked(bw)))
-        d_uvw_dx = lat.rotation.T / lat.spacing[:, None]
-        return self.affine[:3, :3] + d_uvw @ d_uvw_dx
+            d_uvw = cells.unsort(_bspline_lattice_jacobian(cells, lat.offsets, cells.t))
+        return self._chain(d_uvw)
+
+    def _chain(self, d_uvw: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Whole Jacobian from ``d T_local / d(u, v, w)``: ``A + d_uvw @ (R^T / spacing)``."""
+        lat = self.lattice
+        # one (3N x 3) @ (3 x 3) product: a batched matmul of N tiny matrices is 3x slower
+        local = (d_uvw.reshape(-1, 3) @ (lat.rotation.T / lat.spacing[:, None])).reshape(-1, 3, 3)
+        return self.affine[:3, :3] + local
 
     def jacobian_determinant(self, points: ArrayLike) -> NDArray[np.float64]:
         """Determinant of the Jacobian at each point; ``<= 0`` where the deformation folds.
@@ -160,7 +161,7 @@ class FFD:
         >>> bool(FFD(lat).jacobian_determinant([[0.5, 0.5, 0.5]])[0] < 0)
         True
         """
-        return np.linalg.det(self.jacobian(points))
+        return _det3(self.jacobian(points))
 
     def bind(self, points: ArrayLike, dtype: Any = np.float32) -> Deformer:
         """Bind to one point set: a :class:`Deformer` that caches what does not change."""
@@ -191,6 +192,27 @@ def _pad(offsets: NDArray[np.float64], dtype: Any = np.float64) -> NDArray[Any]:
 def _outer(bu: NDArray[Any], bv: NDArray[Any]) -> NDArray[Any]:
     """Row-wise outer product of the u and v weights, ``(N, 16)`` with index ``4 * l + m``."""
     return (bu[:, :, None] * bv[:, None, :]).reshape(len(bu), 16)
+
+
+def _det3(m: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Determinants of ``(N, 3, 3)`` matrices by the explicit formula (far faster than batched LU)."""
+    return (
+        m[:, 0, 0] * (m[:, 1, 1] * m[:, 2, 2] - m[:, 1, 2] * m[:, 2, 1])
+        - m[:, 0, 1] * (m[:, 1, 0] * m[:, 2, 2] - m[:, 1, 2] * m[:, 2, 0])
+        + m[:, 0, 2] * (m[:, 1, 0] * m[:, 2, 1] - m[:, 1, 1] * m[:, 2, 0])
+    )
+
+
+def _bspline_lattice_jacobian(cells: _CellGroups, offsets: NDArray[np.float64], t: NDArray[np.float64]):
+    """``d T_local / d(u, v, w)`` in sorted order, ``(N, 3 components, 3 lattice axes)``."""
+    padded = _pad(offsets)
+    vals = [bspline(t[:, a]) for a in range(3)]
+    ders = [bspline_derivative(t[:, a]) for a in range(3)]
+    d_uvw = np.empty((len(t), 3, 3))
+    for axis in range(3):
+        bu, bv, bw = (ders[a] if a == axis else vals[a] for a in range(3))
+        d_uvw[:, :, axis] = cells.sum(padded, _outer(bu, bv), cells.masked(bw))
+    return d_uvw
 
 
 class _CellGroups:
@@ -363,6 +385,31 @@ class Deformer:
                 self._add_control_point(i, j, k, delta)
                 self._last_offsets[i, j, k] = offsets[i, j, k]
         return self._out
+
+    def jacobian_determinant(self) -> NDArray[np.float64]:
+        """``det dT/dx`` at the bound points for the current offsets (``<= 0`` where it folds).
+
+        The same values as :meth:`FFD.jacobian_determinant` on the bound points, reusing the
+        cached grouping of points by cell (the editor's folding view calls it on every drag).
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from ffd_notebook import Lattice, FFD
+        >>> pts = np.random.default_rng(0).random((500, 3))
+        >>> lat = Lattice.around(pts, shape=5)
+        >>> lat.offsets[2, :, :, 0] -= 2.5 * lat.spacing[0]
+        >>> ffd = FFD(lat)
+        >>> bool(np.allclose(ffd.bind(pts).jacobian_determinant(), ffd.jacobian_determinant(pts)))
+        True
+        """
+        if self._geometry_key() != self._key or not np.array_equal(self.ffd.affine, self._affine):
+            self._bind()
+        if self._cells is None:  # Bernstein: every control point reaches every point
+            return self.ffd.jacobian_determinant(self.points)
+        uvw = self.ffd.lattice.to_lattice(self.points)[self._cells.order]
+        d_uvw = _bspline_lattice_jacobian(self._cells, self.ffd.lattice.offsets, uvw - np.floor(uvw))
+        return _det3(self.ffd._chain(d_uvw))[self._inverse]
 
     def _full(self) -> None:
         offsets = self.ffd.lattice.offsets

@@ -124,6 +124,20 @@ def test_deformer_full_and_incremental_updates_match_deform(basis, dtype, tol):
         deformer.update(changed=[(99, 0, 0)])
 
 
+@pytest.mark.parametrize("basis", ["bspline", "bernstein"])
+def test_deformer_jacobian_determinant_matches_the_ffd(basis):
+    rng = np.random.default_rng(21)
+    pts = rng.normal(size=(2000, 3))
+    pts[:20] *= 4  # some outside the lattice
+    lat = Lattice.around(pts[20:], shape=(6, 5, 5), basis=basis)
+    ffd = FFD(lat, basis=basis, affine=np.diag([1.1, 0.9, 1.0, 1.0]))
+    deformer = ffd.bind(pts)
+    lat.offsets[...] = rng.normal(size=lat.offsets.shape) * lat.spacing * 1.5  # enough to fold somewhere
+    det = deformer.jacobian_determinant()
+    np.testing.assert_allclose(det, np.linalg.det(ffd.jacobian(pts)), rtol=1e-9, atol=1e-9)
+    assert (det <= 0).any() and (det > 0).any()
+
+
 def test_deformer_cache_is_small():
     pts = np.random.default_rng(0).random((10000, 3))
     d = FFD(Lattice.around(pts, shape=8)).bind(pts)

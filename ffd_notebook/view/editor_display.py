@@ -91,20 +91,20 @@ class EditorDisplayMixin:
             fields.show_plain(self.mesh_actor)
 
     def _update_field(self, changed: list[tuple[int, int, int]] | None = None) -> None:
-        """Recompute the shown field; for the folding view only where ``changed`` control points reach."""
+        """Recompute the shown field (``changed`` is accepted for symmetry with the point update)."""
         if self._field == "displacement":
             mag = fields.displacement_magnitude(self.mesh.points, self._display_points)
             self._display.point_data[fields.DISPLACEMENT_ARRAY] = mag
             fields.set_field_range(self.mesh_actor, float(mag.max()) if len(mag) else 1.0)
         elif self._field == "jacobian":
+            # the deformer reuses its cached grouping of points by cell (~20 ms on 53k points)
+            fold = (self._deformer.jacobian_determinant() <= 0.0).astype(np.float32)
             shown = self._display.point_data
-            if changed is None or fields.FOLDING_ARRAY not in shown:
-                shown[fields.FOLDING_ARRAY] = fields.folding_mask(self._ffd, self.mesh.points).astype(np.float32)
-                return
-            reach = fields.reached_points(self._ffd, self.mesh.points, changed)
-            fold = shown[fields.FOLDING_ARRAY]  # a view of the VTK array: updated in place
-            fold[reach] = fields.folding_mask(self._ffd, self.mesh.points[reach])
-            shown.GetArray(fields.FOLDING_ARRAY).Modified()
+            if fields.FOLDING_ARRAY in shown:
+                shown[fields.FOLDING_ARRAY][...] = fold  # a view of the VTK array: updated in place
+                shown.GetArray(fields.FOLDING_ARRAY).Modified()
+            else:
+                shown[fields.FOLDING_ARRAY] = fold
 
     def screenshot(self, path: str | os.PathLike[str] | None = None) -> NDArray[np.uint8]:
         """Render and return the image ``(h, w, 3)`` uint8; also write a PNG if ``path`` is given."""

@@ -29,7 +29,6 @@ __all__ = [
     "color_array_name",
     "displacement_magnitude",
     "folding_mask",
-    "reached_points",
     "show_field",
     "show_plain",
     "show_rgb",
@@ -88,30 +87,6 @@ def folding_mask(ffd: Any, points: ArrayLike) -> NDArray[np.bool_]:
     [True, False]
     """
     return ffd.jacobian_determinant(points) <= 0.0
-
-
-def reached_points(ffd: Any, points: ArrayLike, changed: Any) -> NDArray[np.bool_]:
-    """Which points the ``changed`` control points ``(i, j, k)`` influence (where T can change).
-
-    A cubic B-spline control point reaches two cells around it on each axis (lattice coordinates
-    within 2 of its index); a Bernstein control point reaches everything.
-
-    Examples
-    --------
-    >>> from ffd_notebook import Lattice, FFD
-    >>> ffd = FFD(Lattice((8, 4, 4), 1.0))
-    >>> reached_points(ffd, [[1.0, 1, 1], [3.5, 1, 1], [6.0, 1, 1]], [(2, 1, 1)]).tolist()
-    [True, True, False]
-    """
-    pts = np.asarray(points, dtype=np.float64).reshape(-1, 3)
-    if ffd.basis != "bspline":
-        return np.ones(len(pts), dtype=bool)
-    uvw = ffd.lattice.to_lattice(pts)
-    ijk = np.asarray(changed, dtype=np.float64).reshape(-1, 3)
-    reach = np.zeros(len(pts), dtype=bool)
-    for c in ijk:
-        reach |= np.all(np.abs(uvw - c) <= 2.0, axis=1)
-    return reach
 
 
 def show_rgb(actor: Any, name: str) -> None:

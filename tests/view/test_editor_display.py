@@ -75,8 +75,8 @@ def test_folding_is_highlighted(editor):
         editor.set_field("curl")
 
 
-def test_folding_view_follows_drags_locally(editor):
-    """During a drag only the points the control point reaches are re-evaluated; the result equals a full pass."""
+def test_folding_view_follows_drags(editor):
+    """During a drag the folding view is recomputed through the deformer; it equals the FFD's own evaluation."""
     editor.set_shape((8, 8, 8))  # a control point then reaches only part of the sphere
     editor.set_field("jacobian")
     widgets = editor.plotter.widgets.sphere_widgets
@@ -84,7 +84,6 @@ def test_folding_view_follows_drags_locally(editor):
     folds = []
     # a single control point must move ~5 spacings to fold a cubic B-spline; then it comes back
     for ijk, delta in [((2, 3, 3), (-6 * spacing, 0, 0)), ((5, 4, 4), (0, 0, 0.3)), ((2, 3, 3), (5.5 * spacing, 0, 0))]:
-        assert 0 < fields.reached_points(editor.ffd, editor.mesh.points, [ijk]).sum() < 0.7 * editor.mesh.n_points
         index = int(np.ravel_multi_index(ijk, editor.lattice.shape))
         center = np.array(widgets[index].GetCenter()) + delta
         editor.on_widget_moved(center, index)
