@@ -71,11 +71,11 @@ def editor_image(path: str | Path, window_size: tuple[int, int] = (900, 560)) ->
 
     editor = Editor(off_screen=True, window_size=window_size)
     spacing = editor.lattice.spacing
-    editor.lattice.offsets[:, :, 3:] += (0.5 * spacing[0], 0.0, 0.0)  # shear the top, from code
+    editor.lattice.offsets[:, 3:, :] += (0.6 * spacing[0], 0.0, 0.0)  # shear the top (+y is up), from code
     editor.update()
-    editor.move_control_point((2, 1, 2), (0.0, -1.0 * spacing[1], 0.0))  # as a drag or the panel would
+    editor.move_control_point((1, 2, 2), (-1.0 * spacing[0], 0.0, 0.0))  # as a drag or the panel would
     editor.set_field("displacement")
-    editor.select((2, 1, 2))
+    editor.select((1, 2, 2))
     pixels = editor.screenshot()
     editor.close()
     _save_png(pixels, Path(path))

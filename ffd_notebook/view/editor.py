@@ -114,7 +114,8 @@ class Editor(EditorDisplayMixin, EditorFilesMixin):
 
         The outer ring of a B-spline lattice lies a whole spacing outside the mesh; fitting the
         camera to all of it leaves the mesh small. This fits the lattice box shrunk by half a
-        spacing on each side instead (rotate or zoom out to reach the corners).
+        spacing on each side instead (rotate or zoom out to reach the corners). The view is from the
+        front right, slightly above, with +y up: the convention of OBJ, PLY and STL meshes.
         """
         from .camera import frame_camera
 
@@ -122,7 +123,7 @@ class Editor(EditorDisplayMixin, EditorFilesMixin):
         inset = 0.5 if min(lat.shape) > 2 else 0.0
         corners = np.array(np.meshgrid(*[[inset, n - 1 - inset] for n in lat.shape], indexing="ij")).reshape(3, -1).T
         points = np.vstack([lat.to_world(corners), self.mesh.points])
-        frame_camera(self.plotter, points, direction=(1.0, -1.0, 0.8), up=(0.0, 0.0, 1.0))
+        frame_camera(self.plotter, points, direction=(0.6, 0.45, 1.0), up=(0.0, 1.0, 0.0))
 
     # ------------------------------------------------------------------ model objects
     @property
