@@ -22,6 +22,7 @@ __all__ = ["end_line", "parse_float", "parse_int", "read_lines", "read_text", "s
 # 4300 characters is CPython's int() limit; no number in a file needs more than a few dozen.
 _FLOAT = re.compile(r"[+-]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]{1,5})?", re.ASCII)
 _INT = re.compile(r"[+-]?[0-9]{1,18}", re.ASCII)  # fits in int64
+_LONG_INT = re.compile(r"[+-]?[0-9]+", re.ASCII)
 _MAX_FLOAT_CHARS = 400
 _BLANKS = re.compile(r"[ \t]+")
 
@@ -130,7 +131,8 @@ def parse_int(path: str | os.PathLike[str], line: int, token: str, what: str = "
     """
     if _INT.fullmatch(token):
         return int(token)
-    raise FileFormatError(path, line, f"expected {what} (an integer of at most 18 digits), got {_show(token)}")
+    kind = "an integer of at most 18 digits" if _LONG_INT.fullmatch(token) else "an integer"
+    raise FileFormatError(path, line, f"expected {what} ({kind}), got {_show(token)}")
 
 
 def _show(token: str, limit: int = 40) -> str:
