@@ -7,12 +7,15 @@ fill the memory and a directory gives a clear error. The servers call it too for
 
 from __future__ import annotations
 
+import contextlib
 import os
 import stat
+from collections.abc import Iterator
+from typing import BinaryIO
 
 from ..errors import FileFormatError
 
-__all__ = ["MAX_FILE_BYTES", "check_regular_file", "read_bytes"]
+__all__ = ["MAX_FILE_BYTES", "check_regular_file", "open_regular", "read_bytes"]
 
 #: Largest file the readers accept (1 GiB): far above any mesh or lattice of this project.
 MAX_FILE_BYTES = 1 << 30
@@ -67,12 +70,35 @@ def check_regular_file(path: str | os.PathLike[str], max_bytes: int = MAX_FILE_B
     return info.st_size
 
 
-def read_bytes(path: str | os.PathLike[str], max_bytes: int = MAX_FILE_BYTES) -> bytes:
-    """The whole content of a regular file of at most ``max_bytes`` (see :func:`check_regular_file`).
+@contextlib.contextmanager
+def open_regular(path: str | os.PathLike[str], max_bytes: int = MAX_FILE_BYTES) -> Iterator[BinaryIO]:
+    """Open a regular file of at most ``max_bytes`` for reading in binary (see :func:`check_regular_file`).
 
     The file is checked before it is opened, opened without blocking (a FIFO swapped in after the
     check cannot stall the open) and checked again on the open descriptor, so what is read is the
-    file that was checked; at most ``max_bytes`` are read even if it grows meanwhile.
+    file that was checked.
+
+    Examples
+    --------
+    >>> import pathlib, tempfile
+    >>> path = pathlib.Path(tempfile.mkdtemp()) / "a.txt"
+    >>> _ = path.write_bytes(b"abc")
+    >>> with open_regular(path) as f:
+    ...     f.read(2)
+    b'ab'
+    """
+    check_regular_file(path, max_bytes)
+    flags = os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_NOCTTY", 0) | getattr(os, "O_BINARY", 0)
+    fd = os.open(path, flags)
+    with open(fd, "rb", closefd=True) as f:
+        _check_stat(path, os.fstat(fd), max_bytes)
+        yield f
+
+
+def read_bytes(path: str | os.PathLike[str], max_bytes: int = MAX_FILE_BYTES) -> bytes:
+    """The whole content of a regular file of at most ``max_bytes`` (see :func:`open_regular`).
+
+    At most ``max_bytes`` are read even if the file grows meanwhile.
 
     Examples
     --------
@@ -86,11 +112,7 @@ def read_bytes(path: str | os.PathLike[str], max_bytes: int = MAX_FILE_BYTES) ->
     ...
     ffd_notebook.errors.FileFormatError: ...a.txt: file too large to read (3 bytes; the limit is 2)
     """
-    check_regular_file(path, max_bytes)
-    flags = os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_NOCTTY", 0) | getattr(os, "O_BINARY", 0)
-    fd = os.open(path, flags)
-    with open(fd, "rb", closefd=True) as f:
-        _check_stat(path, os.fstat(fd), max_bytes)
+    with open_regular(path, max_bytes) as f:
         data = f.read(max_bytes + 1)
     if len(data) > max_bytes:
         raise FileFormatError(path, None, f"file too large to read (more than {max_bytes} bytes)")
