@@ -27,6 +27,7 @@ import pyvista as pv
 from ..errors import FileFormatError
 from ._safety import MAX_FILE_BYTES, read_bytes
 from ._text import parse_int, split_fields
+from .obj import _padded
 
 __all__ = ["read_ply"]
 
@@ -354,13 +355,7 @@ def _faces(path, face: dict | None, n_points: int, first_line: dict) -> np.ndarr
         row = int(np.searchsorted(np.cumsum(sizes), first, side="right"))
         raise FileFormatError(path, _row_line(first_line, "face", row), f"face {row} has vertex index "
                               f"{flat[first]:.15g}: the file has {n_points} vertices")  # fmt: skip
-    out = np.empty(len(sizes) + len(flat), dtype=np.int64)
-    starts = np.cumsum(sizes + 1) - (sizes + 1)
-    is_size = np.zeros(len(out), dtype=bool)
-    is_size[starts] = True
-    out[is_size] = sizes
-    out[~is_size] = flat.astype(np.int64)
-    return out
+    return _padded(sizes, flat.astype(np.int64))
 
 
 def _point_data(path, mesh: pv.PolyData, vertex: dict, line: int) -> None:
