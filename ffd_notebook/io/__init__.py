@@ -1,15 +1,28 @@
 """Reading and writing files: .ffd lattices, OBJ meshes with per-vertex colours, other mesh formats.
 
-The .ffd and OBJ parsers are written here (see :mod:`.ffd_file` and :mod:`.obj` for why); every
-other mesh format goes through PyVista's readers and writers. Every malformed file raises
-:class:`~ffd_notebook.errors.FileFormatError` naming the file and line; every write is atomic.
+The .ffd, OBJ and PLY parsers are written here (see :mod:`.ffd_file`, :mod:`.obj` and :mod:`.ply`
+for why); STL and VTK formats go through VTK's readers in a child process (see :mod:`.mesh`).
+Every malformed file raises :class:`~ffd_notebook.errors.FileFormatError` naming the file and line;
+special files and files over :data:`MAX_FILE_BYTES` are refused before reading
+(:func:`check_regular_file`); every write is atomic.
 """
 
 from __future__ import annotations
 
+from ._safety import MAX_FILE_BYTES, check_regular_file
 from .ffd_file import load_ffd, save_ffd
 from .mesh import read_mesh, write_mesh
 from .obj import read_obj, write_obj
 from .placement import place_at_mesh_minimum
 
-__all__ = ["load_ffd", "place_at_mesh_minimum", "read_mesh", "read_obj", "save_ffd", "write_mesh", "write_obj"]
+__all__ = [
+    "MAX_FILE_BYTES",
+    "check_regular_file",
+    "load_ffd",
+    "place_at_mesh_minimum",
+    "read_mesh",
+    "read_obj",
+    "save_ffd",
+    "write_mesh",
+    "write_obj",
+]

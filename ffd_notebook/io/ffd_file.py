@@ -27,7 +27,7 @@ import numpy as np
 from ..errors import FileFormatError
 from ..lattice import Lattice
 from ._atomic import atomic_open
-from ._text import end_line, parse_float, parse_int, read_lines
+from ._text import end_line, parse_float, parse_int, read_lines, split_fields
 from .placement import quaternion_to_rotation, rotation_to_quaternion
 
 __all__ = ["load_ffd", "save_ffd"]
@@ -53,7 +53,7 @@ class _Section:
 
 def _key(header: str) -> str | None:
     """The known section a header names (loosely: spaces trimmed, case ignored), or None."""
-    name = " ".join(header.split()).lower()
+    name = " ".join(split_fields(header)).lower()
     if name.startswith("quaternion"):
         return "quaternion"
     if name.startswith("offsets"):
@@ -64,9 +64,9 @@ def _key(header: str) -> str | None:
 def _split_sections(path: str | os.PathLike[str], lines: list[str]) -> list[_Section]:
     sections: list[_Section] = []
     for number, text in enumerate(lines, start=1):
-        stripped = text.strip()
+        stripped = text.strip(" \t")  # only spaces and TABs are blanks (see _text)
         if len(stripped) >= 2 and stripped[0] == "#" and stripped[-1] == "#":
-            if not stripped[1:-1].strip():
+            if not stripped[1:-1].strip(" \t"):
                 raise FileFormatError(path, number, "empty section header '##'; expected a name like #dimension#")
             sections.append(_Section(stripped[1:-1], number))
         elif sections:
@@ -79,11 +79,11 @@ def _split_sections(path: str | os.PathLike[str], lines: list[str]) -> list[_Sec
 
 
 def _tokens(section: _Section) -> list[tuple[int, str]]:
-    return [(number, tok) for number, text in section.lines for tok in text.split()]
+    return [(number, tok) for number, text in section.lines for tok in split_fields(text)]
 
 
 def _last_line(section: _Section) -> int:
-    body = [number for number, text in section.lines if text.strip()]
+    body = [number for number, text in section.lines if text.strip(" \t")]
     return body[-1] if body else section.line
 
 
@@ -100,7 +100,7 @@ def _numbers(path, section: _Section, names: tuple[str, ...], parse) -> list:
 
 
 def _parse_entry(path, number: int, entry: str, index: tuple[int, int, int]) -> tuple[float, float, float]:
-    parts = entry.split()
+    parts = split_fields(entry)
     if len(parts) != 3:
         raise FileFormatError(path, number, f"expected 'dx dy dz' for control point {index}, got {entry.strip()!r}")
     what = f"an offset of control point {index}"
@@ -111,10 +111,10 @@ def _parse_row(path, number: int, text: str, i: int, j: int, nz: int) -> list[tu
     """One line of the offsets block: ``nz`` entries ``dx dy dz``, each followed by a TAB."""
     if "\t" in text:
         entries = text.split("\t")
-        while entries and not entries[-1].strip():  # trailing TAB (or none: both occur)
+        while entries and not entries[-1].strip(" "):  # trailing TAB (or none: both occur)
             entries.pop()
     else:  # a writer that separates entries with spaces: group the numbers by three
-        parts = text.split()
+        parts = split_fields(text)
         entries = [" ".join(parts[n : n + 3]) for n in range(0, len(parts), 3)]
     if len(entries) != nz:
         raise FileFormatError(path, number, f"expected nz={nz} entries 'dx dy dz' for x index {i}, y index {j}, "
@@ -126,7 +126,7 @@ def _parse_offsets(path, section: _Section, shape: tuple[int, int, int]) -> np.n
     nx, ny, nz = shape
     blocks: list[list[tuple[int, str]]] = [[]]
     for number, text in section.lines:
-        if text.strip():
+        if text.strip(" \t"):
             blocks[-1].append((number, text))
         elif blocks[-1]:
             blocks.append([])
@@ -177,7 +177,7 @@ def _extra_sections(sections: list[_Section]) -> list[dict[str, Any]]:
             after = key
             continue
         body = [text for _, text in sec.lines]
-        while body and not body[-1].strip():
+        while body and not body[-1].strip(" \t"):
             body.pop()
         extra.append({"header": sec.header, "after": after, "lines": body})
     return extra
@@ -243,13 +243,34 @@ def load_ffd(path: str | os.PathLike[str]) -> Lattice:
         if norm2 > 1.0001:
             raise FileFormatError(path, _last_line(known["quaternion"]), f"expected a unit quaternion "
                                   f"(qb^2 + qc^2 + qd^2 <= 1), got {norm2:.6g}")  # fmt: skip
+        if placement["qf"] not in (1.0, -1.0):
+            qf_line = _tokens(known["quaternion"])[0][0]
+            raise FileFormatError(path, qf_line, f"expected qf (qfac) to be 1 or -1, got {placement['qf']!r}")
         origin, rotation = _placement_pose(placement)
     one_to_one = None
     if "one to one" in known:
         (one_to_one,) = _numbers(path, known["one to one"], ("the one-to-one flag",), parse_int)
     lattice = Lattice(shape, spacing, origin=origin, rotation=rotation, offsets=offsets)
+    _check_finite(path, lattice, spacing_sec, known["offsets"])
     lattice.metadata.update(placement=placement, one_to_one=one_to_one, ffd_extra_sections=_extra_sections(sections))
     return lattice
+
+
+def _check_finite(path, lattice: Lattice, spacing_sec: _Section, offsets_sec: _Section) -> None:
+    """Reject a lattice whose numbers are finite but whose control points are not (``1e308 * 10``).
+
+    The FFD divides by the spacing, so its inverse must be finite too (no subnormal spacing).
+    """
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):  # the overflow is what is checked
+        inverse, rest, deformed = 1.0 / lattice.spacing, lattice.control_points(), lattice.control_points(deformed=True)
+    if not (np.isfinite(inverse).all() and np.isfinite(rest).all()):
+        raise FileFormatError(path, _last_line(spacing_sec), f"the spacing {lattice.spacing.tolist()} puts control "
+                              "points beyond the range of floating-point numbers")  # fmt: skip
+    bad = np.argwhere(~np.isfinite(deformed).all(axis=-1))
+    if len(bad):
+        index = tuple(int(i) for i in bad[0])
+        raise FileFormatError(path, offsets_sec.line, f"control point {index} plus its offset is beyond the range "
+                              "of floating-point numbers")  # fmt: skip
 
 
 def _placement_pose(placement: dict[str, float]) -> tuple[np.ndarray, np.ndarray]:

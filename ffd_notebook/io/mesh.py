@@ -1,8 +1,23 @@
-"""Read and write meshes of any format: OBJ through :mod:`.obj`, the rest through PyVista."""
+"""Read and write meshes: OBJ and PLY with this package's readers, STL and VTK formats through PyVista.
+
+Reading takes untrusted files: only the formats below are read, each file is checked to be a
+regular file under the size limit (:mod:`._safety`) before anything opens it, and no mesh
+reaches VTK before its sizes and connectivity are checked:
+
+* ``.obj`` -- :mod:`.obj` (NumPy), indices checked;
+* ``.ply`` -- :mod:`.ply` (NumPy): VTK's PLY reader crashes on hostile headers (see there why
+  neither ``plyfile`` nor ``meshio``);
+* ``.stl``, ``.vtk`` (legacy), ``.vtp``, ``.vtu`` -- VTK's readers, which survived the fuzzing of
+  tests/io/test_fuzz_readers.py, behind :mod:`.mesh_checks`: header counts checked against the
+  file size before reading, cells and points checked after.
+"""
 
 from __future__ import annotations
 
 import os
+import subprocess
+import sys
+import tempfile
 import warnings
 from pathlib import Path
 
@@ -11,37 +26,66 @@ import pyvista as pv
 
 from ..errors import FileFormatError
 from ._atomic import atomic_path
+from ._safety import MAX_FILE_BYTES, read_bytes
+from .mesh_checks import check_cells, check_header_counts
 from .obj import read_obj, write_obj
+from .ply import read_ply
 
-__all__ = ["read_mesh", "write_mesh"]
+__all__ = ["MESH_SUFFIXES", "read_mesh", "write_mesh"]
+
+#: Extensions :func:`read_mesh` reads (lower case).
+MESH_SUFFIXES = (".obj", ".ply", ".stl", ".vtk", ".vtp", ".vtu")
+_HEADER_BYTES = 1 << 20  # XML headers: counts are looked for in the first MiB
+READ_TIMEOUT = 300  # seconds VTK's reader may take in its child process
 
 
 def _pyvista_read(path: Path) -> pv.DataSet:
-    """``pyvista.read`` with VTK's silent failures (an empty mesh plus a log line) made errors."""
-    if not path.is_file():
-        raise FileNotFoundError(f"no such file: {path}")
-    try:
+    """Read a file VTK can read, without letting VTK parse it in this process (see :mod:`._vtk_child`)."""
+    suffix = path.suffix.lower()
+    data = read_bytes(path, MAX_FILE_BYTES)
+    check_header_counts(path, data[: len(data) if suffix == ".vtk" else _HEADER_BYTES], len(data), suffix)
+    with tempfile.TemporaryDirectory(prefix="ffd-notebook-read-") as folder:
+        source = Path(folder) / f"in{suffix}"  # a copy: the child reads exactly the bytes checked here
+        source.write_bytes(data)
+        del data
+        problem = _run_child(path, source, Path(folder) / "out", suffix)
+        if problem is not None:
+            raise FileFormatError(path, None, f"VTK could not read a mesh from it ({problem})")
+        (converted,) = Path(folder).glob("out.vt[pu]")
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
             with pv.vtk_verbosity("off"), pv.VtkErrorCatcher(send_to_logging=False) as catcher:
-                mesh = pv.read(path)
-    except Exception as exc:  # PyVista raises OSError, ValueError, KeyError... for what it cannot read
-        raise FileFormatError(path, None, f"not a mesh file PyVista can read ({type(exc).__name__}: {exc})") from exc
+                mesh = pv.read(converted)  # written by VTK's own writer just now: raw arrays
     failures = [str(e) for e in catcher.error_events] + [str(w.message) for w in caught if "error" in str(w.message)]
-    if isinstance(mesh, pv.MultiBlock):
-        mesh = mesh.combine() if len(mesh) else None
-    if not isinstance(mesh, pv.DataSet) or failures or mesh.n_points == 0:
-        detail = failures[0].strip().splitlines()[0] if failures else "no points"
-        raise FileFormatError(path, None, f"PyVista's reader could not read a mesh from it ({detail})")
+    if failures or mesh.n_points == 0:
+        detail = failures[0].strip().splitlines()[-1].strip(' \t"')[:200] if failures else "no points"
+        raise FileFormatError(path, None, f"VTK could not read a mesh from it ({detail})")
+    check_cells(path, mesh)
     return mesh
 
 
-def read_mesh(path: str | os.PathLike[str]) -> pv.DataSet:
-    """Read a mesh, choosing the reader by extension.
+def _run_child(path: Path, source: Path, target: Path, suffix: str) -> str | None:
+    """Run VTK's reader in a child process; what went wrong, or None."""
+    command = [sys.executable, str(Path(__file__).with_name("_vtk_child.py")), str(source), str(target), suffix]
+    try:
+        done = subprocess.run(command, capture_output=True, timeout=READ_TIMEOUT, check=False)
+    except subprocess.TimeoutExpired:
+        return f"VTK's reader took more than {READ_TIMEOUT} s"
+    if done.returncode < 0:
+        return f"VTK's reader crashed on it (signal {-done.returncode})"
+    if done.returncode != 0:
+        message = done.stderr.decode("utf-8", "replace").strip().splitlines()
+        return message[-1][:200] if message else f"VTK's reader failed (exit status {done.returncode})"
+    return None
 
-    ``.obj`` goes through :func:`~ffd_notebook.io.read_obj` (vertex order and colours kept);
-    everything else through :func:`pyvista.read` (PLY, STL, VTK/VTP/VTU, ...). Colours stay point
-    data: a PLY with RGBA colours gets an ``"RGB"`` array too (the active scalars), like OBJ.
+
+def read_mesh(path: str | os.PathLike[str]) -> pv.DataSet:
+    """Read a mesh, choosing the reader by extension (one of :data:`MESH_SUFFIXES`).
+
+    ``.obj`` goes through :func:`~ffd_notebook.io.read_obj` (vertex order and colours kept),
+    ``.ply`` through :func:`~ffd_notebook.io.ply.read_ply`, STL and VTK formats through
+    :func:`pyvista.read` with the checks of :mod:`.mesh_checks` (see the module docstring). Colours
+    stay point data: a PLY with RGBA colours gets an ``"RGB"`` array too (the active scalars), like OBJ.
 
     Parameters
     ----------
@@ -72,11 +116,17 @@ def read_mesh(path: str | os.PathLike[str]) -> pv.DataSet:
     >>> read_mesh(path.with_suffix(".xyz"))
     Traceback (most recent call last):
     ...
-    ffd_notebook.errors.FileFormatError: ...sphere.xyz: not a mesh file PyVista can read (...)
+    ffd_notebook.errors.FileFormatError: ...sphere.xyz: unsupported mesh format '.xyz': expected one of .obj, ...
     """
     path = Path(path)
-    if path.suffix.lower() == ".obj":
+    suffix = path.suffix.lower()
+    if suffix not in MESH_SUFFIXES:
+        raise FileFormatError(path, None, f"unsupported mesh format {suffix or '(no extension)'!r}: expected one of "
+                              f"{', '.join(MESH_SUFFIXES)}")  # fmt: skip
+    if suffix == ".obj":
         return read_obj(path)
+    if suffix == ".ply":
+        return read_ply(path)
     mesh = _pyvista_read(path)
     if "RGB" not in mesh.point_data and "RGBA" in mesh.point_data:
         rgba = np.asarray(mesh.point_data["RGBA"])

@@ -29,7 +29,7 @@ import numpy as np
 import pyvista as pv
 
 from ..errors import FileFormatError
-from ._text import end_line, parse_float, read_text, split_lines
+from ._text import end_line, parse_float, read_text, split_fields, split_lines
 from .obj_write import write_obj
 
 __all__ = ["read_obj", "write_obj"]
@@ -41,8 +41,13 @@ _SKIPPED = frozenset(
     "end con bevel c_interp d_interp lod shadow_obj trace_obj ctech stech call csh".split()
 )
 _KNOWN = _SKIPPED | {"v", "f", "l"}
-_INDEX = re.compile(r"(-?\d+)(?:/-?\d*(?:/-?\d*)?)?")
-_SLASH_PARTS = re.compile(r"/-?\d*(?:/-?\d*)?(?=[ \t\r\n]|$)")
+# ASCII digits only (\d would take Arabic or full-width digits), at most 18 so an index fits in int64
+_IDX = r"-?[0-9]{1,18}"
+_INDEX = re.compile(rf"({_IDX})(?:/(?:{_IDX})?(?:/(?:{_IDX})?)?)?", re.ASCII)
+_SLASH_PARTS = re.compile(rf"/(?:{_IDX})?(?:/(?:{_IDX})?)?(?=[ \t\r\n]|$)", re.ASCII)
+# what the fast path's rows may hold; anything else (form feed, NBSP, hex, 19+ digit numbers) -> line parser
+_FAST_FLOAT_ROWS = re.compile(r"[^0-9eE+\-. \t\r\n]")
+_FAST_INT_ROWS = re.compile(r"[^0-9\- \t\r\n]|[0-9]{19}")
 
 
 @dataclass
@@ -115,12 +120,14 @@ def _token_counts(joined: str, n_rows: int) -> np.ndarray | None:
 def _numbers(rows: list[str], dtype) -> tuple[np.ndarray, np.ndarray] | None:
     """All numbers of the rows and the count per row, or None if anything is unusual."""
     joined = "\n".join(rows)
+    if (_FAST_INT_ROWS if dtype == np.int64 else _FAST_FLOAT_ROWS).search(joined):
+        return None
     counts = _token_counts(joined, len(rows))
-    if counts is None or "#" in joined:
+    if counts is None:
         return None
     try:
         values = np.fromstring(joined, dtype=dtype, sep=" ")  # text mode: strict, raises on junk
-    except ValueError:
+    except (ValueError, OverflowError):
         return None
     return (values, counts) if len(values) == counts.sum() else None
 
@@ -172,7 +179,7 @@ def _logical_lines(text: str):
     for number, line in enumerate(split_lines(text), start=1):
         if not pending:
             start = number
-        stripped = line.rstrip()
+        stripped = line.rstrip(" \t")
         if stripped.endswith("\\"):
             pending += stripped[:-1] + " "
             continue
@@ -207,7 +214,7 @@ def _parse_lines(path, text: str) -> _ObjData:
     width = None
     cells: dict[str, tuple[list[int], list[int], list[int]]] = {"f": ([], [], []), "l": ([], [], [])}
     for number, line in _logical_lines(text):
-        parts = line.split()
+        parts = split_fields(line)  # spaces and TABs only: NBSP or form feed is not a separator
         if not parts:
             continue
         keyword, args = parts[0], parts[1:]

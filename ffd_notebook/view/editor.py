@@ -28,6 +28,7 @@ from .editor_display import EditorDisplayMixin
 from .editor_files import EditorFilesMixin
 from .history import History, LatticeSwap, OffsetEdit
 from .lattice_actor import LatticeActor
+from .message_log import MessageLog
 
 __all__ = ["Editor"]
 
@@ -77,7 +78,7 @@ class Editor(EditorDisplayMixin, EditorFilesMixin):
         window_size: tuple[int, int] = (800, 600),
         off_screen: bool | None = None,
     ) -> None:
-        self.messages: list[str] = []
+        self.messages = MessageLog()  # bounded: the newest MAX_MESSAGES, newest last
         self.history = History()
         self.last_callback_ms = 0.0
         self.n_callbacks = 0
@@ -380,11 +381,11 @@ class Editor(EditorDisplayMixin, EditorFilesMixin):
         'Error: control point index must be (i, j, k) within the lattice (4, 4, 4), got (9, 9, 9)'
         >>> editor.close()
         """
-        n_messages = len(self.messages)
+        n_messages = self.messages.n_added
         try:
             action(*args)
         except Exception as exc:
-            if len(self.messages) == n_messages:  # the editor did not explain it itself
+            if self.messages.n_added == n_messages:  # the editor did not explain it itself
                 self._error(str(exc))
             return False
         return True
