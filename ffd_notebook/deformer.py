@@ -141,11 +141,24 @@ class Deformer:
         if np.any(ijk < 0) or np.any(ijk >= np.array(self.ffd.lattice.shape)):
             raise IndexError(f"control point index out of range for lattice {self.ffd.lattice.shape}: {changed!r}")
         offsets = self.ffd.lattice.offsets
-        for i, j, k in {tuple(map(int, c)) for c in ijk}:
-            delta = offsets[i, j, k] - self._last_offsets[i, j, k]
-            if delta.any():
-                self._add_control_point(i, j, k, delta)
+        moved = [c for c in {tuple(map(int, c)) for c in ijk} if np.any(offsets[c] != self._last_offsets[c])]
+        if self._cells is None:  # Bernstein
+            for i, j, k in moved:
+                self._add_bernstein(i, j, k, offsets[i, j, k] - self._last_offsets[i, j, k])
                 self._last_offsets[i, j, k] = offsets[i, j, k]
+            return self._out
+        plans = [self._runs_moved_by(c) for c in moved]
+        n_hit = sum(int((self._cells.runs[hit, 1] - self._cells.runs[hit, 0]).sum()) for hit, _, _ in plans)
+        if n_hit > len(self.points):  # e.g. a fit_points step moving 64 control points: one full pass is cheaper
+            self._full()
+            return self._out
+        # many points: add in sorted order (contiguous) and gather once; few: touch only those rows
+        gather_all = n_hit > len(self.points) // 4
+        for (i, j, k), plan in zip(moved, plans, strict=True):
+            self._add_control_point(plan, offsets[i, j, k] - self._last_offsets[i, j, k], gather_all)
+            self._last_offsets[i, j, k] = offsets[i, j, k]
+        if gather_all:
+            self._refresh_all()
         return self._out
 
     def jacobian_determinant(self) -> NDArray[np.float64]:
@@ -190,27 +203,28 @@ class Deformer:
         """Bring the sorted deformed positions back to the points' order (one gather)."""
         np.take(self._sorted, self._inverse, axis=0, out=self._out)
 
-    def _add_control_point(self, i: int, j: int, k: int, delta: NDArray[np.float64]) -> None:
-        if self.ffd.basis == "bernstein":
-            ny = self.ffd.lattice.shape[1]
-            w = self._bxy[:, i * ny + j] * self._bz[:, k]
-            self._out += w[:, None].astype(np.float64) * delta
-            return
+    def _add_bernstein(self, i: int, j: int, k: int, delta: NDArray[np.float64]) -> None:
+        w = self._bxy[:, i * self.ffd.lattice.shape[1] + j] * self._bz[:, k]
+        self._out += w[:, None].astype(np.float64) * delta
+
+    def _runs_moved_by(
+        self, ijk: tuple[int, int, int]
+    ) -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.int64]]:
+        """The runs (cells) a control point moves, and the support slots ``lo..hi`` it fills in each."""
         cells = self._cells
-        lo, hi = _support_slots(np.array([i, j, k]), cells.run_first, self.ffd.lattice.shape, cells.border)
+        lo, hi = _support_slots(np.array(ijk), cells.run_first, self.ffd.lattice.shape, cells.border)
         hit = np.flatnonzero(np.all(lo <= hi, axis=1))
-        spans = cells.runs[hit]
-        n_hit = int((spans[:, 1] - spans[:, 0]).sum())
-        # many points: add in sorted order (contiguous) and gather once; few: touch only those rows
-        gather_all = n_hit > len(self.points) // 4
-        for r, (s, e) in zip(hit, spans, strict=True):
-            w = self._weight(s, e, lo[r], hi[r])
+        return hit, lo[hit], hi[hit]
+
+    def _add_control_point(self, plan: tuple, delta: NDArray[np.float64], sorted_only: bool) -> None:
+        """Add one control point's ``weight * delta`` to the runs of ``plan`` (see :meth:`_runs_moved_by`)."""
+        hit, lo, hi = plan
+        for (s, e), l, h in zip(self._cells.runs[hit], lo, hi, strict=True):
+            w = self._weight(s, e, l, h)
             # rank-one update sorted += w delta^T in place (BLAS dger on the F-ordered transpose)
             dger(1.0, delta, w, a=self._sorted[s:e].T, overwrite_a=1)
-            if not gather_all:
-                self._out[cells.order[s:e]] += w[:, None] * delta
-        if gather_all:
-            self._refresh_all()
+            if not sorted_only:
+                self._out[self._cells.order[s:e]] += w[:, None] * delta
 
     def _weight(self, s: int, e: int, lo: NDArray[np.int64], hi: NDArray[np.int64]) -> NDArray[np.float64]:
         """Weight of one control point on sorted points ``s:e`` that fills support slots ``lo..hi``."""

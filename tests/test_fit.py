@@ -116,3 +116,21 @@ def test_bad_arguments():
     with pytest.raises(ValueError, match="weights"):
         ffd.fit_points([[1.0, 1, 1]], [[1.0, 1, 1]], pinned=[[2.0, 2, 2]], weights=[1.0])
     assert not ffd.lattice.offsets.any()
+
+
+@pytest.mark.parametrize("border", ["zero", "clamp"])
+@pytest.mark.parametrize("n_grab", [1, 6])
+def test_the_editor_drag_fit_then_update_the_changed_control_points(border, n_grab):
+    rng = np.random.default_rng(5)
+    pts = rng.normal(size=(4000, 3))
+    ffd = FFD(Lattice.around(pts, shape=(9, 8, 7), border=border))
+    deformer = ffd.bind(pts, dtype=np.float64)
+    grab = rng.choice(len(pts), n_grab, replace=False)
+    for _ in range(5):
+        change = ffd.fit_points(pts[grab], ffd.deform(pts[grab]) + rng.normal(size=(n_grab, 3)) * 0.05)
+        out = deformer.update(changed=np.argwhere(change.any(axis=-1)))  # many control points: a full pass
+        np.testing.assert_allclose(out, ffd.deform(pts), atol=1e-10)
+        few = [(0, 0, 0), (4, 4, 3), (8, 0, 6)]  # a few at once: added incrementally
+        for ijk in few:
+            ffd.lattice.offsets[ijk] += rng.normal(size=3) * 0.1
+        np.testing.assert_allclose(deformer.update(changed=few), ffd.deform(pts), atol=1e-10)
