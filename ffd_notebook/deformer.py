@@ -141,17 +141,21 @@ class Deformer:
         if np.any(ijk < 0) or np.any(ijk >= np.array(self.ffd.lattice.shape)):
             raise IndexError(f"control point index out of range for lattice {self.ffd.lattice.shape}: {changed!r}")
         offsets = self.ffd.lattice.offsets
-        moved = [c for c in {tuple(map(int, c)) for c in ijk} if np.any(offsets[c] != self._last_offsets[c])]
+        ijk = np.unique(ijk, axis=0)
+        index = tuple(ijk.T)
+        moved = [tuple(c) for c in ijk[np.any(offsets[index] != self._last_offsets[index], axis=1)].tolist()]
         if self._cells is None:  # Bernstein
             for i, j, k in moved:
                 self._add_bernstein(i, j, k, offsets[i, j, k] - self._last_offsets[i, j, k])
                 self._last_offsets[i, j, k] = offsets[i, j, k]
             return self._out
-        plans = [self._runs_moved_by(c) for c in moved]
-        n_hit = sum(int((self._cells.runs[hit, 1] - self._cells.runs[hit, 0]).sum()) for hit, _, _ in plans)
-        if n_hit > len(self.points):  # e.g. a fit_points step moving 64 control points: one full pass is cheaper
-            self._full()
-            return self._out
+        plans, n_hit = [], 0
+        for c in moved:
+            plans.append(self._runs_moved_by(c))
+            n_hit += int(np.diff(self._cells.runs[plans[-1][0]], axis=1).sum())
+            if n_hit > len(self.points):  # e.g. a fit_points step moving 64 control points: one full pass is cheaper
+                self._full()
+                return self._out
         # many points: add in sorted order (contiguous) and gather once; few: touch only those rows
         gather_all = n_hit > len(self.points) // 4
         for (i, j, k), plan in zip(moved, plans, strict=True):
