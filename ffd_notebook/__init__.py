@@ -21,7 +21,8 @@ from __future__ import annotations
 import importlib
 from typing import Any
 
-from .deform import FFD, Deformer
+from .deform import FFD
+from .deformer import Deformer
 from .errors import FileFormatError
 from .lattice import Lattice
 

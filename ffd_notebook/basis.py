@@ -24,6 +24,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 __all__ = [
+    "BORDERS",
     "BSPLINE_MATRIX",
     "bernstein",
     "bernstein_derivative",
@@ -31,7 +32,14 @@ __all__ = [
     "bspline_cells",
     "bspline_derivative",
     "bspline_second_derivative",
+    "bspline_support",
+    "check_border",
 ]
+
+#: What the B-spline FFD assumes beyond the lattice: ``"zero"`` (control points outside contribute
+#: nothing: the FFD report's formula and SimpleITK's) or ``"clamp"`` (they are copies of the border
+#: control points, as in Blender's lattice: the weights then sum to one everywhere).
+BORDERS = ("zero", "clamp")
 
 #: Power-basis coefficients of the uniform cubic B-spline pieces: ``bspline(t) ==
 #: [1, t, t**2, t**3] @ BSPLINE_MATRIX`` (columns are B_0 .. B_3 of the FFD report).
@@ -108,6 +116,61 @@ def bspline_cells(u: ArrayLike) -> tuple[NDArray[np.int64], NDArray[np.float64]]
     u = np.asarray(u, dtype=np.float64)
     fl = np.floor(u)
     return fl.astype(np.int64) - 1, u - fl
+
+
+def check_border(border: str) -> str:
+    """``border`` if it is one of :data:`BORDERS`, else a ``ValueError``.
+
+    Examples
+    --------
+    >>> check_border("clamp")
+    'clamp'
+    """
+    if border not in BORDERS:
+        raise ValueError(f"border must be one of {BORDERS}, got {border!r}")
+    return border
+
+
+def bspline_support(u: ArrayLike, n: int, border: str = "zero") -> tuple[NDArray[np.int64], NDArray[np.float64]]:
+    """Control-point indices and B-spline weights moving lattice coordinates ``u`` along one axis.
+
+    The support of :func:`bspline_cells` (indices ``first .. first + 3``) made to fit a lattice of
+    ``n`` control points: with ``border="zero"`` indices outside ``0 .. n-1`` get weight zero
+    (and are clipped, so they stay valid indices); with ``"clamp"`` they are clipped to the
+    border control point, which so receives their weight (an index may then repeat: add the
+    weights of repeats, e.g. with ``numpy.add.at``).
+
+    Parameters
+    ----------
+    u : array_like
+        Lattice coordinates along the axis, any shape.
+    n : int
+        Control points along the axis.
+    border : {"zero", "clamp"}
+        What lies beyond the lattice (see :data:`BORDERS`).
+
+    Returns
+    -------
+    index : numpy.ndarray
+        ``u.shape + (4,)`` int64 indices in ``0 .. n-1``.
+    weight : numpy.ndarray
+        ``u.shape + (4,)`` weights; with ``"clamp"`` they sum to one for every ``u``.
+
+    Examples
+    --------
+    >>> index, weight = bspline_support([0.0], n=5, border="clamp")
+    >>> index.tolist(), weight.round(4).tolist()
+    ([[0, 0, 1, 2]], [[0.1667, 0.6667, 0.1667, 0.0]])
+    >>> bspline_support([0.0], n=5)[1].round(4).tolist()   # "zero": the point before 0 counts nothing
+    [[0.0, 0.6667, 0.1667, 0.0]]
+    """
+    first, t = bspline_cells(u)
+    index = first[..., None] + np.arange(4)
+    weight = bspline(t)
+    clipped = np.clip(index, 0, n - 1)
+    if check_border(border) == "zero":
+        weight = np.where(clipped == index, weight, 0.0)
+    return clipped, weight
 
 
 def bspline_derivative(t: ArrayLike) -> NDArray[np.float64]:

@@ -1,25 +1,38 @@
 """Free-form deformation: a global affine part plus a lattice of control-point offsets.
 
 ``T(x) = A x + b + T_local(x)`` (Rueckert et al. 1999). ``T_local`` is either the tensor
-product of uniform cubic B-splines over the lattice cells (control points outside the lattice
-contribute zero; identical to SimpleITK's ``BSplineTransform`` of order 3 on the same grid), or
-the Sederberg-Parry Bernstein form over the lattice's whole box.
+product of uniform cubic B-splines over the lattice cells, or the Sederberg-Parry Bernstein form
+over the lattice's whole box. Beyond the lattice the B-spline form assumes either zero control
+points (``border="zero"``: identical to SimpleITK's ``BSplineTransform`` of order 3 on the same
+grid) or copies of the border ones (``border="clamp"``, Blender's lattice).
 """
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.linalg.blas import dger
 
-from .basis import bernstein, bernstein_derivative, bspline, bspline_cells, bspline_derivative
+from .basis import bernstein, bernstein_derivative, bspline, bspline_cells, bspline_derivative, check_border
+from .fit import fit_points as _fit_points
 from .lattice import Lattice, _as_points
 
-__all__ = ["BASES", "FFD", "Deformer"]
+if TYPE_CHECKING:
+    from .deformer import Deformer
+
+__all__ = ["BASES", "FFD"]
 
 BASES = ("bspline", "bernstein")
+
+
+def __getattr__(name: str) -> Any:
+    """``Deformer`` moved to :mod:`ffd_notebook.deformer`; still importable from here."""
+    if name == "Deformer":
+        from .deformer import Deformer
+
+        return Deformer
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 def _check_affine(affine: ArrayLike | None) -> NDArray[np.float64]:
@@ -44,6 +57,13 @@ class FFD:
         ``"bspline"``: uniform cubic B-splines, local support (each point moves with the 4x4x4
         control points around it). ``"bernstein"``: Sederberg-Parry, every control point moves
         every point inside the lattice box (points outside are extrapolated polynomially).
+    border : {"zero", "clamp"}, optional
+        B-spline basis only: what lies beyond the lattice. ``"zero"``: nothing (the FFD
+        report, SimpleITK; the weights sum to one only one spacing inside the lattice).
+        ``"clamp"``: copies of the border control points (Blender), so the weights sum to one
+        everywhere and the lattice can be the mesh's own bounding box. By default the
+        lattice's own :attr:`~ffd_notebook.Lattice.border` (``"zero"`` unless it was made
+        with ``"clamp"`` or loaded from a .ffd file that says so), read at every evaluation.
     affine : array_like, optional
         4x4 homogeneous (or 3x4) matrix of the global part ``x -> A x + b``; identity if omitted.
 
@@ -55,18 +75,33 @@ class FFD:
     >>> lat.offsets[1, 1, 1] = (0.0, 0.0, 6.0)
     >>> FFD(lat).deform([[0.0, 0.0, 0.0]]).round(6).tolist()   # B1(0)^3 * 6 = (2/3)^3 * 6
     [[0.0, 0.0, 1.777778]]
+    >>> lat.offsets[0, 1, 1] = (0.0, 0.0, 9.0)          # on the border, and a point far beyond it:
+    >>> far = [[-9.0, 0.0, 0.0]]
+    >>> FFD(lat).deform(far).tolist(), FFD(lat, border="clamp").deform(far).round(6).tolist()
+    ([[-9.0, 0.0, 0.0]], [[-9.0, 0.0, 4.0]])
     """
 
-    def __init__(self, lattice: Lattice, basis: str = "bspline", affine: ArrayLike | None = None) -> None:
+    def __init__(
+        self, lattice: Lattice, basis: str = "bspline", border: str | None = None, affine: ArrayLike | None = None
+    ) -> None:
         if not isinstance(lattice, Lattice):
             raise TypeError(f"lattice must be a Lattice, got {type(lattice).__name__}")
         if basis not in BASES:
             raise ValueError(f"basis must be one of {BASES}, got {basis!r}")
-        if basis == "bspline" and min(lattice.shape) < 4:
-            raise ValueError(f"the cubic B-spline basis needs at least 4 control points per axis, got {lattice.shape}")
+        self._border = None if border is None else check_border(border)
         self.lattice = lattice
+        if basis == "bspline" and self.border == "zero" and min(lattice.shape) < 4:
+            raise ValueError(
+                f"the cubic B-spline basis with border 'zero' needs at least 4 control points per axis, "
+                f"got {lattice.shape}"
+            )
         self.basis = basis
         self.affine = _check_affine(affine)
+
+    @property
+    def border(self) -> str:
+        """The B-spline border rule in use: the one given, else the lattice's."""
+        return self.lattice.border if self._border is None else self._border
 
     # ------------------------------------------------------------------ evaluation
     def apply_affine(self, points: ArrayLike) -> NDArray[np.float64]:
@@ -91,9 +126,9 @@ class FFD:
         if self.basis == "bernstein":
             bx, by, bz = self._bernstein_values(uvw)
             return np.einsum("pi,pj,pk,ijkd->pd", bx, by, bz, self.lattice.offsets, optimize=True)
-        cells = _CellGroups(uvw, self.lattice.shape)
+        cells = _CellGroups(uvw, self.lattice.shape, self.border)
         bu, bv, bw = (bspline(cells.t[:, a]) for a in range(3))
-        return cells.unsort(cells.sum(_pad(self.lattice.offsets), _outer(bu, bv), cells.masked(bw)))
+        return cells.unsort(cells.sum(cells.pad(self.lattice.offsets), _outer(bu, bv), cells.masked(bw)))
 
     def deform(self, points: ArrayLike) -> NDArray[np.float64]:
         """Deformed positions ``A x + b + T_local(x)`` of ``(N, 3)`` points.
@@ -138,7 +173,7 @@ class FFD:
                 factors = [ders[a] if a == axis else vals[a] for a in range(3)]
                 d_uvw[:, :, axis] = np.einsum("pi,pj,pk,ijkd->pd", *factors, lat.offsets, optimize=True)
         else:
-            cells = _CellGroups(uvw, lat.shape)
+            cells = _CellGroups(uvw, lat.shape, self.border)
             d_uvw = cells.unsort(_bspline_lattice_jacobian(cells, lat.offsets, cells.t))
         return self._chain(d_uvw)
 
@@ -164,8 +199,33 @@ class FFD:
         return _det3(self.jacobian(points))
 
     def bind(self, points: ArrayLike, dtype: Any = np.float32) -> Deformer:
-        """Bind to one point set: a :class:`Deformer` that caches what does not change."""
+        """Bind to one point set: a :class:`~ffd_notebook.Deformer` that caches what does not change."""
+        from .deformer import Deformer  # here, not at the top: deformer imports this module
+
         return Deformer(self, points, dtype=dtype)
+
+    def fit_points(
+        self,
+        points: ArrayLike,
+        targets: ArrayLike,
+        pinned: ArrayLike | None = None,
+        weights: ArrayLike | None = None,
+    ) -> NDArray[np.float64]:
+        """Change ``lattice.offsets`` (in place) by the least-norm amount that puts ``deform(points)`` on ``targets``.
+
+        Least squares when not every target can be met; ``pinned`` points stay where they are.
+        Returns the change, ``(nx, ny, nz, 3)``. See :func:`ffd_notebook.fit.fit_points`.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from ffd_notebook import Lattice, FFD
+        >>> ffd = FFD(Lattice((5, 5, 5), 1.0, border="clamp"))
+        >>> change = ffd.fit_points([[2.0, 2.0, 2.0]], [[2.0, 2.5, 2.0]])
+        >>> ffd.deform([[2.0, 2.0, 2.0]]).round(12).tolist(), int(change.any(axis=-1).sum())
+        ([[2.0, 2.5, 2.0]], 27)
+        """
+        return _fit_points(self, points, targets, pinned=pinned, weights=weights)
 
     # ------------------------------------------------------------------ helpers
     def _bernstein_values(self, uvw: NDArray[np.float64], derivative: bool = False) -> list[NDArray[np.float64]]:
@@ -181,12 +241,17 @@ class FFD:
 
     def __repr__(self) -> str:
         affine = "identity" if np.array_equal(self.affine, np.eye(4)) else "set"
-        return f"FFD({self.lattice!r}, basis={self.basis!r}, affine={affine})"
+        return f"FFD({self.lattice!r}, basis={self.basis!r}, border={self.border!r}, affine={affine})"
 
 
-def _pad(offsets: NDArray[np.float64], dtype: Any = np.float64) -> NDArray[Any]:
-    """Offsets with three zero layers around: supports reaching outside the lattice read zeros."""
-    return np.pad(offsets, ((3, 3), (3, 3), (3, 3), (0, 0))).astype(dtype, copy=False)
+def _pad(offsets: NDArray[np.float64], dtype: Any = np.float64, border: str = "zero") -> NDArray[Any]:
+    """Offsets with three layers around, zeros or copies of the border (the border rule).
+
+    Supports reaching outside the lattice read these layers: copying the border layer there is
+    the same as clamping the support's indices, the clamp rule.
+    """
+    mode = "constant" if border == "zero" else "edge"
+    return np.pad(offsets, ((3, 3), (3, 3), (3, 3), (0, 0)), mode=mode).astype(dtype, copy=False)
 
 
 def _outer(bu: NDArray[Any], bv: NDArray[Any]) -> NDArray[Any]:
@@ -205,7 +270,7 @@ def _det3(m: NDArray[np.float64]) -> NDArray[np.float64]:
 
 def _bspline_lattice_jacobian(cells: _CellGroups, offsets: NDArray[np.float64], t: NDArray[np.float64]):
     """``d T_local / d(u, v, w)`` in sorted order, ``(N, 3 components, 3 lattice axes)``."""
-    padded = _pad(offsets)
+    padded = cells.pad(offsets)
     vals = [bspline(t[:, a]) for a in range(3)]
     ders = [bspline_derivative(t[:, a]) for a in range(3)]
     d_uvw = np.empty((len(t), 3, 3))
@@ -219,14 +284,19 @@ class _CellGroups:
     """Points grouped by the lattice cell whose 4x4x4 support moves them.
 
     Points are sorted by cell so that each cell's points form one contiguous run; a sum over a
-    run is then one small matrix product with that cell's 64 offsets. Points whose support
-    lies wholly outside the lattice are put in a run with zero weights.
+    run is then one small matrix product with that cell's 64 offsets. With the "zero" border,
+    points whose support lies wholly outside the lattice are put in a run with zero weights;
+    with "clamp" their support is moved to the nearest one reaching the lattice, whose indices
+    all clamp to the same border control points.
     """
 
-    def __init__(self, uvw: NDArray[np.float64], shape: tuple[int, int, int]) -> None:
+    def __init__(self, uvw: NDArray[np.float64], shape: tuple[int, int, int], border: str = "zero") -> None:
         n = len(uvw)
         first, t = bspline_cells(uvw)
         dims = np.array(shape)
+        self.border = border
+        if border == "clamp":
+            first = np.clip(first, -3, dims - 1)
         self.inside = np.all((first >= -3) & (first <= dims - 1), axis=1)
         first = np.where(self.inside[:, None], first, 0)
         grid = tuple(dims + 3)
@@ -238,6 +308,10 @@ class _CellGroups:
         self.t = t[order]
         self.runs = np.column_stack([starts, np.r_[starts[1:], n]])
         self.run_first = np.column_stack(np.unravel_index(cells, grid)) - 3
+
+    def pad(self, offsets: NDArray[np.float64], dtype: Any = np.float64) -> NDArray[Any]:
+        """Offsets padded by this grouping's border rule (see :func:`_pad`)."""
+        return _pad(offsets, dtype, self.border)
 
     def masked(self, bw: NDArray[Any]) -> NDArray[Any]:
         """Zero the weights of points outside every support (applied to one factor only)."""
@@ -258,195 +332,3 @@ class _CellGroups:
         out = np.empty_like(values)
         out[self.order] = values
         return out
-
-
-class Deformer:
-    """An FFD bound to one point set, for fast repeated evaluation (the editor's drag path).
-
-    What does not change while offsets are edited is computed once: each point's lattice cell
-    and its basis values. Points are grouped by cell, so a full update is one small matrix
-    product per cell; an update for a few changed control points touches only the cells they
-    influence and adds ``weight * (new offset - old offset)``.
-
-    Parameters
-    ----------
-    ffd : FFD
-        The deformation; its lattice's offsets and affine are read at each update.
-    points : array_like
-        ``(N, 3)`` rest positions.
-    dtype : numpy dtype
-        Precision of the cached weights: ``float32`` (default, 84 bytes a point for the
-        B-spline basis, about 1e-7 relative error) or ``float64`` (exact to rounding).
-
-    Notes
-    -----
-    :meth:`update` returns an internal buffer that the next update overwrites: copy it if you
-    need to keep it. Changing the affine part, the lattice's shape or placement needs a new
-    deformer (:meth:`update` checks and rebinds automatically when they change).
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> from ffd_notebook import Lattice, FFD
-    >>> pts = np.random.default_rng(0).random((1000, 3))
-    >>> lat = Lattice.around(pts, shape=(6, 6, 6))
-    >>> ffd = FFD(lat)
-    >>> deformer = ffd.bind(pts)
-    >>> lat.offsets[2, 3, 2] = (0.1, 0.0, 0.0)
-    >>> fast = deformer.update(changed=[(2, 3, 2)])
-    >>> bool(np.allclose(fast, ffd.deform(pts), atol=1e-6))
-    True
-    """
-
-    def __init__(self, ffd: FFD, points: ArrayLike, dtype: Any = np.float32) -> None:
-        self.ffd = ffd
-        self.points = _as_points(points)
-        self.dtype = np.dtype(dtype)
-        if self.dtype not in (np.float32, np.float64):
-            raise ValueError(f"dtype must be float32 or float64, got {self.dtype}")
-        self._bind()
-
-    # ------------------------------------------------------------------ set-up
-    def _geometry_key(self) -> tuple:
-        lat = self.ffd.lattice
-        return (self.ffd.basis, lat.shape, lat.spacing.tobytes(), lat.origin.tobytes(), lat.rotation.tobytes())
-
-    def _bind(self) -> None:
-        lat, n = self.ffd.lattice, len(self.points)
-        self._key = self._geometry_key()
-        self._affine = self.ffd.affine.copy()
-        uvw = lat.to_lattice(self.points)
-        self._cells = None
-        if self.ffd.basis == "bspline":
-            cells = _CellGroups(uvw, lat.shape)
-            bu, bv, bw = (bspline(cells.t[:, a]) for a in range(3))
-            self._buv = _outer(bu, bv).astype(self.dtype)
-            self._bw = cells.masked(bw).astype(self.dtype)
-            cells.t = None  # not needed after the weights: keep the cache small
-            self._cells = cells
-            # inverse permutation: original point p sits at sorted position inverse[p]
-            self._inverse = np.empty_like(cells.order)
-            self._inverse[cells.order] = np.arange(n, dtype=cells.order.dtype)
-            # deformed positions in sorted order: affine image + displacement, brought back to the
-            # points' order by one gather (np.take) per update
-            self._sorted = np.zeros((n, 3))
-        else:
-            bx, by, bz = self.ffd._bernstein_values(uvw)
-            nx, ny, _ = lat.shape
-            self._bxy = (bx[:, :, None] * by[:, None, :]).reshape(n, nx * ny).astype(self.dtype)
-            self._bz = bz.astype(self.dtype)
-        self._base = np.asarray(self.ffd.apply_affine(self.points), dtype=np.float64)
-        if self._cells is not None:
-            self._base = self._base[self._cells.order]  # only ever used in sorted order
-        self._out = np.empty((n, 3), dtype=np.float64)
-        self._last_offsets = lat.offsets.copy()
-        self._full()
-
-    @property
-    def cache_bytes(self) -> int:
-        """Bytes of weights and indices held for fast updates.
-
-        Not counted: the rest points, the affine image of the points and the working and
-        output buffers (three ``(N, 3)`` float64 arrays any evaluation needs).
-        """
-        arrays = [getattr(self, k) for k in ("_buv", "_bw", "_inverse", "_bxy", "_bz") if hasattr(self, k)]
-        if self._cells is not None:
-            arrays += [self._cells.order, self._cells.inside, self._cells.runs, self._cells.run_first]
-        return int(sum(a.nbytes for a in arrays))
-
-    # ------------------------------------------------------------------ updates
-    def update(self, changed: Any = None) -> NDArray[np.float64]:
-        """Deformed points for the lattice's current offsets, ``(N, 3)`` float64.
-
-        Parameters
-        ----------
-        changed : sequence of (i, j, k), optional
-            Control points whose offsets changed since the last update; only the points they
-            influence are recomputed. ``None`` recomputes everything.
-
-        Returns
-        -------
-        numpy.ndarray
-            The deformer's output buffer (overwritten by the next call).
-        """
-        if self._geometry_key() != self._key or not np.array_equal(self.ffd.affine, self._affine):
-            self._bind()
-            return self._out
-        if changed is None:
-            self._full()
-            return self._out
-        ijk = np.asarray(changed, dtype=np.int64).reshape(-1, 3)
-        if np.any(ijk < 0) or np.any(ijk >= np.array(self.ffd.lattice.shape)):
-            raise IndexError(f"control point index out of range for lattice {self.ffd.lattice.shape}: {changed!r}")
-        offsets = self.ffd.lattice.offsets
-        for i, j, k in {tuple(map(int, c)) for c in ijk}:
-            delta = offsets[i, j, k] - self._last_offsets[i, j, k]
-            if delta.any():
-                self._add_control_point(i, j, k, delta)
-                self._last_offsets[i, j, k] = offsets[i, j, k]
-        return self._out
-
-    def jacobian_determinant(self) -> NDArray[np.float64]:
-        """``det dT/dx`` at the bound points for the current offsets (``<= 0`` where it folds).
-
-        The same values as :meth:`FFD.jacobian_determinant` on the bound points, reusing the
-        cached grouping of points by cell (the editor's folding view calls it on every drag).
-
-        Examples
-        --------
-        >>> import numpy as np
-        >>> from ffd_notebook import Lattice, FFD
-        >>> pts = np.random.default_rng(0).random((500, 3))
-        >>> lat = Lattice.around(pts, shape=5)
-        >>> lat.offsets[2, :, :, 0] -= 2.5 * lat.spacing[0]
-        >>> ffd = FFD(lat)
-        >>> bool(np.allclose(ffd.bind(pts).jacobian_determinant(), ffd.jacobian_determinant(pts)))
-        True
-        """
-        if self._geometry_key() != self._key or not np.array_equal(self.ffd.affine, self._affine):
-            self._bind()
-        if self._cells is None:  # Bernstein: every control point reaches every point
-            return self.ffd.jacobian_determinant(self.points)
-        uvw = self.ffd.lattice.to_lattice(self.points)[self._cells.order]
-        d_uvw = _bspline_lattice_jacobian(self._cells, self.ffd.lattice.offsets, uvw - np.floor(uvw))
-        return _det3(self.ffd._chain(d_uvw))[self._inverse]
-
-    def _full(self) -> None:
-        offsets = self.ffd.lattice.offsets
-        self._last_offsets[...] = offsets
-        if self.ffd.basis == "bernstein":
-            nx, ny, nz = self.ffd.lattice.shape
-            x = self._bxy @ offsets.reshape(nx * ny, nz * 3).astype(self.dtype)
-            local = np.einsum("pkd,pk->pd", x.reshape(-1, nz, 3), self._bz)
-            np.add(self._base, local, out=self._out)
-            return
-        local = self._cells.sum(_pad(offsets, self.dtype), self._buv, self._bw)
-        np.add(self._base, local, out=self._sorted)
-        self._refresh_all()
-
-    def _refresh_all(self) -> None:
-        """Bring the sorted deformed positions back to the points' order (one gather)."""
-        np.take(self._sorted, self._inverse, axis=0, out=self._out)
-
-    def _add_control_point(self, i: int, j: int, k: int, delta: NDArray[np.float64]) -> None:
-        if self.ffd.basis == "bernstein":
-            ny = self.ffd.lattice.shape[1]
-            w = self._bxy[:, i * ny + j] * self._bz[:, k]
-            self._out += w[:, None].astype(np.float64) * delta
-            return
-        cells = self._cells
-        rel = np.array([i, j, k]) - cells.run_first  # (i, j, k) inside each cell's 4x4x4 support
-        hit = np.flatnonzero(np.all((rel >= 0) & (rel <= 3), axis=1))
-        spans = cells.runs[hit]
-        n_hit = int((spans[:, 1] - spans[:, 0]).sum())
-        # many points: add in sorted order (contiguous) and gather once; few: touch only those rows
-        gather_all = n_hit > len(self.points) // 4
-        for r, (s, e) in zip(hit, spans, strict=True):
-            l, m, n = rel[r]
-            w = np.multiply(self._buv[s:e, l * 4 + m], self._bw[s:e, n], dtype=np.float64)
-            # rank-one update sorted += w delta^T in place (BLAS dger on the F-ordered transpose)
-            dger(1.0, delta, w, a=self._sorted[s:e].T, overwrite_a=1)
-            if not gather_all:
-                self._out[cells.order[s:e]] += w[:, None] * delta
-        if gather_all:
-            self._refresh_all()

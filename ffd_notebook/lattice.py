@@ -13,6 +13,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from .basis import check_border
+
 __all__ = ["Lattice"]
 
 
@@ -57,6 +59,12 @@ class Lattice:
         (identity by default; a reflection, determinant -1, is allowed).
     offsets : array_like, optional
         Initial ``(nx, ny, nz, 3)`` displacements; zeros by default.
+    border : {"zero", "clamp"}
+        What the B-spline FFD assumes beyond the lattice (:data:`~ffd_notebook.basis.BORDERS`):
+        ``"zero"`` (the FFD report's formula, SimpleITK's) or ``"clamp"`` (copies of the border
+        control points, Blender's lattice). It belongs to the lattice because it decides where
+        a lattice must sit around a mesh (:meth:`around`); :class:`~ffd_notebook.FFD` follows it
+        unless told otherwise, and .ffd files record it.
 
     Attributes
     ----------
@@ -83,6 +91,7 @@ class Lattice:
         origin: ArrayLike = (0.0, 0.0, 0.0),
         rotation: ArrayLike | None = None,
         offsets: ArrayLike | None = None,
+        border: str = "zero",
     ) -> None:
         shape_arr = np.asarray(shape)
         if shape_arr.shape != (3,) or not np.all(shape_arr == np.round(shape_arr)) or np.any(shape_arr < 2):
@@ -100,7 +109,17 @@ class Lattice:
         self.offsets: NDArray[np.float64] = np.zeros(self.shape + (3,))
         if offsets is not None:
             self.set_offsets(offsets)
+        self.border = border
         self.metadata: dict[str, Any] = {}
+
+    @property
+    def border(self) -> str:
+        """``"zero"`` or ``"clamp"``: what the B-spline FFD assumes beyond the lattice."""
+        return self._border
+
+    @border.setter
+    def border(self, value: str) -> None:
+        self._border = check_border(value)
 
     # ------------------------------------------------------------------ construction
     @classmethod
@@ -108,8 +127,9 @@ class Lattice:
         cls,
         points_or_mesh: Any,
         shape: tuple[int, int, int] | int = (5, 5, 5),
-        margin: float = 0.05,
+        margin: float | None = None,
         basis: str = "bspline",
+        border: str = "zero",
     ) -> Lattice:
         """Fit an axis-aligned lattice around a point set or mesh.
 
@@ -119,13 +139,20 @@ class Lattice:
             ``(N, 3)`` points, or anything with a ``points`` attribute (a PyVista mesh).
         shape : tuple of int or int
             Control points per axis, counting every control point of the lattice. For the
-            B-spline basis the outer ring of control points lies one spacing outside the fitted
-            box: the box spans ``shape - 3`` cells, so each count must be at least 4. For the
-            Bernstein basis the lattice spans the box exactly (at least 2 per axis).
-        margin : float
-            Extra room around the points, as a fraction of the largest bounding-box extent.
+            B-spline basis with ``border="zero"`` the outer ring of control points lies one
+            spacing outside the fitted box: the box spans ``shape - 3`` cells, so each count must
+            be at least 4. Otherwise (Bernstein, or ``border="clamp"``) the lattice spans the
+            box exactly (at least 2 per axis; the B-spline FFD needs 4 with ``"zero"``).
+        margin : float, optional
+            Extra room on each side of the points' bounding box. With ``border="zero"``: a
+            fraction of the largest extent, 0.05 by default. With ``"clamp"``: a fraction of
+            each axis's own extent, 0.01 by default, so the box is at most ``2 * margin`` larger
+            than the points' box on every axis (the lattice hugs the mesh).
         basis : {"bspline", "bernstein"}
             Which FFD basis the lattice is meant for (it decides where the points sit).
+        border : {"zero", "clamp"}
+            The border rule of the B-spline FFD the lattice is meant for; the lattice keeps it
+            (:attr:`border`). The Bernstein basis has no border: it only changes the margin.
 
         Returns
         -------
@@ -140,6 +167,9 @@ class Lattice:
         >>> lat = Lattice.around(pts, shape=(5, 4, 4), margin=0.0)
         >>> lat.spacing.tolist(), lat.origin.tolist()
         ([1.0, 1.0, 1.0], [-1.0, -1.0, -1.0])
+        >>> hug = Lattice.around(pts, shape=(5, 3, 3), margin=0.0, border="clamp")
+        >>> hug.spacing.tolist(), hug.origin.tolist(), hug.border
+        ([0.5, 0.5, 0.5], [0.0, 0.0, 0.0], 'clamp')
         """
         pts = _as_points(points_or_mesh)
         shape_t = (int(shape),) * 3 if np.isscalar(shape) else tuple(int(s) for s in shape)  # type: ignore[arg-type]
@@ -147,6 +177,7 @@ class Lattice:
             raise ValueError(f"shape must be an int or three ints, got {shape!r}")
         if basis not in ("bspline", "bernstein"):
             raise ValueError(f"basis must be 'bspline' or 'bernstein', got {basis!r}")
+        check_border(border)
         lo, hi = pts.min(axis=0), pts.max(axis=0)
         extent = hi - lo
         largest = float(extent.max())
@@ -154,21 +185,24 @@ class Lattice:
             largest = 1.0
         # a flat axis (a planar mesh) still needs a cell of non-zero size
         extent = np.maximum(extent, 1e-3 * largest)
-        pad = margin * largest
+        if border == "clamp":
+            pad = (0.01 if margin is None else margin) * extent
+        else:
+            pad = (0.05 if margin is None else margin) * largest
         lo = lo - pad
         extent = extent + 2 * pad
         counts = np.asarray(shape_t)
-        if basis == "bspline":
+        if basis == "bspline" and border == "zero":
             if np.any(counts < 4):
                 raise ValueError(f"a cubic B-spline lattice needs at least 4 control points per axis, got {shape_t}")
             spacing = extent / (counts - 3)
             origin = lo - spacing
         else:
             if np.any(counts < 2):
-                raise ValueError(f"a Bernstein lattice needs at least 2 control points per axis, got {shape_t}")
+                raise ValueError(f"a lattice spanning the box needs at least 2 control points per axis, got {shape_t}")
             spacing = extent / (counts - 1)
             origin = lo
-        return cls(shape_t, spacing, origin)
+        return cls(shape_t, spacing, origin, border=border)
 
     def copy(self) -> Lattice:
         """Return an independent copy (offsets and metadata included).
@@ -180,7 +214,7 @@ class Lattice:
         >>> float(a.offsets.sum())
         0.0
         """
-        out = Lattice(self.shape, self.spacing, self.origin, self.rotation, self.offsets)
+        out = Lattice(self.shape, self.spacing, self.origin, self.rotation, self.offsets, self.border)
         out.metadata = {k: (v.copy() if hasattr(v, "copy") else v) for k, v in self.metadata.items()}
         return out
 
@@ -270,6 +304,7 @@ class Lattice:
             and np.array_equal(self.origin, other.origin)
             and np.array_equal(self.rotation, other.rotation)
             and np.array_equal(self.offsets, other.offsets)
+            and self.border == other.border
         )
 
     __hash__ = None  # type: ignore[assignment]  # mutable
@@ -279,5 +314,5 @@ class Lattice:
         return (
             f"Lattice(shape={self.shape}, spacing={self.spacing.tolist()}, origin={self.origin.tolist()}, "
             f"rotation={'identity' if np.array_equal(self.rotation, np.eye(3)) else self.rotation.tolist()}, "
-            f"moved={moved}/{self.n_points})"
+            f"moved={moved}/{self.n_points}{'' if self.border == 'zero' else f', border={self.border!r}'})"
         )

@@ -26,12 +26,13 @@ def report_basis(l: int, t: float) -> float:
     return t**3 / 6
 
 
-def deform_loop(points, offsets, spacing, origin, rotation=None, affine=None):
+def deform_loop(points, offsets, spacing, origin, rotation=None, affine=None, border="zero"):
     """``affine(x) + T_local(x)`` for each point, the report's formula as written.
 
     For each point: its lattice coordinates, ``i = floor(u) - 1`` (likewise j, k), then
     ``T_local = sum_lmn B_l(u - floor u) B_m(v - floor v) B_n(w - floor w) offsets[i+l, j+m, k+n]``
-    with control points outside the lattice contributing nothing.
+    with control points outside the lattice contributing nothing (``border="zero"``) or, with
+    ``border="clamp"``, read at the index clamped into the lattice (Blender's lattice loop).
     """
     rotation = np.eye(3) if rotation is None else np.asarray(rotation)
     affine = np.eye(4) if affine is None else np.asarray(affine)
@@ -45,9 +46,12 @@ def deform_loop(points, offsets, spacing, origin, rotation=None, affine=None):
         for l in range(4):
             for m in range(4):
                 for n in range(4):
-                    if 0 <= i + l < nx and 0 <= j + m < ny and 0 <= k + n < nz:
+                    a, b, c = i + l, j + m, k + n
+                    if border == "clamp":
+                        a, b, c = min(max(a, 0), nx - 1), min(max(b, 0), ny - 1), min(max(c, 0), nz - 1)
+                    if 0 <= a < nx and 0 <= b < ny and 0 <= c < nz:
                         weight = report_basis(l, tu) * report_basis(m, tv) * report_basis(n, tw)
-                        d += weight * offsets[i + l, j + m, k + n]
+                        d += weight * offsets[a, b, c]
         out[p] = affine[:3, :3] @ x + affine[:3, 3] + d
     return out
 

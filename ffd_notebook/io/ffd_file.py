@@ -13,6 +13,11 @@ case. :func:`load_ffd` keeps what a :class:`~ffd_notebook.Lattice` has no field 
 ``metadata["ffd_extra_sections"]``
     Sections this reader does not know, in file order: dicts with the ``header`` text, the raw
     ``lines`` and ``after``, the known section they followed (so a save puts them back there).
+
+This package adds one section, written last and only for a lattice whose
+:attr:`~ffd_notebook.Lattice.border` is not the format's own rule: ``#border#`` holding the word
+``clamp`` (control points beyond the lattice are copies of the border ones). A file without it
+means ``zero``, the FFD platform's formula.
 """
 
 from __future__ import annotations
@@ -24,6 +29,7 @@ from typing import Any
 
 import numpy as np
 
+from ..basis import BORDERS
 from ..errors import FileFormatError
 from ..lattice import Lattice
 from ._atomic import atomic_open
@@ -40,6 +46,7 @@ _HEADERS = {
     "control grid spacing": "control grid spacing",
     "offsets": "offsets of the control points",
     "quaternion": "quaternion qf,qb,qc,qd,qx,qy,qz",
+    "border": "border",
 }
 _QUATERNION_FIELDS = ("qf", "qb", "qc", "qd", "qx", "qy", "qz")
 
@@ -250,7 +257,8 @@ def load_ffd(path: str | os.PathLike[str]) -> Lattice:
     one_to_one = None
     if "one to one" in known:
         (one_to_one,) = _numbers(path, known["one to one"], ("the one-to-one flag",), parse_int)
-    lattice = Lattice(shape, spacing, origin=origin, rotation=rotation, offsets=offsets)
+    border = _parse_border(path, known["border"]) if "border" in known else "zero"
+    lattice = Lattice(shape, spacing, origin=origin, rotation=rotation, offsets=offsets, border=border)
     _check_finite(path, lattice, spacing_sec, known["offsets"])
     lattice.metadata.update(placement=placement, one_to_one=one_to_one, ffd_extra_sections=_extra_sections(sections))
     return lattice
@@ -271,6 +279,14 @@ def _check_finite(path, lattice: Lattice, spacing_sec: _Section, offsets_sec: _S
         index = tuple(int(i) for i in bad[0])
         raise FileFormatError(path, offsets_sec.line, f"control point {index} plus its offset is beyond the range "
                               "of floating-point numbers")  # fmt: skip
+
+
+def _parse_border(path, section: _Section) -> str:
+    words = [tok.lower() for _, tok in _tokens(section)]
+    if len(words) != 1 or words[0] not in BORDERS:
+        raise FileFormatError(path, _last_line(section), f"section #{section.header}# must hold one word, "
+                              f"'zero' or 'clamp', got {' '.join(words)[:40]!r}")  # fmt: skip
+    return words[0]
 
 
 def _placement_pose(placement: dict[str, float]) -> tuple[np.ndarray, np.ndarray]:
@@ -305,6 +321,8 @@ def _section_lines(lattice: Lattice, key: str, placement: bool) -> Iterable[str]
         return _offset_lines(lattice.offsets)
     if key == "quaternion" and placement:
         return ["\t".join(repr(v) for v in _placement_values(lattice).values())]
+    if key == "border" and lattice.border != "zero":
+        return [lattice.border]
     return None
 
 

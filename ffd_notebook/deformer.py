@@ -1,0 +1,255 @@
+"""An FFD bound to one point set: cached weights, full and incremental updates (the drag path).
+
+Split from :mod:`ffd_notebook.deform`, whose cell grouping and padding it reuses.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from scipy.linalg.blas import dger
+
+from .basis import bspline
+from .deform import _bspline_lattice_jacobian, _CellGroups, _det3, _outer
+from .lattice import _as_points
+
+if TYPE_CHECKING:
+    from .deform import FFD
+
+__all__ = ["Deformer"]
+
+
+class Deformer:
+    """An FFD bound to one point set, for fast repeated evaluation (the editor's drag path).
+
+    What does not change while offsets are edited is computed once: each point's lattice cell
+    and its basis values. Points are grouped by cell, so a full update is one small matrix
+    product per cell; an update for a few changed control points touches only the cells they
+    influence and adds ``weight * (new offset - old offset)``.
+
+    Parameters
+    ----------
+    ffd : FFD
+        The deformation; its lattice's offsets and affine are read at each update.
+    points : array_like
+        ``(N, 3)`` rest positions.
+    dtype : numpy dtype
+        Precision of the cached weights: ``float32`` (default, 84 bytes a point for the
+        B-spline basis, about 1e-7 relative error) or ``float64`` (exact to rounding).
+
+    Notes
+    -----
+    :meth:`update` returns an internal buffer that the next update overwrites: copy it if you
+    need to keep it. Changing the affine part, the lattice's shape or placement needs a new
+    deformer (:meth:`update` checks and rebinds automatically when they change).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from ffd_notebook import Lattice, FFD
+    >>> pts = np.random.default_rng(0).random((1000, 3))
+    >>> lat = Lattice.around(pts, shape=(6, 6, 6))
+    >>> ffd = FFD(lat)
+    >>> deformer = ffd.bind(pts)
+    >>> lat.offsets[2, 3, 2] = (0.1, 0.0, 0.0)
+    >>> fast = deformer.update(changed=[(2, 3, 2)])
+    >>> bool(np.allclose(fast, ffd.deform(pts), atol=1e-6))
+    True
+    """
+
+    def __init__(self, ffd: FFD, points: ArrayLike, dtype: Any = np.float32) -> None:
+        self.ffd = ffd
+        self.points = _as_points(points)
+        self.dtype = np.dtype(dtype)
+        if self.dtype not in (np.float32, np.float64):
+            raise ValueError(f"dtype must be float32 or float64, got {self.dtype}")
+        self._bind()
+
+    # ------------------------------------------------------------------ set-up
+    def _geometry_key(self) -> tuple:
+        lat = self.ffd.lattice
+        geometry = (lat.shape, lat.spacing.tobytes(), lat.origin.tobytes(), lat.rotation.tobytes())
+        return (self.ffd.basis, self.ffd.border, *geometry)
+
+    def _bind(self) -> None:
+        lat, n = self.ffd.lattice, len(self.points)
+        self._key = self._geometry_key()
+        self._affine = self.ffd.affine.copy()
+        uvw = lat.to_lattice(self.points)
+        self._cells = None
+        if self.ffd.basis == "bspline":
+            cells = _CellGroups(uvw, lat.shape, self.ffd.border)
+            bu, bv, bw = (bspline(cells.t[:, a]) for a in range(3))
+            self._buv = _outer(bu, bv).astype(self.dtype)
+            self._bw = cells.masked(bw).astype(self.dtype)
+            cells.t = None  # not needed after the weights: keep the cache small
+            self._cells = cells
+            # inverse permutation: original point p sits at sorted position inverse[p]
+            self._inverse = np.empty_like(cells.order)
+            self._inverse[cells.order] = np.arange(n, dtype=cells.order.dtype)
+            # deformed positions in sorted order: affine image + displacement, brought back to the
+            # points' order by one gather (np.take) per update
+            self._sorted = np.zeros((n, 3))
+        else:
+            bx, by, bz = self.ffd._bernstein_values(uvw)
+            nx, ny, _ = lat.shape
+            self._bxy = (bx[:, :, None] * by[:, None, :]).reshape(n, nx * ny).astype(self.dtype)
+            self._bz = bz.astype(self.dtype)
+        self._base = np.asarray(self.ffd.apply_affine(self.points), dtype=np.float64)
+        if self._cells is not None:
+            self._base = self._base[self._cells.order]  # only ever used in sorted order
+        self._out = np.empty((n, 3), dtype=np.float64)
+        self._last_offsets = lat.offsets.copy()
+        self._full()
+
+    @property
+    def cache_bytes(self) -> int:
+        """Bytes of weights and indices held for fast updates.
+
+        Not counted: the rest points, the affine image of the points and the working and
+        output buffers (three ``(N, 3)`` float64 arrays any evaluation needs).
+        """
+        arrays = [getattr(self, k) for k in ("_buv", "_bw", "_inverse", "_bxy", "_bz") if hasattr(self, k)]
+        if self._cells is not None:
+            arrays += [self._cells.order, self._cells.inside, self._cells.runs, self._cells.run_first]
+        return int(sum(a.nbytes for a in arrays))
+
+    # ------------------------------------------------------------------ updates
+    def update(self, changed: Any = None) -> NDArray[np.float64]:
+        """Deformed points for the lattice's current offsets, ``(N, 3)`` float64.
+
+        Parameters
+        ----------
+        changed : sequence of (i, j, k), optional
+            Control points whose offsets changed since the last update; only the points they
+            influence are recomputed. ``None`` recomputes everything.
+
+        Returns
+        -------
+        numpy.ndarray
+            The deformer's output buffer (overwritten by the next call).
+        """
+        if self._geometry_key() != self._key or not np.array_equal(self.ffd.affine, self._affine):
+            self._bind()
+            return self._out
+        if changed is None:
+            self._full()
+            return self._out
+        ijk = np.asarray(changed, dtype=np.int64).reshape(-1, 3)
+        if np.any(ijk < 0) or np.any(ijk >= np.array(self.ffd.lattice.shape)):
+            raise IndexError(f"control point index out of range for lattice {self.ffd.lattice.shape}: {changed!r}")
+        offsets = self.ffd.lattice.offsets
+        ijk = np.unique(ijk, axis=0)
+        index = tuple(ijk.T)
+        moved = [tuple(c) for c in ijk[np.any(offsets[index] != self._last_offsets[index], axis=1)].tolist()]
+        if self._cells is None:  # Bernstein
+            for i, j, k in moved:
+                self._add_bernstein(i, j, k, offsets[i, j, k] - self._last_offsets[i, j, k])
+                self._last_offsets[i, j, k] = offsets[i, j, k]
+            return self._out
+        plans, n_hit = [], 0
+        for c in moved:
+            plans.append(self._runs_moved_by(c))
+            n_hit += int(np.diff(self._cells.runs[plans[-1][0]], axis=1).sum())
+            if n_hit > len(self.points):  # e.g. a fit_points step moving 64 control points: one full pass is cheaper
+                self._full()
+                return self._out
+        # many points: add in sorted order (contiguous) and gather once; few: touch only those rows
+        gather_all = n_hit > len(self.points) // 4
+        for (i, j, k), plan in zip(moved, plans, strict=True):
+            self._add_control_point(plan, offsets[i, j, k] - self._last_offsets[i, j, k], gather_all)
+            self._last_offsets[i, j, k] = offsets[i, j, k]
+        if gather_all:
+            self._refresh_all()
+        return self._out
+
+    def jacobian_determinant(self) -> NDArray[np.float64]:
+        """``det dT/dx`` at the bound points for the current offsets (``<= 0`` where it folds).
+
+        The same values as :meth:`FFD.jacobian_determinant` on the bound points, reusing the
+        cached grouping of points by cell (the editor's folding view calls it on every drag).
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from ffd_notebook import Lattice, FFD
+        >>> pts = np.random.default_rng(0).random((500, 3))
+        >>> lat = Lattice.around(pts, shape=5)
+        >>> lat.offsets[2, :, :, 0] -= 2.5 * lat.spacing[0]
+        >>> ffd = FFD(lat)
+        >>> bool(np.allclose(ffd.bind(pts).jacobian_determinant(), ffd.jacobian_determinant(pts)))
+        True
+        """
+        if self._geometry_key() != self._key or not np.array_equal(self.ffd.affine, self._affine):
+            self._bind()
+        if self._cells is None:  # Bernstein: every control point reaches every point
+            return self.ffd.jacobian_determinant(self.points)
+        uvw = self.ffd.lattice.to_lattice(self.points)[self._cells.order]
+        d_uvw = _bspline_lattice_jacobian(self._cells, self.ffd.lattice.offsets, uvw - np.floor(uvw))
+        return _det3(self.ffd._chain(d_uvw))[self._inverse]
+
+    def _full(self) -> None:
+        offsets = self.ffd.lattice.offsets
+        self._last_offsets[...] = offsets
+        if self.ffd.basis == "bernstein":
+            nx, ny, nz = self.ffd.lattice.shape
+            x = self._bxy @ offsets.reshape(nx * ny, nz * 3).astype(self.dtype)
+            local = np.einsum("pkd,pk->pd", x.reshape(-1, nz, 3), self._bz)
+            np.add(self._base, local, out=self._out)
+            return
+        local = self._cells.sum(self._cells.pad(offsets, self.dtype), self._buv, self._bw)
+        np.add(self._base, local, out=self._sorted)
+        self._refresh_all()
+
+    def _refresh_all(self) -> None:
+        """Bring the sorted deformed positions back to the points' order (one gather)."""
+        np.take(self._sorted, self._inverse, axis=0, out=self._out)
+
+    def _add_bernstein(self, i: int, j: int, k: int, delta: NDArray[np.float64]) -> None:
+        w = self._bxy[:, i * self.ffd.lattice.shape[1] + j] * self._bz[:, k]
+        self._out += w[:, None].astype(np.float64) * delta
+
+    def _runs_moved_by(
+        self, ijk: tuple[int, int, int]
+    ) -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.int64]]:
+        """The runs (cells) a control point moves, and the support slots ``lo..hi`` it fills in each."""
+        cells = self._cells
+        lo, hi = _support_slots(np.array(ijk), cells.run_first, self.ffd.lattice.shape, cells.border)
+        hit = np.flatnonzero(np.all(lo <= hi, axis=1))
+        return hit, lo[hit], hi[hit]
+
+    def _add_control_point(self, plan: tuple, delta: NDArray[np.float64], sorted_only: bool) -> None:
+        """Add one control point's ``weight * delta`` to the runs of ``plan`` (see :meth:`_runs_moved_by`)."""
+        hit, lo, hi = plan
+        for (s, e), l, h in zip(self._cells.runs[hit], lo, hi, strict=True):
+            w = self._weight(s, e, l, h)
+            # rank-one update sorted += w delta^T in place (BLAS dger on the F-ordered transpose)
+            dger(1.0, delta, w, a=self._sorted[s:e].T, overwrite_a=1)
+            if not sorted_only:
+                self._out[self._cells.order[s:e]] += w[:, None] * delta
+
+    def _weight(self, s: int, e: int, lo: NDArray[np.int64], hi: NDArray[np.int64]) -> NDArray[np.float64]:
+        """Weight of one control point on sorted points ``s:e`` that fills support slots ``lo..hi``."""
+        (l0, m0, n0), (l1, m1, n1) = lo, hi
+        if l0 == l1 and m0 == m1 and n0 == n1:  # one slot (always, with the "zero" border)
+            return np.multiply(self._buv[s:e, l0 * 4 + m0], self._bw[s:e, n0], dtype=np.float64)
+        # clamp: the control point stands in for the out-of-lattice slots too; add their weights
+        buv = self._buv[s:e].reshape(-1, 4, 4)[:, l0 : l1 + 1, m0 : m1 + 1].sum(axis=(1, 2), dtype=np.float64)
+        return buv * self._bw[s:e, n0 : n1 + 1].sum(axis=1, dtype=np.float64)
+
+
+def _support_slots(ijk: NDArray[np.int64], first: NDArray[np.int64], shape: tuple[int, int, int], border: str):
+    """Slots ``lo..hi`` (per axis, in 0..3) that control point ``ijk`` fills in supports starting at ``first``.
+
+    With "zero" a control point fills one slot, ``ijk - first``; with "clamp" a border control
+    point also fills every slot beyond the lattice on its side. Empty where ``lo > hi``.
+    """
+    rel = ijk - first
+    lo, hi = rel.copy(), rel.copy()
+    if border == "clamp":
+        dims = np.asarray(shape)
+        lo[:, ijk == 0] = 0
+        hi[:, ijk == dims - 1] = 3
+    return np.maximum(lo, 0), np.minimum(hi, 3)
