@@ -28,17 +28,9 @@ Examples
 
 from __future__ import annotations
 
+from .combine import DiagonalKernel, MirroredKernel, ProductKernel, ScaledKernel, SumKernel
 from .fields import ArrowField, arrow_field, grid_points, sample_jointly
-from .kernels import (
-    BSplineKernel,
-    DiagonalKernel,
-    ExponentialKernel,
-    GaussianKernel,
-    Kernel,
-    ScaledKernel,
-    SumKernel,
-    bspline_weights,
-)
+from .kernels import BSplineKernel, ExponentialKernel, GaussianKernel, Kernel, bspline_weights
 from .linalg import cholesky
 from .lowrank import LowRankGP
 from .process import GaussianProcess, PosteriorKernel
@@ -52,7 +44,9 @@ __all__ = [
     "GaussianProcess",
     "Kernel",
     "LowRankGP",
+    "MirroredKernel",
     "PosteriorKernel",
+    "ProductKernel",
     "ScaledKernel",
     "SumKernel",
     "arrow_field",
