@@ -34,6 +34,7 @@ from .kernels import BSplineKernel, ExponentialKernel, GaussianKernel, Kernel, b
 from .linalg import cholesky
 from .lowrank import LowRankGP
 from .process import GaussianProcess, PosteriorKernel
+from .statismo import load_model, save_model
 
 __all__ = [
     "ArrowField",
@@ -53,5 +54,7 @@ __all__ = [
     "bspline_weights",
     "cholesky",
     "grid_points",
+    "load_model",
     "sample_jointly",
+    "save_model",
 ]
