@@ -6,10 +6,15 @@ on a few observed landmark displacements to get the posterior deformation and it
 NumPy/SciPy only (the pictures live in :mod:`ffd_notebook.view.gp_view`).
 
 - :mod:`~ffd_notebook.gp.kernels`: Gaussian, exponential and cubic B-spline kernels, anisotropic
-  and per-component versions, sums and scalings.
-- :mod:`~ffd_notebook.gp.process`: :class:`GaussianProcess` with exact Cholesky inference.
+  and per-component versions; :mod:`~ffd_notebook.gp.combine`: sums, products, scalings, a
+  kernel per axis and the mirrored (left-right symmetric) kernel.
+- :mod:`~ffd_notebook.gp.process`: :class:`GaussianProcess` with exact Cholesky inference, noise
+  per landmark (variances or 3x3 covariances) and the log marginal likelihood.
 - :mod:`~ffd_notebook.gp.lowrank`: :class:`LowRankGP`, Nystrom or pivoted-Cholesky eigenbases on
-  a mesh's vertices, for meshes with tens of thousands of points.
+  a mesh's vertices, statistical shape models from examples (PCA) and augmented models, with
+  ``logpdf``; :mod:`~ffd_notebook.gp.metrics`: compactness, generalization, specificity.
+- :mod:`~ffd_notebook.gp.statismo`: Statismo/Scalismo HDF5 files (:func:`load_model`,
+  :func:`save_model`).
 - :mod:`~ffd_notebook.gp.fields`: displacement fields on regular grids for arrow display.
 
 Examples
@@ -28,20 +33,14 @@ Examples
 
 from __future__ import annotations
 
+from .combine import DiagonalKernel, MirroredKernel, ProductKernel, ScaledKernel, SumKernel
 from .fields import ArrowField, arrow_field, grid_points, sample_jointly
-from .kernels import (
-    BSplineKernel,
-    DiagonalKernel,
-    ExponentialKernel,
-    GaussianKernel,
-    Kernel,
-    ScaledKernel,
-    SumKernel,
-    bspline_weights,
-)
+from .kernels import BSplineKernel, ExponentialKernel, GaussianKernel, Kernel, bspline_weights
 from .linalg import cholesky
 from .lowrank import LowRankGP
+from .metrics import compactness, generalization, specificity
 from .process import GaussianProcess, PosteriorKernel
+from .statismo import load_model, save_model
 
 __all__ = [
     "ArrowField",
@@ -52,12 +51,19 @@ __all__ = [
     "GaussianProcess",
     "Kernel",
     "LowRankGP",
+    "MirroredKernel",
     "PosteriorKernel",
+    "ProductKernel",
     "ScaledKernel",
     "SumKernel",
     "arrow_field",
     "bspline_weights",
     "cholesky",
+    "compactness",
+    "generalization",
     "grid_points",
+    "load_model",
     "sample_jointly",
+    "save_model",
+    "specificity",
 ]

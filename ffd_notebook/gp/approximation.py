@@ -80,16 +80,26 @@ def nystrom_basis(
 
 
 def pivoted_cholesky_basis(
-    kernel: Kernel, c: int, points: NDArray[np.float64], tolerance: float, max_rank: int, progress: bool
+    kernel: Kernel,
+    c: int,
+    points: NDArray[np.float64],
+    tolerance: float,
+    max_rank: int,
+    progress: bool,
+    absolute_tolerance: float = 0.0,
 ) -> ScalarBasis:
-    """Pivoted-Cholesky basis of kernel component ``c``, stopped at ``trace(residual) <= tolerance * trace(K)``."""
+    """Pivoted-Cholesky basis of kernel component ``c``.
+
+    Stops at ``max_rank`` pivots or when ``trace(residual)`` is at most ``tolerance * trace(K)``
+    or at most ``absolute_tolerance``.
+    """
     residual = kernel.diagonal(points)[c].copy()
-    total = residual.sum()
+    stop = max(tolerance * residual.sum(), absolute_tolerance)
     factor = np.zeros((max_rank, len(points)))  # row k is column k of L: contiguous updates
     pivots = []
     bar = tqdm(total=max_rank, desc="pivoted Cholesky", disable=not progress, leave=False)
     for k in range(max_rank):
-        if residual.sum() <= tolerance * total:
+        if residual.sum() <= stop:
             break
         p = int(np.argmax(residual))
         col = kernel.components(points, points[p : p + 1])[c][:, 0] - factor[:k, p] @ factor[:k]

@@ -36,12 +36,9 @@ from .linalg import as_generator, cholesky
 
 __all__ = [
     "BSplineKernel",
-    "DiagonalKernel",
     "ExponentialKernel",
     "GaussianKernel",
     "Kernel",
-    "ScaledKernel",
-    "SumKernel",
     "as_points",
     "bspline_weights",
 ]
@@ -71,12 +68,17 @@ class Kernel(ABC):
     """A diagonal matrix-valued positive-definite kernel on R^3.
 
     Subclasses implement :meth:`components` (and :meth:`diagonal` when it has a cheap form).
-    Kernels add (``k1 + k2``) and scale by a positive number or a per-component 3-vector
-    (``2.0 * k``, ``[1, 1, 0.1] * k``).
+    Kernels add (``k1 + k2``), multiply (``k1 * k2``) and scale by a positive number or a
+    per-component 3-vector (``2.0 * k``, ``[1, 1, 0.1] * k``); see :mod:`~ffd_notebook.gp.combine`.
+
+    A few kernels are not diagonal (a posterior after noise with 3x3 covariances): they set
+    :attr:`is_diagonal` to False, override :meth:`__call__` and have no :meth:`components`.
     """
 
     #: 1 if the same scalar kernel drives all three output components (``k_s I3``), else 3.
     n_components: int = 1
+    #: False for kernels whose 3x3 blocks have off-diagonal entries.
+    is_diagonal: bool = True
 
     @abstractmethod
     def components(self, x: ArrayLike, y: ArrayLike) -> NDArray[np.float64]:
@@ -135,14 +137,16 @@ class Kernel(ABC):
         return blocks.transpose(0, 2, 1, 3).reshape(3 * n, 3 * m)
 
     def __add__(self, other: Kernel) -> Kernel:
+        from .combine import SumKernel  # combine.py builds on this module
+
         if not isinstance(other, Kernel):
             return NotImplemented
         return SumKernel(self, other)
 
-    def __mul__(self, factor: ArrayLike) -> Kernel:
-        if isinstance(factor, Kernel):
-            return NotImplemented
-        return ScaledKernel(self, factor)
+    def __mul__(self, other: ArrayLike | Kernel) -> Kernel:
+        from .combine import ProductKernel, ScaledKernel
+
+        return ProductKernel(self, other) if isinstance(other, Kernel) else ScaledKernel(self, other)
 
     __rmul__ = __mul__
 
@@ -315,66 +319,3 @@ class BSplineKernel(Kernel):
 
     def __repr__(self) -> str:
         return f"BSplineKernel({self.lattice!r}, scale={self.scale.tolist()})"
-
-
-class SumKernel(Kernel):
-    """``k1 + k2``: the displacement is the sum of two independent processes."""
-
-    def __init__(self, first: Kernel, second: Kernel) -> None:
-        self.terms = (first, second)
-        self.n_components = max(first.n_components, second.n_components)
-
-    def components(self, x: ArrayLike, y: ArrayLike) -> NDArray[np.float64]:
-        return self.terms[0].components(x, y) + self.terms[1].components(x, y)
-
-    def diagonal(self, x: ArrayLike) -> NDArray[np.float64]:
-        return self.terms[0].diagonal(x) + self.terms[1].diagonal(x)
-
-    def __repr__(self) -> str:
-        return f"({self.terms[0]!r} + {self.terms[1]!r})"
-
-
-class ScaledKernel(Kernel):
-    """``factor * k``: the covariance multiplied by a positive number or a per-component 3-vector."""
-
-    def __init__(self, kernel: Kernel, factor: ArrayLike) -> None:
-        self.kernel = kernel
-        self.factor = _per_axis(factor, "factor")
-        self.n_components = 3 if self.factor.ndim == 1 else kernel.n_components
-
-    def components(self, x: ArrayLike, y: ArrayLike) -> NDArray[np.float64]:
-        return self.kernel.components(x, y) * np.reshape(self.factor, (-1, 1, 1))
-
-    def diagonal(self, x: ArrayLike) -> NDArray[np.float64]:
-        return self.kernel.diagonal(x) * np.reshape(self.factor, (-1, 1))
-
-    def __repr__(self) -> str:
-        return f"{self.factor.tolist()} * {self.kernel!r}"
-
-
-class DiagonalKernel(Kernel):
-    """One isotropic kernel per output component: ``diag(k_x, k_y, k_z)``.
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> k = DiagonalKernel(GaussianKernel(1.0), GaussianKernel(1.0), ExponentialKernel(1.0))
-    >>> k.n_components, k(np.zeros((1, 3)), [[1.0, 0, 0]])[0, 0].diagonal().round(4).tolist()
-    (3, [0.3679, 0.3679, 0.3679])
-    """
-
-    def __init__(self, kx: Kernel, ky: Kernel, kz: Kernel) -> None:
-        for k in (kx, ky, kz):
-            if not isinstance(k, Kernel) or k.n_components != 1:
-                raise ValueError("DiagonalKernel needs three output-isotropic kernels (n_components == 1)")
-        self.kernels = (kx, ky, kz)
-        self.n_components = 3
-
-    def components(self, x: ArrayLike, y: ArrayLike) -> NDArray[np.float64]:
-        return np.concatenate([k.components(x, y) for k in self.kernels])
-
-    def diagonal(self, x: ArrayLike) -> NDArray[np.float64]:
-        return np.concatenate([k.diagonal(x) for k in self.kernels])
-
-    def __repr__(self) -> str:
-        return f"DiagonalKernel{self.kernels!r}"

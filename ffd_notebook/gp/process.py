@@ -23,113 +23,18 @@ Examples
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
 
 import numpy as np
-import scipy.linalg as sla
 from numpy.typing import ArrayLike, NDArray
 
 from .kernels import Kernel, as_points
-from .linalg import as_generator, cholesky
+from .linalg import as_generator
+from .noise import noise_variances
+from .posterior import PosteriorKernel, PosteriorMean
 
 __all__ = ["GaussianProcess", "PosteriorKernel", "noise_variances"]
 
 MeanFunction = Callable[[NDArray[np.float64]], NDArray[np.float64]]
-
-
-def noise_variances(noise: ArrayLike, n_landmarks: int) -> NDArray[np.float64]:
-    """Observation noise variances as an ``(L, 3)`` array.
-
-    ``noise`` is one variance for all, one per landmark ``(L,)``, or one per landmark and
-    component ``(L, 3)``.
-    """
-    arr = np.asarray(noise, dtype=np.float64)
-    if arr.ndim == 1 and arr.shape[0] == n_landmarks:
-        arr = arr[:, None]
-    try:
-        out = np.broadcast_to(arr, (n_landmarks, 3)).copy()
-    except ValueError:
-        raise ValueError(f"noise must be a variance, (L,) or (L, 3) variances for L={n_landmarks}") from None
-    if not np.all(np.isfinite(out)) or np.any(out < 0):
-        raise ValueError("noise variances must be finite and non-negative")
-    return out
-
-
-@dataclass(frozen=True)
-class _Group:
-    """Output components that share one kernel component and one noise column (one factorisation)."""
-
-    outputs: tuple[int, ...]  # displacement components 0..2 solved together
-    kernel_index: int  # which of the prior kernel's components
-    factor: NDArray[np.float64]  # lower Cholesky factor of K(X, X) + noise
-
-
-def _factor_groups(kernel: Kernel, landmarks: NDArray[np.float64], noise: NDArray[np.float64]) -> list[_Group]:
-    comps = kernel.components(landmarks, landmarks)
-    shared = kernel.n_components == 1 and np.all(noise == noise[:, :1])
-    if shared:
-        return [_Group((0, 1, 2), 0, cholesky(comps[0] + np.diag(noise[:, 0])))]
-    return [
-        _Group((a,), a if kernel.n_components == 3 else 0, cholesky(comps[a % len(comps)] + np.diag(noise[:, a])))
-        for a in range(3)
-    ]
-
-
-class PosteriorKernel(Kernel):
-    """``k(x, y) - k(x, X) (K(X, X) + noise)^-1 k(X, y)``: the covariance after observing at ``X``.
-
-    Built by :meth:`GaussianProcess.posterior`; it is a kernel like any other (a posterior can
-    be conditioned again).
-    """
-
-    def __init__(self, prior: Kernel, landmarks: ArrayLike, noise: ArrayLike = 0.0) -> None:
-        self.prior = prior
-        self.landmarks = as_points(landmarks, "landmarks")
-        self.noise = noise_variances(noise, len(self.landmarks))
-        self.groups = _factor_groups(prior, self.landmarks, self.noise)
-        self.n_components = len(self.groups)
-
-    def _whitened(self, x: NDArray[np.float64]) -> list[NDArray[np.float64]]:
-        """``L_g^-1 K(X, x)`` per group, each ``(L, N)``."""
-        kx = self.prior.components(self.landmarks, x)
-        return [sla.solve_triangular(g.factor, kx[g.kernel_index], lower=True, check_finite=False) for g in self.groups]
-
-    def components(self, x: ArrayLike, y: ArrayLike) -> NDArray[np.float64]:
-        x, y = as_points(x, "x"), as_points(y, "y")
-        prior = self.prior.components(x, y)
-        vx = self._whitened(x)
-        vy = vx if y is x else self._whitened(y)
-        return np.stack([prior[g.kernel_index] - a.T @ b for g, a, b in zip(self.groups, vx, vy, strict=True)])
-
-    def diagonal(self, x: ArrayLike) -> NDArray[np.float64]:
-        x = as_points(x)
-        prior = self.prior.diagonal(x)
-        out = [
-            prior[g.kernel_index] - np.einsum("ln,ln->n", v, v)
-            for g, v in zip(self.groups, self._whitened(x), strict=True)
-        ]
-        return np.maximum(np.stack(out), 0.0)
-
-    def __repr__(self) -> str:
-        return f"PosteriorKernel({self.prior!r}, {len(self.landmarks)} landmarks)"
-
-
-class _PosteriorMean:
-    """``m(x) + k(x, X) alpha`` with ``alpha = (K + noise)^-1 (y - m(X))`` per group."""
-
-    def __init__(self, process: GaussianProcess, kernel: PosteriorKernel, residual: NDArray[np.float64]) -> None:
-        self.prior_mean = process.mean
-        self.kernel = kernel
-        self.alpha = [
-            sla.cho_solve((g.factor, True), residual[:, g.outputs], check_finite=False) for g in kernel.groups
-        ]
-
-    def __call__(self, points: NDArray[np.float64]) -> NDArray[np.float64]:
-        out = self.prior_mean(points)
-        kx = self.kernel.prior.components(points, self.kernel.landmarks)
-        for g, alpha in zip(self.kernel.groups, self.alpha, strict=True):
-            out[:, g.outputs] += kx[g.kernel_index] @ alpha
-        return out
 
 
 class GaussianProcess:
@@ -201,9 +106,11 @@ class GaussianProcess:
             Points where the displacement was observed.
         displacements : (L, 3) array_like
             The observed displacements.
-        noise : float or (L,) or (L, 3) array_like
-            Observation noise variance (0: interpolate exactly, up to the jitter needed to
-            factorise a singular kernel matrix).
+        noise : float or (L,) or (L, 3) or (L, 3, 3) array_like
+            Observation noise: one variance, one per landmark, one per landmark and component,
+            or one 3x3 covariance per landmark (0: interpolate exactly, up to the jitter needed
+            to factorise a singular kernel matrix). Covariances with off-diagonal entries give a
+            non-diagonal posterior kernel.
 
         Returns
         -------
@@ -215,7 +122,32 @@ class GaussianProcess:
         if len(obs) != len(lms):
             raise ValueError(f"got {len(lms)} landmarks but {len(obs)} displacements")
         kernel = PosteriorKernel(self.kernel, lms, noise)
-        return GaussianProcess(kernel, _PosteriorMean(self, kernel, obs - self.mean(lms)))
+        return GaussianProcess(kernel, PosteriorMean(self.mean, kernel, obs - self.mean(lms)))
+
+    def log_marginal_likelihood(self, points: ArrayLike, displacements: ArrayLike, noise: ArrayLike = 0.0) -> float:
+        """``log p(displacements | points)``: the density of the observations under the process plus noise.
+
+        ``log N(y - m(X); 0, K(X, X) + noise)`` over the ``3L`` observed values; ``noise`` as in
+        :meth:`posterior`. With a kernel isotropic in the output and scalar or per-landmark
+        noise this is scikit-learn's ``GaussianProcessRegressor.log_marginal_likelihood`` with the
+        three components as independent target columns.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from ffd_notebook.gp import GaussianKernel
+        >>> gp = GaussianProcess(GaussianKernel(sigma=1.0))
+        >>> x = np.array([[0.0, 0.0, 0.0], [5.0, 0.0, 0.0]])      # far apart: independent
+        >>> y = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 0.0]])
+        >>> lml = gp.log_marginal_likelihood(x, y, noise=1.0)
+        >>> bool(np.isclose(lml, -0.5 * 1.0 / 2.0 - 3 * np.log(2.0) - 3 * np.log(2 * np.pi)))
+        True
+        """
+        lms = as_points(points, "points")
+        obs = as_points(displacements, "displacements")
+        if len(obs) != len(lms):
+            raise ValueError(f"got {len(lms)} points but {len(obs)} displacements")
+        return PosteriorKernel(self.kernel, lms, noise).log_likelihood(obs - self.mean(lms))
 
     def __repr__(self) -> str:
         return f"GaussianProcess({self.kernel!r}, mean={'zero' if self._mean is None else 'given'})"

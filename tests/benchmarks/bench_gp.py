@@ -2,7 +2,8 @@
 
 Run from the repository root (needs ../shared/data):
 
-    python tests/benchmarks/bench_gp.py
+    python tests/benchmarks/bench_gp.py           # everything
+    python tests/benchmarks/bench_gp.py models    # only the shape-model part (issue 13)
 
 Prints, in one run and as medians of several repeats (the machine is shared): building a
 rank-200 low-rank model (Nystrom, and pivoted Cholesky for comparison), drawing a sample, the
@@ -12,6 +13,11 @@ low-rank model's error against it; and the blog post's point-by-point kernel loo
 vectorised kernel as a second baseline. The posterior is timed twice: with OpenBLAS's default
 threads and with one (through threadpoolctl) because on a busy shared machine the threads of small
 products wait for each other; the load average is printed at the start and the end.
+
+Shape models (issue 13): a model built from 50 random deformations of the face (target <= 3 s; baseline
+NumPy's SVD of the 50 x 160k data matrix), the log density of an instance, the posterior from 20 landmarks
+each with its own 3x3 noise covariance (target <= 50 ms, with the mean at every vertex), and loading and
+saving Scalismo's model file (targets <= 200 ms; baseline reading its datasets with h5py alone).
 """
 
 from __future__ import annotations
@@ -19,16 +25,21 @@ from __future__ import annotations
 import math
 import os
 import statistics
+import sys
+import tempfile
 import time
 from pathlib import Path
 
+import h5py
 import numpy as np
 from threadpoolctl import threadpool_limits  # installed with scikit-learn (the test extra)
 
-from ffd_notebook.gp import GaussianKernel, GaussianProcess, LowRankGP
+from ffd_notebook import read_mesh
+from ffd_notebook.gp import GaussianKernel, GaussianProcess, LowRankGP, load_model, save_model
 
 HERE = Path(__file__).resolve().parent
 FACE = HERE.parents[2] / "shared" / "data" / "face" / "template.ply"
+SCALISMO = HERE.parents[2] / "shared" / "data" / "statismo" / "scalismo_asm_model.h5"
 
 
 def median_s(fn, repeat):
@@ -131,5 +142,64 @@ def main() -> None:
     assert np.allclose(blog_loop_kernel(grid[:10], grid[:10], sigma, scale), gp.kernel.matrix(grid[:10]))
 
 
+def random_covariances(rng, n, std):
+    """One random 3x3 noise covariance per landmark, standard deviations around ``std``."""
+    a = rng.normal(size=(n, 3, 3))
+    return std**2 * (a @ a.transpose(0, 2, 1) / 3 + 0.1 * np.eye(3))
+
+
+def shape_models() -> None:
+    mesh = read_mesh(FACE)
+    points = np.asarray(mesh.points, dtype=np.float64)
+    size = float(np.linalg.norm(points.max(0) - points.min(0)))
+    gp = GaussianProcess(GaussianKernel(sigma=0.2 * size, scale=0.02 * size))
+    print(f"\nshape models on the face ({len(points)} vertices), load average {os.getloadavg()[0]:.1f}")
+    truth = LowRankGP.nystrom(gp, points, n_inducing=300, rank=200, rng=0)
+    t0 = time.perf_counter()
+    shapes = points + truth.sample(50, rng=2)  # the package's own random deformations of the face
+    row("50 example shapes (samples of a rank-200 model)", time.perf_counter() - t0)
+
+    build_s = median_s(lambda: LowRankGP.from_examples(mesh, shapes), repeat=3)
+    model = LowRankGP.from_examples(mesh, shapes)
+    row("build a model from 50 examples (PCA, rank 49)", build_s, 3.0, f"rank {model.rank}")
+    data = (shapes - points).reshape(50, -1)
+    svd_s = median_s(lambda: np.linalg.svd(data - data.mean(0), full_matrices=False), repeat=3)
+    row("  baseline: NumPy SVD of the 50 x 160k data matrix", svd_s, None, f"(ratio {build_s / svd_s:.2f})")
+
+    rng = np.random.default_rng(3)
+    instance = model.instance(rng.normal(size=model.rank))
+    row("logpdf_of(instance) (projection, 53k x 3 values)", median_s(lambda: model.logpdf_of(instance), 20))
+    coef = model.coefficients(instance)
+    row("logpdf(coefficients)", median_s(lambda: model.logpdf(coef), 200))
+
+    ids = rng.choice(len(points), 20, replace=False)
+    landmarks, observed = points[ids], instance[ids]
+    covs = random_covariances(rng, 20, 0.001 * size)
+    for name, m in (("PCA model, rank 49", model), ("kernel model, rank 200", truth)):
+        s = median_s(lambda m=m: m.posterior(landmarks, observed, covs).mean(), repeat=50)
+        row(f"posterior + mean, 20 landmarks with 3x3 noise ({name})", s, 0.050)
+        with threadpool_limits(1):
+            s1 = median_s(lambda m=m: m.posterior(landmarks, observed, covs).mean(), repeat=50)
+        row("  the same with one BLAS thread", s1, 0.050)
+    diag_s = median_s(lambda: truth.posterior(landmarks, observed, (0.001 * size) ** 2).mean(), repeat=50)
+    row("  baseline: the same with a scalar noise variance (rank 200)", diag_s)
+
+    def read_raw():
+        with h5py.File(SCALISMO, "r") as f:
+            return [f[k][()] for k in ("model/mean", "model/pcaBasis", "model/pcaVariance", "representer/points")]
+
+    row("load Scalismo's model file (1,400 points, 50 modes)", median_s(lambda: load_model(SCALISMO), 20), 0.200)
+    row("  baseline: read its datasets with h5py", median_s(read_raw, 20))
+    scalismo = load_model(SCALISMO)
+    with tempfile.TemporaryDirectory() as tmp:
+        out = Path(tmp) / "model.h5"
+        row("save it (atomic: temporary file, then rename)", median_s(lambda: save_model(out, scalismo), 20), 0.200)
+        row("save the 53k-vertex face model (rank 49)", median_s(lambda: save_model(out, model), 3))
+        row("load it back", median_s(lambda: load_model(out), 3))
+    print(f"load average {os.getloadavg()[0]:.1f} at the end")
+
+
 if __name__ == "__main__":
-    main()
+    if sys.argv[1:] != ["models"]:
+        main()
+    shape_models()

@@ -1,0 +1,201 @@
+"""Kernel algebra: sums, products, scalings, one kernel per axis and left-right mirror symmetry.
+
+Every combination of positive semi-definite diagonal kernels here is again one: a sum is the
+covariance of the sum of independent processes, a product (Schur product, component by
+component) that of their product, and the mirrored kernel that of ``(u(x) + M u(M x)) / sqrt 2``.
+Operators build them: ``k1 + k2``, ``k1 * k2``, ``2.0 * k``, ``[1, 1, 0.1] * k``.
+
+Examples
+--------
+>>> import numpy as np
+>>> from ffd_notebook.gp import ExponentialKernel, GaussianKernel, MirroredKernel
+>>> k = MirroredKernel(GaussianKernel(2.0) * ExponentialKernel(3.0) + 0.5 * GaussianKernel(10.0), axis=0)
+>>> x = np.random.default_rng(0).normal(size=(6, 3))
+>>> K = k.matrix(x)
+>>> bool(np.linalg.eigvalsh(K).min() >= -1e-9 * np.abs(K).max())
+True
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from .kernels import Kernel, _per_axis, as_points
+
+__all__ = ["DiagonalKernel", "MirroredKernel", "ProductKernel", "ScaledKernel", "SumKernel"]
+
+_CHUNK = 1024  # points per block when a diagonal needs cross terms
+
+
+def _diagonal_only(*kernels: Kernel) -> None:
+    for k in kernels:
+        if not isinstance(k, Kernel):
+            raise TypeError(f"expected a Kernel, got {type(k).__name__}")
+        if not k.is_diagonal:
+            raise TypeError(f"{type(k).__name__} is not a diagonal kernel; only diagonal kernels combine")
+
+
+class SumKernel(Kernel):
+    """``k1 + k2``: the displacement is the sum of two independent processes."""
+
+    def __init__(self, first: Kernel, second: Kernel) -> None:
+        _diagonal_only(first, second)
+        self.terms = (first, second)
+        self.n_components = max(first.n_components, second.n_components)
+
+    def components(self, x: ArrayLike, y: ArrayLike) -> NDArray[np.float64]:
+        return self.terms[0].components(x, y) + self.terms[1].components(x, y)
+
+    def diagonal(self, x: ArrayLike) -> NDArray[np.float64]:
+        return self.terms[0].diagonal(x) + self.terms[1].diagonal(x)
+
+    def __repr__(self) -> str:
+        return f"({self.terms[0]!r} + {self.terms[1]!r})"
+
+
+class ProductKernel(Kernel):
+    """``k1 * k2`` component by component: the covariance of the product of independent processes.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from ffd_notebook.gp import ExponentialKernel, GaussianKernel
+    >>> k = GaussianKernel(1.0, scale=2.0) * ExponentialKernel(1.0)
+    >>> float(k.components(np.zeros((1, 3)), [[1.0, 0, 0]])[0, 0, 0].round(6))   # 4 e^-1 * e^-1
+    0.541341
+    """
+
+    def __init__(self, first: Kernel, second: Kernel) -> None:
+        _diagonal_only(first, second)
+        self.terms = (first, second)
+        self.n_components = max(first.n_components, second.n_components)
+
+    def components(self, x: ArrayLike, y: ArrayLike) -> NDArray[np.float64]:
+        return self.terms[0].components(x, y) * self.terms[1].components(x, y)
+
+    def diagonal(self, x: ArrayLike) -> NDArray[np.float64]:
+        return self.terms[0].diagonal(x) * self.terms[1].diagonal(x)
+
+    def __repr__(self) -> str:
+        return f"({self.terms[0]!r} * {self.terms[1]!r})"
+
+
+class ScaledKernel(Kernel):
+    """``factor * k``: the covariance multiplied by a positive number or a per-component 3-vector."""
+
+    def __init__(self, kernel: Kernel, factor: ArrayLike) -> None:
+        _diagonal_only(kernel)
+        self.kernel = kernel
+        self.factor = _per_axis(factor, "factor")
+        self.n_components = 3 if self.factor.ndim == 1 else kernel.n_components
+
+    def components(self, x: ArrayLike, y: ArrayLike) -> NDArray[np.float64]:
+        return self.kernel.components(x, y) * np.reshape(self.factor, (-1, 1, 1))
+
+    def diagonal(self, x: ArrayLike) -> NDArray[np.float64]:
+        return self.kernel.diagonal(x) * np.reshape(self.factor, (-1, 1))
+
+    def __repr__(self) -> str:
+        return f"{self.factor.tolist()} * {self.kernel!r}"
+
+
+class DiagonalKernel(Kernel):
+    """A kernel per axis: ``diag(k_x, k_y, k_z)``, each output component its own process.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from ffd_notebook.gp import ExponentialKernel, GaussianKernel
+    >>> k = DiagonalKernel(GaussianKernel(1.0), GaussianKernel(1.0), ExponentialKernel(1.0))
+    >>> k.n_components, k(np.zeros((1, 3)), [[1.0, 0, 0]])[0, 0].diagonal().round(4).tolist()
+    (3, [0.3679, 0.3679, 0.3679])
+    """
+
+    def __init__(self, kx: Kernel, ky: Kernel, kz: Kernel) -> None:
+        for k in (kx, ky, kz):
+            if not isinstance(k, Kernel) or not k.is_diagonal or k.n_components != 1:
+                raise ValueError("DiagonalKernel needs three output-isotropic kernels (n_components == 1)")
+        self.kernels = (kx, ky, kz)
+        self.n_components = 3
+
+    def components(self, x: ArrayLike, y: ArrayLike) -> NDArray[np.float64]:
+        return np.concatenate([k.components(x, y) for k in self.kernels])
+
+    def diagonal(self, x: ArrayLike) -> NDArray[np.float64]:
+        return np.concatenate([k.diagonal(x) for k in self.kernels])
+
+    def __repr__(self) -> str:
+        return f"DiagonalKernel{self.kernels!r}"
+
+
+class MirroredKernel(Kernel):
+    """Left-right symmetric deformations: ``k_sym(x, y) = k(x, y) + k(x, M y) M``.
+
+    ``M`` reflects across the plane ``x[axis] = center`` (for a face, the mid-sagittal plane).
+    Written in the form that stays positive semi-definite for any diagonal ``k``,
+    ``(k(x, y) + k(Mx, My) + (k(x, My) + k(Mx, y)) M) / 2``, the covariance of
+    ``(u(x) + M u(M x)) / sqrt 2``; for a mirror-invariant ``k`` (stationary kernels:
+    ``k(Mx, My) = k(x, y)``) it is the formula above. Its samples satisfy ``u(M x) = M u(x)``.
+
+    Parameters
+    ----------
+    kernel : Kernel
+        A diagonal kernel.
+    axis : int
+        The coordinate the mirror flips (0, 1 or 2).
+    center : float
+        Position of the mirror plane along ``axis``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from ffd_notebook.gp import GaussianKernel, GaussianProcess
+    >>> gp = GaussianProcess(MirroredKernel(GaussianKernel(1.0), axis=0))
+    >>> u = gp.sample([[0.5, 0.2, 0.0], [-0.5, 0.2, 0.0]], rng=0)[0]
+    >>> bool(np.allclose(u[1], u[0] * [-1, 1, 1], atol=1e-12))
+    True
+    """
+
+    def __init__(self, kernel: Kernel, axis: int = 0, center: float = 0.0) -> None:
+        _diagonal_only(kernel)
+        if axis not in (0, 1, 2):
+            raise ValueError(f"axis must be 0, 1 or 2, got {axis!r}")
+        self.kernel, self.axis, self.center = kernel, int(axis), float(center)
+        self.signs = np.ones(3)
+        self.signs[self.axis] = -1.0
+        self.n_components = 3
+
+    def mirror(self, points: ArrayLike) -> NDArray[np.float64]:
+        """The points reflected across the mirror plane, ``(N, 3)``."""
+        out = as_points(points).copy()
+        out[:, self.axis] = 2.0 * self.center - out[:, self.axis]
+        return out
+
+    def components(self, x: ArrayLike, y: ArrayLike) -> NDArray[np.float64]:
+        x, y = as_points(x, "x"), as_points(y, "y")
+        mx, my = self.mirror(x), self.mirror(y)
+        k = self.kernel.component_matrices
+        cross = (k(x, my) + k(mx, y)) * self.signs[:, None, None]
+        return 0.5 * (k(x, y) + k(mx, my) + cross)
+
+    def diagonal(self, x: ArrayLike) -> NDArray[np.float64]:
+        x = as_points(x)
+        out = np.empty((3, len(x)))
+        for s in range(0, len(x), _CHUNK):  # k(x_i, M x_i) has no cheap form: diagonal of small blocks
+            block = self.components(x[s : s + _CHUNK], x[s : s + _CHUNK])
+            out[:, s : s + _CHUNK] = np.diagonal(block, axis1=1, axis2=2)
+        return out
+
+    def sample(self, points: NDArray[np.float64], n: int, rng: np.random.Generator) -> NDArray[np.float64]:
+        """``(u(x) + M u(M x)) / sqrt 2`` from one joint draw of ``u``: exactly symmetric, not up to jitter."""
+        both = np.vstack([points, self.mirror(points)])
+        # points that are mirror images of each other must share one draw of u: merge them up to rounding
+        extent = float(np.ptp(both, axis=0).max()) or 1.0
+        keys = np.round(both / (1e-10 * extent))
+        _, first, inverse = np.unique(keys, axis=0, return_index=True, return_inverse=True)
+        u = self.kernel.sample(both[first], n, rng)[:, inverse.reshape(-1)]
+        return (u[:, : len(points)] + u[:, len(points) :] * self.signs) / np.sqrt(2.0)
+
+    def __repr__(self) -> str:
+        return f"MirroredKernel({self.kernel!r}, axis={self.axis}, center={self.center})"
