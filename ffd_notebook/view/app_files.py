@@ -71,7 +71,7 @@ class AppFilesMixin:
 
     # ------------------------------------------------------------------ running work
     def _report(self, exc: BaseException, shown: str, verb: str) -> None:
-        self.editor.messages.append(f"Error: could not {verb} {client_message(exc, shown)}")
+        self.editor.messages.append(f"Error: could not {verb}: {client_message(exc, shown)}")
         self.sync()
 
     def _set_busy(self, text: str | None) -> None:

@@ -23,7 +23,7 @@ from typing import Any
 import numpy as np
 import pyvista as pv
 
-from ..deform import FFD
+from ..deform import FFD, Deformer
 from ..lattice import Lattice
 from . import fields
 
@@ -192,10 +192,11 @@ class EditorFilesMixin:
         self._info(f"saved the lattice to {os.fspath(path)}")
 
     # ------------------------------------------------------------------ meshes
-    def read_mesh_file(self, path: str | os.PathLike[str]) -> tuple[pv.PolyData, FFD]:
-        """Read a mesh and make the lattice it will get, without changing anything: ``(surface, ffd)``.
+    def read_mesh_file(self, path: str | os.PathLike[str]) -> tuple[pv.PolyData, Deformer]:
+        """Read a mesh and bind the lattice it will get, without changing anything: ``(surface, deformer)``.
 
-        Safe to run in a worker thread: the file is read into new objects, none of the editor's own.
+        Safe to run in a worker thread: the file is read into new objects, none of the editor's own,
+        and the slow part of installing it (the deformer's weights) is done here too.
         """
         from ..io import place_at_mesh_minimum, read_mesh
 
@@ -206,11 +207,11 @@ class EditorFilesMixin:
             lattice = place_at_mesh_minimum(self.lattice, mesh)
         else:
             lattice = Lattice.around(mesh, self.lattice.shape, basis=self.basis)
-        return mesh, FFD(lattice, self.basis)
+        return mesh, FFD(lattice, self.basis).bind(mesh.points)
 
-    def use_mesh(self, mesh: pv.PolyData, ffd: FFD, name: str) -> None:
+    def use_mesh(self, mesh: pv.PolyData, deformer: Deformer, name: str) -> None:
         """Show a mesh from :meth:`read_mesh_file` (a new undo history); ``name`` is what messages call the file."""
-        self._replace_mesh(mesh, ffd)
+        self._replace_mesh(mesh, deformer.ffd, deformer)
         self.plotter.reset_camera(render=False)
         self._render()
         self._info(f"loaded {name}: {mesh.n_points} vertices, {mesh.n_cells} faces")
@@ -221,11 +222,11 @@ class EditorFilesMixin:
         A bad file raises and changes nothing.
         """
         try:
-            mesh, ffd = self.read_mesh_file(path)
+            mesh, deformer = self.read_mesh_file(path)
         except (OSError, ValueError) as exc:
             self._error(f"could not load the mesh {os.fspath(path)!r}: {exc}")
             raise
-        self.use_mesh(mesh, ffd, os.fspath(path))
+        self.use_mesh(mesh, deformer, os.fspath(path))
         return mesh
 
     def save_mesh(self, path: str | os.PathLike[str]) -> None:
@@ -261,10 +262,12 @@ class EditorFilesMixin:
         self._notify("mesh")
         return mesh
 
-    def _replace_mesh(self, mesh: pv.PolyData, ffd: FFD) -> None:
-        """Swap in a new mesh and its lattice (a new document: history cleared)."""
+    def _replace_mesh(self, mesh: pv.PolyData, ffd: FFD, deformer: Deformer | None = None) -> None:
+        """Swap in a new mesh and its lattice (a new document: history cleared); ``deformer``: ``ffd``
+        bound to ``mesh.points`` already, or None."""
         self.history.clear()
-        self._install_mesh(mesh, ffd)
-        self._install_lattice(ffd.lattice, ffd.basis)
+        deformer = ffd.bind(mesh.points) if deformer is None else deformer
+        self._install_mesh(mesh, ffd, deformer=deformer)
+        self._install_lattice(ffd.lattice, ffd.basis, deformer=deformer)
         self._notify("lattice")
         self._notify("mesh")

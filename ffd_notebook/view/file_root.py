@@ -111,7 +111,10 @@ class FileRoot:
     def for_reading(self, typed: str | os.PathLike[str]) -> Path:
         """The file to read for ``typed``: inside the root, a regular file, not over the size limit."""
         path = self._inside(typed)
-        refuse_special_or_oversize(path, self.max_bytes)
+        try:
+            refuse_special_or_oversize(path, self.max_bytes)
+        except PathRefused as exc:  # name it as the page does
+            raise PathRefused(str(exc).replace(os.fspath(path), self.shown(path), 1)) from None
         return path
 
     def for_writing(self, typed: str | os.PathLike[str], suffixes: tuple[str, ...]) -> Path:
