@@ -6,6 +6,7 @@ which are also written to ``test-artifacts/browser_metrics.json`` with before/af
 
 from __future__ import annotations
 
+import re
 import subprocess
 import sys
 import time
@@ -54,14 +55,15 @@ def app(tmp_path: Path):
             cwd=tmp_path, stdout=log, stderr=subprocess.STDOUT, env=server_env(FFD_NOTEBOOK_TRACE=str(trace)),
         )  # fmt: skip
         try:
-            url = f"http://127.0.0.1:{port}/"  # the URL it prints
 
-            def started() -> bool:
+            def started() -> str | None:
                 if proc.poll() is not None:
                     raise RuntimeError(f"the app exited with {proc.returncode}:\n{log_path.read_text()}")
-                return f"running at {url}" in log_path.read_text()
+                found = re.search(r"running at (http://\S+)", log_path.read_text())
+                return found.group(1) if found else None
 
-            wait_for(started, 90, "the app to print its URL")
+            url = wait_for(started, 90, "the app to print its URL")  # with its session token
+            assert url.startswith(f"http://127.0.0.1:{port}/?secret=")
             yield url, trace, log_path
         finally:
             stop_process(proc)

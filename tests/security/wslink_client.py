@@ -42,7 +42,7 @@ class Session:
 
     ws: Any
     http: aiohttp.ClientSession
-    unchunker: UnChunker = field(default_factory=UnChunker)
+    unchunker: UnChunker = field(default_factory=UnChunker)  # its size limit is raised per message below
     ids: Any = field(default_factory=lambda: itertools.count(1))
     client_id: str = "c0"
     published: list[dict[str, Any]] = field(default_factory=list)
@@ -136,13 +136,15 @@ def messages(state: dict[str, Any]) -> list[str]:
 
 
 def http_status(url: str, headers: dict[str, str] | None = None, timeout: float = 30) -> int:
-    """The HTTP status of a GET (403 and other errors included)."""
+    """The HTTP status of a GET (403 and other errors included; 0 if nothing listens)."""
     request = urllib.request.Request(url, headers=headers or {})
     try:
         with urllib.request.urlopen(request, timeout=timeout) as response:
             return response.status
     except urllib.error.HTTPError as exc:
         return exc.code
+    except urllib.error.URLError:
+        return 0
 
 
 def printed_url(log: Path) -> str | None:
