@@ -27,6 +27,7 @@ nobody else should): see :func:`test_hooks_enabled`.
 
 from __future__ import annotations
 
+import hashlib
 import ipaddress
 import os
 import secrets
@@ -185,13 +186,34 @@ class AccessPolicy:
         return self.host_allowed(host) and self.origin_allowed(headers.get("Origin"), host)
 
 
+def _cookie_name(token: str) -> str:
+    return "ffd_notebook_" + hashlib.sha256(token.encode()).hexdigest()[:12]
+
+
 def _guard_middleware(policy: AccessPolicy) -> Any:
+    """Host/Origin checks on every request; and a reload of the page keeps working.
+
+    The trame client removes the token from the address bar once it has read it, so a reload
+    would lose it. The page loaded with the token therefore also sets an HttpOnly, SameSite=Strict
+    cookie holding it, and a later request for the page with that cookie but no token is
+    redirected to the address with the token. Another site's page cannot read either.
+    """
     from aiohttp import web
+
+    cookie = _cookie_name(policy.token)
 
     @web.middleware
     async def guard(request: Any, handler: Any) -> Any:
         if not policy.allows(request.headers):
             return web.Response(status=403, text="403: this server only answers its own pages")
+        if request.path.endswith("/index.html") and request.method == "GET":
+            given = request.query.get(TOKEN_PARAM)
+            if given is None and secrets.compare_digest(request.cookies.get(cookie, ""), policy.token):
+                raise web.HTTPFound(url_with_token(str(request.rel_url), policy.token))
+            response = await handler(request)
+            if given is not None and secrets.compare_digest(given, policy.token):
+                response.set_cookie(cookie, policy.token, httponly=True, samesite="Strict", path="/")
+            return response
         return await handler(request)
 
     return guard

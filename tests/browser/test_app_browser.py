@@ -70,7 +70,7 @@ def app(tmp_path: Path):
 
 
 def test_drag_save_and_upload_in_the_app(app, tmp_path: Path):
-    from ffd_notebook import Lattice, load_ffd, save_ffd
+    from ffd_notebook import Lattice, load_ffd, read_obj, save_ffd
 
     url, trace, _ = app
     ARTIFACTS.mkdir(exist_ok=True)
@@ -130,6 +130,17 @@ def test_drag_save_and_upload_in_the_app(app, tmp_path: Path):
             page.set_input_files("#ffd-upload", str(tmp_path / "upload.ffd"))
             wait_for(lambda: trigger(page, "ffd_state")["offsets_abs_sum"] == 1.75, 20, "the uploaded lattice")
             page.screenshot(path=ARTIFACTS / "app_after_upload.png")
+
+            # download to the browser: the lattice as a .ffd file, the deformed mesh as OBJ (no server path)
+            with page.expect_download(timeout=30_000) as download:
+                page.click("#ffd-download")
+            download.value.save_as(tmp_path / "downloaded.ffd")
+            assert np.array_equal(load_ffd(tmp_path / "downloaded.ffd").offsets, upload.offsets)
+            with page.expect_download(timeout=30_000) as download:
+                page.click("#ffd-download-mesh")
+            assert download.value.suggested_filename == "deformed.obj"
+            download.value.save_as(tmp_path / "downloaded.obj")
+            assert read_obj(tmp_path / "downloaded.obj").n_points == rest.n_points
             assert not errors, errors
         finally:
             context.close()

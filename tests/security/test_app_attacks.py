@@ -157,6 +157,28 @@ def test_the_printed_url_carries_the_token_that_works(app):
     assert messages(state)[0] == "saved the lattice to saved_with_token.ffd"
 
 
+def test_a_reload_keeps_the_token_through_an_httponly_cookie(app):
+    """The trame client strips the token from the address bar; the page's cookie brings it back on reload."""
+    import http.client
+
+    def get(path: str, cookie: str | None = None) -> http.client.HTTPResponse:
+        conn = http.client.HTTPConnection("127.0.0.1", app.port, timeout=30)
+        conn.request("GET", path, headers={"Cookie": cookie} if cookie else {})
+        response = conn.getresponse()
+        response.read()
+        conn.close()
+        return response
+
+    first = get(f"/index.html?secret={app.token}")
+    set_cookie = first.getheader("Set-Cookie")
+    assert first.status == 200 and "HttpOnly" in set_cookie and "SameSite=Strict" in set_cookie
+    cookie = set_cookie.split(";", 1)[0]
+    reload = get("/index.html?ui=main", cookie)
+    assert reload.status == 302 and reload.getheader("Location") == f"/index.html?ui=main&secret={app.token}"
+    assert get("/index.html", cookie.split("=")[0] + "=forged").status == 200  # no redirect, no token
+    assert get("/index.html?secret=wrong").getheader("Set-Cookie") is None
+
+
 def test_test_hooks_are_off_in_normal_use(app):
     async def probe():
         async with connect(app.ws, origin=app.origin) as s:
