@@ -172,7 +172,7 @@ class EditorApp(AppFilesMixin):
             "has_selection": ed.selected is not None,
             "mesh_info": f"{ed.mesh.n_points} vertices, {ed.mesh.n_cells} faces",
             "moved_points": int(np.any(ed.lattice.offsets != 0, axis=-1).sum()),
-            "messages": [{"text": text, "error": text.startswith("Error")} for text in ed.messages[-N_MESSAGES:][::-1]],
+            "messages": [{"text": t, "error": t.startswith("Error")} for t in list(ed.messages)[-N_MESSAGES:][::-1]],
         }
         if ed.selected is not None:
             offset = ed.lattice.offsets[ed.selected]
