@@ -7,6 +7,9 @@ Open the bundled sample mesh and browse to the printed address::
     python -m ffd_notebook
     python -m ffd_notebook face.obj --ffd face.ffd --port 8765
     python -m ffd_notebook --shape 6 6 4 --basis bernstein
+    python -m ffd_notebook --root ~/meshes --host 0.0.0.0
+
+The printed address carries a session token; the page's file paths stay inside ``--root``.
 """
 
 from __future__ import annotations
@@ -40,6 +43,10 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--shape", type=int, nargs=3, default=[5, 5, 5], metavar=("NX", "NY", "NZ"),
                         help="control points per axis of the fitted lattice (default 5 5 5)")  # fmt: skip
     parser.add_argument("--basis", choices=["bspline", "bernstein"], default="bspline", help="FFD basis")
+    parser.add_argument("--root", metavar="DIR", default=".",
+                        help="folder the page's file paths are confined to (default: the current folder)")  # fmt: skip
+    parser.add_argument("--max-file-mb", type=float, default=512, metavar="MB",
+                        help="largest file the page may load or upload (default 512)")  # fmt: skip
     return parser
 
 
@@ -59,10 +66,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     for path, what in ((args.mesh, "mesh"), (args.ffd, ".ffd file")):
         if path is not None and not os.path.isfile(path):
             parser.error(f"no such {what}: {path}")
+    if not os.path.isdir(args.root):
+        parser.error(f"no such folder: {args.root}")
     if not _is_loopback(args.host):
         print(
-            f"warning: listening on {args.host}: anyone who can reach it can edit, and read or write files "
-            "through the panel's paths, as this user",
+            f"warning: listening on {args.host}: whoever has the printed address (it holds the session token) "
+            f"can edit, and read or write mesh and .ffd files in {os.path.abspath(args.root)}, as this user",
             file=sys.stderr,
         )
     # trame would parse sys.argv again on start; the arguments above are the only ones that count
@@ -72,7 +81,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     from .view.app import run_app
 
     try:
-        run_app(args.mesh, ffd=args.ffd, port=args.port, host=args.host, shape=tuple(args.shape), basis=args.basis)
+        run_app(args.mesh, ffd=args.ffd, port=args.port, host=args.host, shape=tuple(args.shape), basis=args.basis,
+                root=args.root, max_file_bytes=int(args.max_file_mb * 2**20))  # fmt: skip
     except (FileFormatError, ValueError, OSError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 1

@@ -27,7 +27,7 @@ def test_exactly_two_setup_commands_and_ci_runs_the_test_one():
 def test_the_open_command_knows_its_options():
     out = subprocess.run([sys.executable, "-m", "ffd_notebook", "--help"], capture_output=True, text=True, timeout=120)
     assert out.returncode == 0, out.stderr
-    for option in ("--ffd", "--port", "--shape", "--basis"):
+    for option in ("--ffd", "--port", "--shape", "--basis", "--root"):
         assert option in out.stdout
 
 

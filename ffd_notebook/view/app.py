@@ -5,25 +5,31 @@ rendering, which sphere widgets need) and a side panel with the notebook panel's
 panel only calls Editor methods; the editor tells the panel what changed through
 :meth:`Editor.observe`, so edits made anywhere (drag, panel, undo) show up in both.
 
-Paths typed into the panel are paths on the machine running the app (the server); a .ffd file can
-also be uploaded from the browser. That is why the app listens on 127.0.0.1 unless told otherwise.
+Safety (see :mod:`.web_security` and :mod:`.file_root`): the page's address carries a fresh random
+token that the server requires, requests from other sites' pages are refused, paths typed into the
+panel are confined to one root folder (``--root``, default: the current folder), and files can be
+uploaded from and downloaded to the browser instead. The app listens on 127.0.0.1 unless told otherwise.
 
-Run it with ``python -m ffd_notebook [MESH] [--ffd FILE] [--port N]`` (see :mod:`ffd_notebook.__main__`).
+Run it with ``python -m ffd_notebook [MESH] [--ffd FILE] [--port N] [--root DIR]`` (see
+:mod:`ffd_notebook.__main__`).
 """
 
 from __future__ import annotations
 
+import atexit
 import os
-import tempfile
+import socket
 import time
 from collections.abc import Callable
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from .app_files import MESH_FORMATS, AppFilesMixin
 from .app_panel import build_layout
 from .editor import Editor
+from .file_root import DEFAULT_MAX_FILE_BYTES, FileRoot
+from .web_security import AccessPolicy, new_token, protect, test_hooks_enabled, url_with_token
 
 __all__ = ["EditorApp", "run_app"]
 
@@ -53,30 +59,26 @@ def _triple(values: Any, what: str, kind: type = float) -> list[Any]:
     return [_number(v, f"{what} {axis}", kind) for v, axis in zip(values, "xyz", strict=True)]
 
 
-def _upload_bytes(upload: Any) -> tuple[str, bytes] | None:
-    """Name and content of a file from a Vuetify file input (a dict, or a list of one dict)."""
-    if isinstance(upload, list):
-        upload = upload[0] if upload else None
-    if not isinstance(upload, dict) or upload.get("content") is None:
-        return None
-    content = upload["content"]
-    if isinstance(content, list):  # large files arrive in chunks
-        content = b"".join(content)
-    return str(upload.get("name") or "upload.ffd"), bytes(content)
-
-
-class EditorApp:
+class EditorApp(AppFilesMixin):
     """A trame server showing ``editor`` with a control panel.
 
     Parameters
     ----------
     editor : Editor
-        The editor to serve (the app registers the ``ffd_widget_px`` / ``ffd_state`` triggers and
-        attaches its view so programmatic changes reach the browser).
+        The editor to serve (the app attaches its view so programmatic changes reach the browser).
     server : trame server, optional
         A trame server (``client_type="vue3"``); a new one named ``name`` by default.
     name : str
         Name of the new trame server.
+    root : path-like, optional
+        The folder typed paths are confined to (default: the current folder).
+    token : str, optional
+        The session token the page must present (default: a fresh random one).
+    max_file_bytes : int
+        Largest file the app reads or accepts as an upload.
+    test_hooks : bool, optional
+        Register the test-only ``ffd_widget_px`` / ``ffd_state`` triggers (internal state for
+        browser tests). Default: only if ``FFD_NOTEBOOK_TEST_HOOKS=1`` is set. Tests only.
 
     Examples
     --------
@@ -92,34 +94,64 @@ class EditorApp:
     >>> app.editor.close()
     """
 
-    def __init__(self, editor: Editor, server: Any = None, name: str = "ffd_notebook_app") -> None:
+    def __init__(
+        self,
+        editor: Editor,
+        server: Any = None,
+        name: str = "ffd_notebook_app",
+        root: str | os.PathLike[str] | None = None,
+        token: str | None = None,
+        max_file_bytes: int = DEFAULT_MAX_FILE_BYTES,
+        test_hooks: bool | None = None,
+    ) -> None:
         from trame.app import get_server
 
         self.editor = editor
         self.server = server if server is not None else get_server(name, client_type="vue3")
         self.state = self.server.state
+        self.files = FileRoot(os.getcwd() if root is None else root, max_bytes=max_file_bytes)
+        self.token = new_token() if token is None else token
+        self.url: str | None = None
         self._last_drag_sync = 0.0
-        self._upload_dir: str | None = None
+        self._scratch = None
+        self._tasks: set[Any] = set()
         self.state.update(self._editor_values())
         self.state.update(
             trame__title="ffd_notebook editor",
+            root_name=str(self.files.path),
             ffd_path="lattice.ffd",
             mesh_path="",
             mesh_save_path="deformed.obj",
             reduction=0.5,
             ffd_upload=None,
+            mesh_upload=None,
+            mesh_format=MESH_FORMATS[0],
+            mesh_format_items=MESH_FORMATS,
+            busy=False,
+            busy_text="",
             field_items=FIELDS,
             basis_items=BASES,
         )
+        for name_, method in (
+            ("ffd_load_ffd", self.load_ffd),
+            ("ffd_save_ffd", self.save_ffd),
+            ("ffd_load_mesh", self.load_mesh),
+            ("ffd_save_mesh", self.save_mesh),
+            ("ffd_download_ffd", self.download_ffd),
+            ("ffd_download_mesh", self.download_mesh),
+        ):
+            self.server.controller.trigger(name_)(method)
         self.layout, self.view = build_layout(self)
-        editor.register_triggers(self.server)
+        if test_hooks_enabled() if test_hooks is None else test_hooks:
+            editor.register_triggers(self.server)
         editor.attach_viewer(self.view)
         editor.observe(self._on_editor_event)
         self.state.change("sel_i", "sel_j", "sel_k")(self._on_selection_typed)
         self.state.change("basis")(self._on_basis_chosen)
         self.state.change("colors")(self._on_colors_switched)
         self.state.change("field")(self._on_field_chosen)
-        self.state.change("ffd_upload")(self._on_upload)
+        self.state.change("ffd_upload")(self._on_ffd_upload)
+        self.state.change("mesh_upload")(self._on_mesh_upload)
 
     # ------------------------------------------------------------------ editor -> page
     def _editor_values(self) -> dict[str, Any]:
@@ -140,7 +172,7 @@ class EditorApp:
             "has_selection": ed.selected is not None,
             "mesh_info": f"{ed.mesh.n_points} vertices, {ed.mesh.n_cells} faces",
             "moved_points": int(np.any(ed.lattice.offsets != 0, axis=-1).sum()),
-            "messages": [{"text": text, "error": text.startswith("Error")} for text in ed.messages[-N_MESSAGES:][::-1]],
+            "messages": [{"text": t, "error": t.startswith("Error")} for t in list(ed.messages)[-N_MESSAGES:][::-1]],
         }
         if ed.selected is not None:
             offset = ed.lattice.offsets[ed.selected]
@@ -198,22 +230,6 @@ class EditorApp:
         """Redo the last undone edit."""
         self._act(self.editor.redo)
 
-    def load_ffd(self, path: str) -> None:
-        """Load a .ffd file from a path on the server."""
-        self._act(lambda: self.editor.load_ffd(Path(str(path)).expanduser()))
-
-    def save_ffd(self, path: str) -> None:
-        """Save the lattice to a .ffd file at a path on the server."""
-        self._act(lambda: self.editor.save_ffd(Path(str(path)).expanduser()))
-
-    def load_mesh(self, path: str) -> None:
-        """Load a mesh (OBJ, PLY, VTP, STL, ...) from a path on the server."""
-        self._act(lambda: self.editor.load_mesh(Path(str(path)).expanduser()))
-
-    def save_mesh(self, path: str) -> None:
-        """Save the deformed mesh to a path on the server (format from the extension)."""
-        self._act(lambda: self.editor.save_mesh(Path(str(path)).expanduser()))
-
     def decimate(self, reduction: Any) -> None:
         """Decimate the loaded mesh by a fraction of its faces (0 restores it)."""
         self._act(lambda: self.editor.decimate(_number(reduction, "the reduction")))
@@ -244,30 +260,31 @@ class EditorApp:
         if wanted != self.editor.field:
             self._act(lambda: self.editor.set_field(wanted))
 
-    def _on_upload(self, ffd_upload: Any, **_: Any) -> None:
-        upload = _upload_bytes(ffd_upload)
-        if upload is None:
-            return
-        name, content = upload
-        if self._upload_dir is None:
-            self._upload_dir = tempfile.mkdtemp(prefix="ffd_notebook_upload_")
-        target = Path(self._upload_dir) / Path(name).name
-        target.write_bytes(content)
-        if self._act(lambda: self.editor.load_ffd(target)):
-            self.editor.messages.append(f"(uploaded from the browser as {name})")
-        self.state.ffd_upload = None
-        self.sync()
-
     # ------------------------------------------------------------------ running
     def start(self, port: int = 8080, host: str = "127.0.0.1", **kwargs: Any) -> Any:
-        """Serve the page (blocks until the server stops); prints the URL once it is listening."""
-        self.server.controller.on_server_ready.add(
-            lambda **_: print(f"ffd_notebook editor running at http://{host}:{self.server.port}/", flush=True)
-        )
+        """Serve the page (blocks until the server stops); prints the URL, with its token, once listening.
+
+        The server requires the token and refuses other sites' pages (:func:`.web_security.protect`).
+        """
+        protect(self.server, AccessPolicy(self.token, bind_host=host))
+        shown_host = socket.gethostname() if host in ("0.0.0.0", "::", "") else host
+        if ":" in shown_host:
+            shown_host = f"[{shown_host}]"
+
+        def ready(**_: Any) -> None:
+            self.url = url_with_token(f"http://{shown_host}:{self.server.port}/", self.token)
+            print(f"ffd_notebook editor running at {self.url}", flush=True)
+
+        self.server.controller.on_server_ready.add(ready)
         kwargs.setdefault("open_browser", False)
         kwargs.setdefault("show_connection_info", False)
         kwargs.setdefault("timeout", 0)  # wslink would stop an idle server after 5 minutes
         return self.server.start(port=port, host=host, **kwargs)
+
+    def close(self) -> None:
+        """Remove the uploads folder and close the editor."""
+        self.cleanup_files()
+        self.editor.close()
 
 
 def run_app(
@@ -277,11 +294,20 @@ def run_app(
     host: str = "127.0.0.1",
     shape: tuple[int, int, int] = (5, 5, 5),
     basis: str = "bspline",
+    root: str | os.PathLike[str] | None = None,
+    max_file_bytes: int = DEFAULT_MAX_FILE_BYTES,
 ) -> EditorApp:
-    """Build the editor (``mesh`` path or the sample mesh, optional ``ffd`` lattice) and serve it (blocking)."""
+    """Build the editor (``mesh`` path or the sample mesh, optional ``ffd`` lattice) and serve it (blocking).
+
+    Typed paths are confined to ``root`` (default: the current folder); uploads are removed at exit.
+    """
     editor = Editor(mesh, shape=tuple(shape), basis=basis)
     if ffd is not None:
         editor.load_ffd(ffd)
-    app = EditorApp(editor)
-    app.start(port=port, host=host)
+    app = EditorApp(editor, root=root, max_file_bytes=max_file_bytes)
+    atexit.register(app.cleanup_files)  # also when the server ends by a signal or an error
+    try:
+        app.start(port=port, host=host)
+    finally:
+        app.cleanup_files()
     return app

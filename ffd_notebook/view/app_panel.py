@@ -66,27 +66,58 @@ def _point_section(app: Any) -> None:
     v.VLabel("{{ moved_points }} control point(s) moved", classes="text-caption mt-1")
 
 
-def _file_row(label: str, model: str, buttons: list[tuple[str, Any, str]], field_id: str) -> None:
+def _file_row(label: str, model: str, buttons: list[tuple[str, str, str]], field_id: str) -> None:
+    """A path field and buttons calling the named triggers (``ffd_load_ffd``, ...) with the field's value."""
     from trame.widgets import vuetify3 as v
 
     v.VTextField(v_model=(model,), label=label, id=field_id, classes="mt-1", **_FIELD)
     with v.VRow(dense=True, classes="mt-1"):
-        for text, method, button_id in buttons:
+        for text, trigger, button_id in buttons:
             with v.VCol():
-                v.VBtn(text, click=(method, f"[{model}]"), block=True, size="small", id=button_id)
+                v.VBtn(text, click=f"trigger('{trigger}', [{model}])", block=True, size="small", id=button_id,
+                       disabled=("busy",))  # fmt: skip
+
+
+def _browser_files() -> None:
+    """Upload from and download to the browser: no server path needed."""
+    from trame.widgets import vuetify3 as v
+
+    v.VFileInput(v_model=("ffd_upload",), label="upload a .ffd", accept=".ffd,.FFD", id="ffd-upload",
+                 prepend_icon="", classes="mt-2", disabled=("busy",), **_FIELD)  # fmt: skip
+    v.VFileInput(v_model=("mesh_upload",), label="upload a mesh", accept=".obj,.ply,.stl,.vtp,.vtk,.vtu",
+                 id="ffd-mesh-upload", prepend_icon="", classes="mt-2", disabled=("busy",), **_FIELD)  # fmt: skip
+    with v.VRow(dense=True, classes="mt-1", align="center"):
+        with v.VCol(cols=4):
+            v.VBtn("lattice", click="utils.download('lattice.ffd', trigger('ffd_download_ffd'), 'text/plain')",
+                   block=True, size="small", id="ffd-download", prepend_icon="mdi-download")  # fmt: skip
+        with v.VCol(cols=4):
+            v.VBtn(
+                "mesh",
+                block=True,
+                size="small",
+                id="ffd-download-mesh",
+                prepend_icon="mdi-download",
+                click="utils.download('deformed.' + mesh_format, trigger('ffd_download_mesh', [mesh_format]))",
+            )
+        with v.VCol(cols=4):
+            v.VSelect(v_model=("mesh_format",), items=("mesh_format_items",), id="ffd-mesh-format", **_FIELD)
 
 
 def _files_section(app: Any) -> None:
+    from trame.widgets import html
     from trame.widgets import vuetify3 as v
 
-    _section("Files (paths on the server)")
-    _file_row(".ffd file", "ffd_path", [("Load .ffd", app.load_ffd, "ffd-load"), ("Save .ffd", app.save_ffd,
+    _section("Files")
+    html.Div("in {{ root_name }} on the server", classes="text-caption", id="ffd-root")
+    _file_row(".ffd file", "ffd_path", [("Load .ffd", "ffd_load_ffd", "ffd-load"), ("Save .ffd", "ffd_save_ffd",
               "ffd-save")], "ffd-path")  # fmt: skip
-    v.VFileInput(v_model=("ffd_upload",), label="or upload a .ffd", accept=".ffd,.FFD", id="ffd-upload",
-                 prepend_icon="", classes="mt-2", **_FIELD)  # fmt: skip
-    _file_row("mesh to load", "mesh_path", [("Load mesh", app.load_mesh, "ffd-load-mesh")], "ffd-mesh-path")
-    _file_row("save deformed mesh as", "mesh_save_path", [("Save mesh", app.save_mesh, "ffd-save-mesh")],
+    _file_row("mesh to load", "mesh_path", [("Load mesh", "ffd_load_mesh", "ffd-load-mesh")], "ffd-mesh-path")
+    _file_row("save deformed mesh as", "mesh_save_path", [("Save mesh", "ffd_save_mesh", "ffd-save-mesh")],
               "ffd-mesh-save-path")  # fmt: skip
+    _section("Your computer's files")
+    _browser_files()
+    v.VProgressLinear(indeterminate=True, v_show=("busy",), classes="mt-2", id="ffd-busy", color="primary")
+    html.Div("{{ busy_text }}", v_show=("busy",), classes="text-caption")
 
 
 def _display_section(app: Any) -> None:

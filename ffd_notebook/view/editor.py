@@ -22,7 +22,7 @@ import numpy as np
 import pyvista as pv
 from numpy.typing import ArrayLike, NDArray
 
-from ..deform import FFD
+from ..deform import FFD, Deformer
 from ..lattice import Lattice
 from .editor_display import EditorDisplayMixin
 from .editor_files import EditorFilesMixin
@@ -399,12 +399,15 @@ class Editor(EditorDisplayMixin, EditorFilesMixin):
         self._notify("message")
 
     # ------------------------------------------------------------------ building the scene
-    def _install_mesh(self, mesh: pv.PolyData, ffd: FFD, source: pv.PolyData | None = None) -> None:
+    def _install_mesh(
+        self, mesh: pv.PolyData, ffd: FFD, source: pv.PolyData | None = None, deformer: Deformer | None = None
+    ) -> None:
         """Show ``mesh`` (rest shape) deformed by ``ffd``; replaces any previous mesh actor.
 
         ``source`` is the mesh as loaded (what :meth:`decimate` starts from); ``mesh`` itself if omitted.
+        ``deformer``: ``ffd`` already bound to ``mesh.points`` (e.g. in a worker thread), to reuse.
         """
-        deformer = ffd.bind(mesh.points)
+        deformer = ffd.bind(mesh.points) if deformer is None else deformer
         display = mesh.copy(deep=True)
         if self.mesh_actor is not None:
             self.plotter.remove_actor(self.mesh_actor, reset_camera=False, render=False)
@@ -418,10 +421,12 @@ class Editor(EditorDisplayMixin, EditorFilesMixin):
         self._update_field()
         self._apply_coloring()
 
-    def _install_lattice(self, lattice: Lattice, basis: str) -> None:
-        """Use ``lattice`` with ``basis`` (rebinds the deformer; new widgets and lines)."""
-        ffd = FFD(lattice, basis)
-        deformer = ffd.bind(self.mesh.points)
+    def _install_lattice(self, lattice: Lattice, basis: str, deformer: Deformer | None = None) -> None:
+        """Use ``lattice`` with ``basis`` (rebinds the deformer, or uses ``deformer``, already bound to
+        this lattice and the mesh's points; new widgets and lines)."""
+        if deformer is None:
+            deformer = FFD(lattice, basis).bind(self.mesh.points)
+        ffd = deformer.ffd
         self._ffd, self._deformer = ffd, deformer
         if self._lattice_actor is not None:
             self._lattice_actor.remove()

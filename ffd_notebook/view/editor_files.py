@@ -23,24 +23,56 @@ from typing import Any
 import numpy as np
 import pyvista as pv
 
-from ..deform import FFD
+from ..deform import FFD, Deformer
 from ..lattice import Lattice
 from . import fields
 
 __all__ = ["EditorFilesMixin", "as_surface", "decimate_keeping_colors"]
 
 
+def _check_connectivity(mesh: pv.DataSet) -> None:
+    """Refuse cells that name points the mesh does not have (VTK filters crash on them, e.g. normals).
+
+    Some VTK readers (legacy ``.vtk``, ASCII PLY) load such files silently; the first filter that
+    follows the indices then reads out of bounds and kills the process. Only the cell arrays'
+    connectivity (a flat index array) is read here, never dereferenced.
+    """
+    from vtkmodules.util.numpy_support import vtk_to_numpy
+
+    if isinstance(mesh, pv.PolyData):
+        cell_arrays = [mesh.GetVerts(), mesh.GetLines(), mesh.GetPolys(), mesh.GetStrips()]
+    elif isinstance(mesh, pv.UnstructuredGrid):
+        cell_arrays = [mesh.GetCells()]
+    else:  # image and structured grids: cells are implicit
+        return
+    for cells in cell_arrays:
+        if cells is None or cells.GetNumberOfConnectivityIds() == 0:
+            continue
+        idx = vtk_to_numpy(cells.GetConnectivityArray())
+        low, high = int(idx.min()), int(idx.max())
+        if low < 0 or high >= mesh.n_points:
+            bad = low if low < 0 else high
+            raise ValueError(f"a cell refers to point {bad}, but the mesh has {mesh.n_points} points")
+
+
 def as_surface(mesh: Any) -> pv.PolyData:
     """A deep copy of ``mesh`` as a :class:`pyvista.PolyData` surface (volumes give their outer surface).
+
+    Cells that refer to missing points raise ValueError before any VTK filter sees them.
 
     Examples
     --------
     >>> import pyvista as pv
     >>> as_surface(pv.ImageData(dimensions=(3, 3, 3))).n_cells
     24
+    >>> as_surface(pv.PolyData([[0.0, 0, 0], [1, 0, 0], [0, 1, 0]], faces=[3, 0, 1, 7]))
+    Traceback (most recent call last):
+    ...
+    ValueError: a cell refers to point 7, but the mesh has 3 points
     """
     if not isinstance(mesh, pv.DataSet):
         mesh = pv.wrap(mesh)
+    _check_connectivity(mesh)
     if not isinstance(mesh, pv.PolyData):
         mesh = mesh.extract_surface(algorithm="dataset_surface")
     if mesh.n_points == 0:
@@ -117,22 +149,35 @@ class EditorFilesMixin:
         return as_surface(mesh_or_path)
 
     # ------------------------------------------------------------------ .ffd files
-    def load_ffd(self, path: str | os.PathLike[str]) -> Lattice:
-        """Load a lattice from a .ffd file (undoable). A bad file raises and changes nothing."""
+    def read_ffd_file(self, path: str | os.PathLike[str]) -> tuple[Lattice, bool]:
+        """Read and check a .ffd file for this editor without changing anything: ``(lattice, placed)``.
+
+        ``placed`` says whether the file carried its own placement; otherwise the lattice is put at
+        the current mesh's minimum corner. Safe to run in a worker thread (no VTK object is touched).
+        """
         from ..io import load_ffd, place_at_mesh_minimum
 
+        lattice = load_ffd(path)
+        placed = isinstance(lattice.metadata.get("placement"), dict)
+        if not placed:
+            lattice = place_at_mesh_minimum(lattice, self.mesh)
+        FFD(lattice, self.basis)  # e.g. a 3x3x3 file cannot drive the B-spline basis
+        return lattice, placed
+
+    def use_ffd(self, lattice: Lattice, placed: bool, name: str) -> None:
+        """Install a lattice from :meth:`read_ffd_file` (one undo step); ``name`` is what messages call the file."""
+        self._swap_lattice(lattice, None, "load .ffd", source="ffd-placed" if placed else "ffd-min")
+        where = "its quaternion placement" if placed else "the mesh's minimum corner"
+        self._info(f"loaded a {'x'.join(map(str, lattice.shape))} lattice from {name} (at {where})")
+
+    def load_ffd(self, path: str | os.PathLike[str]) -> Lattice:
+        """Load a lattice from a .ffd file (undoable). A bad file raises and changes nothing."""
         try:
-            lattice = load_ffd(path)
-            placed = isinstance(lattice.metadata.get("placement"), dict)
-            if not placed:
-                lattice = place_at_mesh_minimum(lattice, self.mesh)
-            FFD(lattice, self.basis)  # e.g. a 3x3x3 file cannot drive the B-spline basis
+            lattice, placed = self.read_ffd_file(path)
         except (OSError, ValueError) as exc:
             self._error(f"could not load the lattice {os.fspath(path)!r}: {exc}")
             raise
-        self._swap_lattice(lattice, None, "load .ffd", source="ffd-placed" if placed else "ffd-min")
-        where = "its quaternion placement" if placed else "the mesh's minimum corner"
-        self._info(f"loaded a {'x'.join(map(str, lattice.shape))} lattice from {os.fspath(path)} (at {where})")
+        self.use_ffd(lattice, placed, os.fspath(path))
         return lattice
 
     def save_ffd(self, path: str | os.PathLike[str]) -> None:
@@ -147,29 +192,41 @@ class EditorFilesMixin:
         self._info(f"saved the lattice to {os.fspath(path)}")
 
     # ------------------------------------------------------------------ meshes
+    def read_mesh_file(self, path: str | os.PathLike[str]) -> tuple[pv.PolyData, Deformer]:
+        """Read a mesh and bind the lattice it will get, without changing anything: ``(surface, deformer)``.
+
+        Safe to run in a worker thread: the file is read into new objects, none of the editor's own,
+        and the slow part of installing it (the deformer's weights) is done here too.
+        """
+        from ..io import place_at_mesh_minimum, read_mesh
+
+        mesh = as_surface(read_mesh(path))
+        if self._lattice_source in ("ffd-placed", "given"):
+            lattice = self.lattice.copy()
+        elif self._lattice_source == "ffd-min":
+            lattice = place_at_mesh_minimum(self.lattice, mesh)
+        else:
+            lattice = Lattice.around(mesh, self.lattice.shape, basis=self.basis)
+        return mesh, FFD(lattice, self.basis).bind(mesh.points)
+
+    def use_mesh(self, mesh: pv.PolyData, deformer: Deformer, name: str) -> None:
+        """Show a mesh from :meth:`read_mesh_file` (a new undo history); ``name`` is what messages call the file."""
+        self._replace_mesh(mesh, deformer.ffd, deformer)
+        self.plotter.reset_camera(render=False)
+        self._render()
+        self._info(f"loaded {name}: {mesh.n_points} vertices, {mesh.n_cells} faces")
+
     def load_mesh(self, path: str | os.PathLike[str]) -> pv.PolyData:
         """Load a mesh (OBJ with colours, or anything PyVista reads); starts a new undo history.
 
         A bad file raises and changes nothing.
         """
-        from ..io import place_at_mesh_minimum, read_mesh
-
         try:
-            mesh = as_surface(read_mesh(path))
-            if self._lattice_source in ("ffd-placed", "given"):
-                lattice = self.lattice.copy()
-            elif self._lattice_source == "ffd-min":
-                lattice = place_at_mesh_minimum(self.lattice, mesh)
-            else:
-                lattice = Lattice.around(mesh, self.lattice.shape, basis=self.basis)
-            ffd = FFD(lattice, self.basis)
+            mesh, deformer = self.read_mesh_file(path)
         except (OSError, ValueError) as exc:
             self._error(f"could not load the mesh {os.fspath(path)!r}: {exc}")
             raise
-        self._replace_mesh(mesh, ffd)
-        self.plotter.reset_camera(render=False)
-        self._render()
-        self._info(f"loaded {os.fspath(path)}: {mesh.n_points} vertices, {mesh.n_cells} faces")
+        self.use_mesh(mesh, deformer, os.fspath(path))
         return mesh
 
     def save_mesh(self, path: str | os.PathLike[str]) -> None:
@@ -205,10 +262,12 @@ class EditorFilesMixin:
         self._notify("mesh")
         return mesh
 
-    def _replace_mesh(self, mesh: pv.PolyData, ffd: FFD) -> None:
-        """Swap in a new mesh and its lattice (a new document: history cleared)."""
+    def _replace_mesh(self, mesh: pv.PolyData, ffd: FFD, deformer: Deformer | None = None) -> None:
+        """Swap in a new mesh and its lattice (a new document: history cleared); ``deformer``: ``ffd``
+        bound to ``mesh.points`` already, or None."""
         self.history.clear()
-        self._install_mesh(mesh, ffd)
-        self._install_lattice(ffd.lattice, ffd.basis)
+        deformer = ffd.bind(mesh.points) if deformer is None else deformer
+        self._install_mesh(mesh, ffd, deformer=deformer)
+        self._install_lattice(ffd.lattice, ffd.basis, deformer=deformer)
         self._notify("lattice")
         self._notify("mesh")

@@ -7,6 +7,11 @@ the kernel, the sphere-widget callback deforms the mesh and the server streams t
 The iframe's address honours ``pyvista.global_theme.trame.server_proxy_enabled`` /
 ``server_proxy_prefix`` (for jupyter-server-proxy), exactly like ``plotter.show()``.
 
+The trame server is the package's own (not PyVista's shared one, which may already run unprotected):
+it requires a fresh random token, which the iframe's ``src`` carries, and refuses WebSockets from
+other sites' pages (:mod:`.web_security`). Behind jupyter-server-proxy the iframe comes from
+Jupyter's origin, which Jupyter has checked; the token is still required.
+
 With the ``"static"`` (or ``"none"``) Jupyter backend, e.g. when notebooks run headless in CI, the
 view is a picture that the panel's actions refresh instead; either way the output also carries a
 PNG of the scene so a saved notebook shows it where widgets cannot run.
@@ -24,6 +29,8 @@ from .editor import Editor
 __all__ = ["display_editor", "edit", "editor_widget", "push_to_browser", "show_plotter"]
 
 STATIC_BACKENDS = ("static", "none")
+SERVER_NAME = "ffd_notebook_views"  # the package's own trame server for its views (see _jupyter_server)
+_tokens: dict[str, str] = {}  # server name -> its session token
 
 
 def edit(
@@ -74,12 +81,13 @@ def _backend() -> str:
 
 
 def _jupyter_server() -> Any:
-    """PyVista's Jupyter trame server, started if needed.
+    """The package's trame server for views in Jupyter, started (and protected) if needed.
 
-    Does what :func:`trame_pyvista.jupyter.launch_server` does, minus initialising
-    trame-vtklocal when it is installed: that module downloads a WebAssembly build of VTK from
-    gitlab.kitware.com when a server starts, which this server-rendered view never uses (and
-    which fails, noisily, without internet).
+    Does what :func:`trame_pyvista.jupyter.launch_server` does, but on a server of its own
+    (:data:`SERVER_NAME`) that :func:`.web_security.protect` guards with a fresh token and Origin
+    checks before it listens, and without initialising trame-vtklocal when it is installed: that
+    module downloads a WebAssembly build of VTK from gitlab.kitware.com when a server starts, which
+    this server-rendered view never uses (and which fails, noisily, without internet).
     """
     import asyncio
     import os
@@ -88,7 +96,9 @@ def _jupyter_server() -> Any:
     from trame.widgets import vtk as vtk_widgets
     from trame_pyvista.widgets import get_server
 
-    server = get_server(pv.global_theme.trame.jupyter_server_name)
+    from .web_security import AccessPolicy, new_token, protect
+
+    server = get_server(SERVER_NAME)
     if server.running:
         return server
     for module in (html, vtk_widgets, vuetify if server.client_type == "vue2" else vuetify3):
@@ -96,6 +106,9 @@ def _jupyter_server() -> Any:
     if server._running_stage == 0:
         backend = "jupyter" if pv.global_theme.trame.jupyter_extension_enabled else "aiohttp"
         host = os.environ.get("TRAME_DEFAULT_HOST", "127.0.0.1")
+        _tokens[SERVER_NAME] = new_token()
+        proxied = lambda: bool(pv.global_theme.trame.server_proxy_enabled)  # noqa: E731 - asked per request
+        protect(server, AccessPolicy(_tokens[SERVER_NAME], bind_host=host, behind_proxy=proxied))
 
         async def start() -> None:
             server.start(
@@ -118,12 +131,25 @@ def _jupyter_server() -> Any:
 
 
 def _server_rendered(plotter: pv.Plotter) -> Any:
-    """PyVista's trame iframe widget for a plotter, with server-side rendering (VTK widgets need it)."""
-    from trame_pyvista.jupyter import show_trame
+    """PyVista's trame iframe widget for a plotter, with server-side rendering (VTK widgets need it).
 
-    _jupyter_server()
+    The iframe's address carries the server's session token (the trame client reads it from there).
+    """
+    from trame_pyvista.jupyter import Widget, show_trame
+
+    from .web_security import url_with_token
+
+    server = _jupyter_server()
+    token = _tokens[SERVER_NAME]
+
+    def with_token(viewer: Any, src: str, iframe_attrs: dict[str, Any] | None = None, **kwargs: Any) -> Any:
+        src = url_with_token(src, token)
+        attrs = {**(iframe_attrs or {}), "src": src}
+        return Widget(viewer, src, iframe_attrs=attrs, **kwargs)
+
     width, height = plotter.window_size
-    widget = show_trame(plotter, mode="server", collapse_menu=True, width=f"{width}px", height=f"{height}px")
+    widget = show_trame(plotter, mode="server", name=server.name, handler=with_token, collapse_menu=True,
+                        width=f"{width}px", height=f"{height}px")  # fmt: skip
     plotter._ffd_notebook_viewer = widget.viewer  # for push_to_browser
     return widget
 
@@ -178,9 +204,12 @@ def push_to_browser(plotter: pv.Plotter) -> None:
 
 def _trame_view(editor: Editor) -> Any:
     """The editor's trame view: server-side rendering, and the editor pushes frames after its changes."""
+    from .web_security import test_hooks_enabled
+
     widget = _server_rendered(editor.plotter)
     editor.attach_viewer(widget.viewer)
-    editor.register_triggers(widget.viewer.server)
+    if test_hooks_enabled():  # internal state for browser tests only
+        editor.register_triggers(widget.viewer.server)
     return widget
 
 

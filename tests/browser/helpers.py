@@ -8,7 +8,8 @@ Facts these helpers rely on (measured on this kind of machine, see the project's
 * A sphere widget moves ~1.26x the cursor distance under perspective: re-read its screen position
   between drags (``ffd_widget_px`` trigger, display y is bottom-up).
 * Effects are checked from the server side: the editor appends one JSON line per widget callback
-  to the file named by ``FFD_NOTEBOOK_TRACE`` and answers the ``ffd_state`` trigger.
+  to the file named by ``FFD_NOTEBOOK_TRACE`` and answers the ``ffd_state`` trigger. Both are
+  test-only hooks: :func:`server_env` turns the triggers on (``FFD_NOTEBOOK_TEST_HOOKS=1``).
 """
 
 from __future__ import annotations
@@ -81,10 +82,12 @@ def free_port() -> int:
 
 
 def server_env(**extra: str) -> dict[str, str]:
-    """The environment for a server under test: the repository importable, EGL rendering, ``extra`` on top."""
+    """The environment for a server under test: the repository importable, EGL rendering, the test-only
+    triggers on, ``extra`` on top."""
     env = dict(os.environ)
     env["PYTHONPATH"] = os.pathsep.join(filter(None, [str(REPO), env.get("PYTHONPATH")]))
     env["VTK_DEFAULT_OPENGL_WINDOW"] = "vtkEGLRenderWindow"
+    env["FFD_NOTEBOOK_TEST_HOOKS"] = "1"
     env.pop("TRAME_ARGS", None)
     env.update(extra)
     return env

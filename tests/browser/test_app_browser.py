@@ -6,6 +6,7 @@ which are also written to ``test-artifacts/browser_metrics.json`` with before/af
 
 from __future__ import annotations
 
+import re
 import subprocess
 import sys
 import time
@@ -54,21 +55,22 @@ def app(tmp_path: Path):
             cwd=tmp_path, stdout=log, stderr=subprocess.STDOUT, env=server_env(FFD_NOTEBOOK_TRACE=str(trace)),
         )  # fmt: skip
         try:
-            url = f"http://127.0.0.1:{port}/"  # the URL it prints
 
-            def started() -> bool:
+            def started() -> str | None:
                 if proc.poll() is not None:
                     raise RuntimeError(f"the app exited with {proc.returncode}:\n{log_path.read_text()}")
-                return f"running at {url}" in log_path.read_text()
+                found = re.search(r"running at (http://\S+)", log_path.read_text())
+                return found.group(1) if found else None
 
-            wait_for(started, 90, "the app to print its URL")
+            url = wait_for(started, 90, "the app to print its URL")  # with its session token
+            assert url.startswith(f"http://127.0.0.1:{port}/?secret=")
             yield url, trace, log_path
         finally:
             stop_process(proc)
 
 
 def test_drag_save_and_upload_in_the_app(app, tmp_path: Path):
-    from ffd_notebook import Lattice, load_ffd, save_ffd
+    from ffd_notebook import Lattice, load_ffd, read_obj, save_ffd
 
     url, trace, _ = app
     ARTIFACTS.mkdir(exist_ok=True)
@@ -119,7 +121,9 @@ def test_drag_save_and_upload_in_the_app(app, tmp_path: Path):
             # its offset is where the sphere was last dragged to, minus its rest position
             assert np.allclose(lattice.control_points(deformed=True)[ijk], records[-1]["center"], atol=1e-9)
             assert np.isclose(np.abs(lattice.offsets).sum(), state1["offsets_abs_sum"])
-            assert page.locator("#ffd-messages").inner_text().count("saved the lattice") == 1
+            # the file is renamed into place in a worker thread, the message follows from the event loop
+            wait_for(lambda: page.locator("#ffd-messages").inner_text().count("saved the lattice") == 1, 20,
+                     "the page's message about the save")  # fmt: skip
 
             # upload a .ffd from the browser: its offsets replace the lattice
             upload = Lattice(lattice.shape, spacing=lattice.spacing, origin=lattice.origin)
@@ -128,7 +132,31 @@ def test_drag_save_and_upload_in_the_app(app, tmp_path: Path):
             page.set_input_files("#ffd-upload", str(tmp_path / "upload.ffd"))
             wait_for(lambda: trigger(page, "ffd_state")["offsets_abs_sum"] == 1.75, 20, "the uploaded lattice")
             page.screenshot(path=ARTIFACTS / "app_after_upload.png")
+
+            # download to the browser: the lattice as a .ffd file, the deformed mesh as OBJ (no server path)
+            with page.expect_download(timeout=30_000) as download:
+                page.click("#ffd-download")
+            download.value.save_as(tmp_path / "downloaded.ffd")
+            assert np.array_equal(load_ffd(tmp_path / "downloaded.ffd").offsets, upload.offsets)
+            with page.expect_download(timeout=30_000) as download:
+                page.click("#ffd-download-mesh")
+            assert download.value.suggested_filename == "deformed.obj"
+            download.value.save_as(tmp_path / "downloaded.obj")
+            assert read_obj(tmp_path / "downloaded.obj").n_points == rest.n_points
+
             assert not errors, errors
+            # the trame client took the token out of the address bar; a reload still connects (cookie).
+            # (Unloading may reject the old page's pending calls: errors from here on are not checked.)
+            assert "secret=" not in page.url
+            page.reload(wait_until="load")
+
+            def reconnected() -> bool:
+                try:  # window.trame appears once the client has connected
+                    return trigger(page, "ffd_state")["offsets_abs_sum"] == 1.75
+                except Exception:
+                    return False
+
+            wait_for(reconnected, 60, "the page to reconnect after a reload")
         finally:
             context.close()
     metrics["test_s"] = round(time.monotonic() - t0, 1)

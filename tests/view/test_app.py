@@ -20,12 +20,13 @@ REPO = Path(__file__).resolve().parents[2]
 
 
 @pytest.fixture
-def app():
+def app(tmp_path):
     mesh = pv.Sphere(theta_resolution=20, phi_resolution=20)
     mesh.point_data["RGB"] = np.tile(np.array([200, 40, 40], dtype=np.uint8), (mesh.n_points, 1))
-    app = EditorApp(Editor(mesh, shape=(4, 5, 4), window_size=(160, 120)), name=f"test_{uuid.uuid4().hex}")
+    editor = Editor(mesh, shape=(4, 5, 4), window_size=(160, 120))
+    app = EditorApp(editor, name=f"test_{uuid.uuid4().hex}", root=tmp_path, test_hooks=True)
     yield app
-    app.editor.close()
+    app.close()
 
 
 def test_initial_state_mirrors_the_editor(app):
@@ -118,10 +119,10 @@ def test_upload_of_a_ffd_file(app, tmp_path):
     save_ffd(tmp_path / "up.ffd", upload)
     content = (tmp_path / "up.ffd").read_bytes()
     # what the trame client sends for a Vuetify file input: a list of file dicts, content possibly chunked
-    app._on_upload([{"name": "up.ffd", "size": len(content), "type": "", "content": [content[:100], content[100:]]}])
+    app._on_ffd_upload([{"name": "up.ffd", "size": len(content), "type": "", "content": [content[:100], content[100:]]}])
     assert app.editor.lattice.offsets[2, 2, 2, 0] == 0.25
-    assert app.state.ffd_upload is None and "uploaded" in app.state.messages[0]["text"]
-    app._on_upload({"name": "bad.ffd", "content": b"#dimension#\nthree\n"})
+    assert app.state.ffd_upload is None and "up.ffd (uploaded)" in app.state.messages[0]["text"]
+    app._on_ffd_upload({"name": "bad.ffd", "content": b"#dimension#\nthree\n"})
     assert app.state.messages[0]["error"] and app.editor.lattice.offsets[2, 2, 2, 0] == 0.25
 
 

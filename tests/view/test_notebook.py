@@ -77,6 +77,7 @@ def test_trame_view_in_a_kernel(tmp_path, monkeypatch):
     from nbclient import NotebookClient
 
     monkeypatch.delenv("PYVISTA_JUPYTER_BACKEND", raising=False)  # the kernel inherits it: use the default
+    monkeypatch.setenv("FFD_NOTEBOOK_TEST_HOOKS", "1")  # the ffd_state / ffd_widget_px triggers (test-only)
     tests_dir = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
     nb = nbformat.v4.new_notebook()
     nb.cells = [
@@ -99,6 +100,8 @@ def test_trame_view_in_a_kernel(tmp_path, monkeypatch):
     assert result["iframe_class_pyvista"]
     assert result["src"].startswith(f"http://localhost:{result['port']}/index.html?ui=")
     assert result["proxied"].startswith(f"/proxy/{result['port']}/index.html?ui=")
+    token = result["src"].split("&secret=")[1]  # the server's session token, for the trame client in the iframe
+    assert len(token) >= 40 and result["proxied"].endswith(f"&secret={token}")
     assert result["state0"]["n_callbacks"] == 0 and result["state1"]["n_callbacks"] == 1
     assert result["state1"]["offsets_abs_sum"] == pytest.approx(0.9)
     assert result["state1"]["checksum"] != result["state0"]["checksum"]

@@ -1,0 +1,244 @@
+"""Who may talk to a trame server this package starts: the holder of a per-run token, from the server's own origin.
+
+Listening on 127.0.0.1 does not protect a local server: any web page the user visits can open a
+WebSocket to ``ws://127.0.0.1:PORT/ws``. trame's own defaults do not stop it (no Origin check, and
+the wslink secret is the public ``"wslink-secret"``). Every server the package starts (the
+standalone app and the notebook views) is therefore :func:`protect`-ed, the way Jupyter protects
+itself:
+
+1. **Host** (every HTTP request and WebSocket handshake): a loopback name or address, or, when the
+   server listens on another interface, an IP address or this machine's name. A DNS-rebinding page
+   (``evil.example`` re-pointed at 127.0.0.1) sends its own name and is refused.
+2. **Origin** (sent by every browser on WebSocket handshakes and cross-origin requests): the same
+   host and port as the Host header. A page from another site is refused with 403.
+3. **Token**: wslink's hello secret is a fresh random token per server. The trame client reads it
+   from the ``secret`` parameter of the page's URL (and then removes it from the address bar), so
+   the URL the app prints, or the notebook's iframe ``src``, carries it; nobody else knows it.
+
+Behind jupyter-server-proxy (``pyvista.global_theme.trame.server_proxy_enabled``) the browser
+talks to Jupyter, which checks its own token and Origin and forwards the request with *its* Host
+and Origin (same-origin with each other); then any Host is accepted, the Origin must still match
+it, and the token is still required.
+
+Test-only hooks (the ``ffd_widget_px`` / ``ffd_state`` triggers that return internal state) are
+registered only when the environment variable ``FFD_NOTEBOOK_TEST_HOOKS=1`` is set (tests set it;
+nobody else should): see :func:`test_hooks_enabled`.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import ipaddress
+import os
+import secrets
+import socket
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from typing import Any
+from urllib.parse import parse_qsl, urlencode, urlsplit, urlunsplit
+
+__all__ = [
+    "TEST_HOOKS_ENV",
+    "TOKEN_PARAM",
+    "AccessPolicy",
+    "new_token",
+    "protect",
+    "test_hooks_enabled",
+    "url_with_token",
+]
+
+TOKEN_PARAM = "secret"  # the URL parameter the trame client reads wslink's secret from
+TEST_HOOKS_ENV = "FFD_NOTEBOOK_TEST_HOOKS"
+_DEFAULT_PORTS = {"http": 80, "https": 443, "ws": 80, "wss": 443}
+
+
+def new_token() -> str:
+    """A fresh random session token (256 bits, URL-safe).
+
+    Examples
+    --------
+    >>> a, b = new_token(), new_token()
+    >>> a != b and len(a) >= 40
+    True
+    """
+    return secrets.token_urlsafe(32)
+
+
+def test_hooks_enabled() -> bool:
+    """Whether test-only hooks are on: ``FFD_NOTEBOOK_TEST_HOOKS=1`` in the environment (tests only).
+
+    Examples
+    --------
+    >>> import os
+    >>> test_hooks_enabled() == (os.environ.get("FFD_NOTEBOOK_TEST_HOOKS") == "1")
+    True
+    """
+    return os.environ.get(TEST_HOOKS_ENV) == "1"
+
+
+def url_with_token(url: str, token: str) -> str:
+    """``url`` with ``secret=<token>`` added to its query (what the trame client reads).
+
+    Examples
+    --------
+    >>> url_with_token("http://127.0.0.1:8080/index.html?ui=a&reconnect=auto", "T0K")
+    'http://127.0.0.1:8080/index.html?ui=a&reconnect=auto&secret=T0K'
+    >>> url_with_token("/proxy/9000/", "T0K")
+    '/proxy/9000/?secret=T0K'
+    """
+    parts = urlsplit(url)
+    query = [(k, v) for k, v in parse_qsl(parts.query, keep_blank_values=True) if k != TOKEN_PARAM]
+    return urlunsplit(parts._replace(query=urlencode([*query, (TOKEN_PARAM, token)])))
+
+
+def _split_host(netloc: str, scheme: str = "http") -> tuple[str, int | None]:
+    """``("host", port)`` from ``host[:port]`` (IPv6 in brackets); the scheme's default port if none."""
+    parsed = urlsplit(f"//{netloc}")
+    try:
+        port = parsed.port
+    except ValueError:
+        return "", None
+    return (parsed.hostname or "").lower(), port if port is not None else _DEFAULT_PORTS.get(scheme)
+
+
+def _is_loopback(host: str) -> bool:
+    if host == "localhost" or host.endswith(".localhost"):
+        return True
+    try:
+        return ipaddress.ip_address(host).is_loopback
+    except ValueError:
+        return False
+
+
+def _is_ip(host: str) -> bool:
+    try:
+        ipaddress.ip_address(host)
+    except ValueError:
+        return False
+    return True
+
+
+def _machine_names() -> set[str]:
+    names = {socket.gethostname().lower()}
+    try:
+        names.add(socket.getfqdn().lower())
+    except OSError:  # pragma: no cover - resolver trouble
+        pass
+    return names
+
+
+@dataclass
+class AccessPolicy:
+    """The checks :func:`protect` applies (see the module docstring).
+
+    Parameters
+    ----------
+    token : str
+        The session token (wslink's hello secret).
+    bind_host : str
+        The address the server listens on; a non-loopback one also admits IP addresses and this
+        machine's names as Host.
+    behind_proxy : callable returning bool
+        Asked per request: is the server reached through jupyter-server-proxy now? Then any Host is
+        accepted (Jupyter has checked the request), still same-origin with the Origin.
+
+    Examples
+    --------
+    >>> policy = AccessPolicy("t")
+    >>> policy.allows({"Host": "127.0.0.1:8080", "Origin": "http://127.0.0.1:8080"})
+    True
+    >>> policy.allows({"Host": "127.0.0.1:8080", "Origin": "http://evil.example"})
+    False
+    >>> policy.allows({"Host": "evil.example:8080", "Origin": "http://evil.example:8080"})  # DNS rebinding
+    False
+    >>> policy.allows({"Host": "localhost:8080"})  # no Origin: not a browser; the token decides
+    True
+    """
+
+    token: str
+    bind_host: str = "127.0.0.1"
+    behind_proxy: Callable[[], bool] = field(default=lambda: False)
+
+    def host_allowed(self, host_header: str | None) -> bool:
+        """Whether a request's Host header names this server (not a rebound foreign name)."""
+        host, _ = _split_host(host_header or "")
+        if not host:
+            return False
+        if _is_loopback(host) or self.behind_proxy():
+            return True
+        if _is_loopback(self.bind_host):
+            return False
+        return _is_ip(host) or host in _machine_names() or host == self.bind_host.lower()
+
+    @staticmethod
+    def origin_allowed(origin: str | None, host_header: str | None) -> bool:
+        """Whether ``origin`` is the server's own (the same host and port as the Host header)."""
+        if origin is None:
+            return True  # browsers always send it on WebSocket handshakes; others need the token anyway
+        parts = urlsplit(origin.strip())
+        if parts.scheme not in ("http", "https") or not parts.netloc:
+            return False  # includes "null" (sandboxed frames, file:// pages)
+        return _split_host(parts.netloc, parts.scheme) == _split_host(host_header or "", parts.scheme)
+
+    def allows(self, headers: Mapping[str, str]) -> bool:
+        """Host and Origin checks for one request's headers."""
+        host = headers.get("Host")
+        return self.host_allowed(host) and self.origin_allowed(headers.get("Origin"), host)
+
+
+def _cookie_name(token: str) -> str:
+    return "ffd_notebook_" + hashlib.sha256(token.encode()).hexdigest()[:12]
+
+
+def _guard_middleware(policy: AccessPolicy) -> Any:
+    """Host/Origin checks on every request; and a reload of the page keeps working.
+
+    The trame client removes the token from the address bar once it has read it, so a reload
+    would lose it. The page loaded with the token therefore also sets an HttpOnly, SameSite=Strict
+    cookie holding it, and a later request for the page with that cookie but no token is
+    redirected to the address with the token. Another site's page cannot read either.
+    """
+    from aiohttp import web
+
+    cookie = _cookie_name(policy.token)
+
+    @web.middleware
+    async def guard(request: Any, handler: Any) -> Any:
+        if not policy.allows(request.headers):
+            return web.Response(status=403, text="403: this server only answers its own pages")
+        if request.path.endswith("/index.html") and request.method == "GET":
+            given = request.query.get(TOKEN_PARAM)
+            if given is None and secrets.compare_digest(request.cookies.get(cookie, ""), policy.token):
+                raise web.HTTPFound(url_with_token(str(request.rel_url), policy.token))
+            response = await handler(request)
+            if given is not None and secrets.compare_digest(given, policy.token):
+                response.set_cookie(cookie, policy.token, httponly=True, samesite="Strict", path="/")
+            return response
+        return await handler(request)
+
+    return guard
+
+
+def protect(server: Any, policy: AccessPolicy) -> None:
+    """Make a trame ``server`` (not started yet) require ``policy.token`` and check Host and Origin.
+
+    The token replaces wslink's hello secret; the Host/Origin checks are an aiohttp middleware on
+    every request (HTTP and WebSocket). Both are installed when trame binds its web server, before
+    it listens. With trame's ``jupyter`` wslink backend (no aiohttp server: the WebSocket travels
+    inside Jupyter's own authenticated connection) only the token applies.
+
+    Raises
+    ------
+    RuntimeError
+        If the server is already running (it would have run unprotected).
+    """
+    if server.running:
+        raise RuntimeError("protect() must be called before the trame server starts")
+
+    def install(ws_server: Any) -> None:
+        server.protocol.updateSecret(policy.token)
+        app = getattr(ws_server, "app", None)
+        if app is not None and hasattr(app, "middlewares"):
+            app.middlewares.append(_guard_middleware(policy))
+
+    server.controller.on_server_bind.add(install)
