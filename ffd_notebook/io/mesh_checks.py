@@ -90,7 +90,7 @@ def check_cells(path: str | os.PathLike[str], mesh: pv.DataSet) -> None:
     >>> check_cells("bad.vtk", mesh)
     Traceback (most recent call last):
     ...
-    ffd_notebook.errors.FileFormatError: bad.vtk: polygon 0 uses point 5: the file has 3 points
+    ffd_notebook.errors.FileFormatError: bad.vtk: polygon 0 uses point 5: there are 3 points
     """
     points = np.asarray(mesh.points)
     if not np.isfinite(points).all():
@@ -136,6 +136,6 @@ def _check_array(path, kind: str, cells, n_points: int) -> np.ndarray:
     if bad.any():
         first = int(np.argmax(bad))
         cell = int(np.searchsorted(offsets, first, side="right")) - 1
-        raise FileFormatError(path, None, f"{kind} {cell} uses point {connectivity[first]}: the file has {n_points} "
+        raise FileFormatError(path, None, f"{kind} {cell} uses point {connectivity[first]}: there are {n_points} "
                               "points")  # fmt: skip
     return sizes

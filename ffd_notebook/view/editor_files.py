@@ -24,41 +24,18 @@ import numpy as np
 import pyvista as pv
 
 from ..deform import FFD, Deformer
+from ..io.mesh_checks import check_cells
 from ..lattice import Lattice
 from . import fields
 
 __all__ = ["EditorFilesMixin", "as_surface", "decimate_keeping_colors"]
 
 
-def _check_connectivity(mesh: pv.DataSet) -> None:
-    """Refuse cells that name points the mesh does not have (VTK filters crash on them, e.g. normals).
-
-    Some VTK readers (legacy ``.vtk``, ASCII PLY) load such files silently; the first filter that
-    follows the indices then reads out of bounds and kills the process. Only the cell arrays'
-    connectivity (a flat index array) is read here, never dereferenced.
-    """
-    from vtkmodules.util.numpy_support import vtk_to_numpy
-
-    if isinstance(mesh, pv.PolyData):
-        cell_arrays = [mesh.GetVerts(), mesh.GetLines(), mesh.GetPolys(), mesh.GetStrips()]
-    elif isinstance(mesh, pv.UnstructuredGrid):
-        cell_arrays = [mesh.GetCells()]
-    else:  # image and structured grids: cells are implicit
-        return
-    for cells in cell_arrays:
-        if cells is None or cells.GetNumberOfConnectivityIds() == 0:
-            continue
-        idx = vtk_to_numpy(cells.GetConnectivityArray())
-        low, high = int(idx.min()), int(idx.max())
-        if low < 0 or high >= mesh.n_points:
-            bad = low if low < 0 else high
-            raise ValueError(f"a cell refers to point {bad}, but the mesh has {mesh.n_points} points")
-
-
 def as_surface(mesh: Any) -> pv.PolyData:
     """A deep copy of ``mesh`` as a :class:`pyvista.PolyData` surface (volumes give their outer surface).
 
-    Cells that refer to missing points raise ValueError before any VTK filter sees them.
+    Cells that refer to missing points raise :class:`~ffd_notebook.errors.FileFormatError` (a
+    ValueError) before any VTK filter sees them (:func:`ffd_notebook.io.mesh_checks.check_cells`).
 
     Examples
     --------
@@ -68,11 +45,12 @@ def as_surface(mesh: Any) -> pv.PolyData:
     >>> as_surface(pv.PolyData([[0.0, 0, 0], [1, 0, 0], [0, 1, 0]], faces=[3, 0, 1, 7]))
     Traceback (most recent call last):
     ...
-    ValueError: a cell refers to point 7, but the mesh has 3 points
+    ffd_notebook.errors.FileFormatError: the mesh: polygon 0 uses point 7: there are 3 points
     """
     if not isinstance(mesh, pv.DataSet):
         mesh = pv.wrap(mesh)
-    _check_connectivity(mesh)
+    if isinstance(mesh, pv.PolyData | pv.UnstructuredGrid):  # other grids' cells are implicit
+        check_cells("the mesh", mesh)
     if not isinstance(mesh, pv.PolyData):
         mesh = mesh.extract_surface(algorithm="dataset_surface")
     if mesh.n_points == 0:

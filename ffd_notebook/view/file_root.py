@@ -17,11 +17,11 @@ from __future__ import annotations
 import os
 import re
 import shutil
-import stat
 import tempfile
 from pathlib import Path
 
 from ..errors import FileFormatError
+from ..io import check_regular_file
 
 __all__ = [
     "DEFAULT_MAX_FILE_BYTES",
@@ -45,8 +45,9 @@ class PathRefused(ValueError):
 def refuse_special_or_oversize(path: str | os.PathLike[str], max_bytes: int) -> None:
     """Raise :class:`PathRefused` unless ``path`` is a regular file of at most ``max_bytes`` bytes.
 
-    Uses ``os.stat`` (follows symlinks, never opens the file), so a FIFO cannot block and a device
-    cannot be read for ever. A missing file raises :class:`FileNotFoundError`.
+    The readers' own check (:func:`ffd_notebook.io.check_regular_file`: ``os.stat``, follows
+    symlinks, never opens the file, so a FIFO cannot block and a device cannot be read for ever),
+    with a message fit for the page. A missing file raises :class:`FileNotFoundError`.
 
     Examples
     --------
@@ -55,11 +56,14 @@ def refuse_special_or_oversize(path: str | os.PathLike[str], max_bytes: int) -> 
     ...
     ffd_notebook.view.file_root.PathRefused: /dev/zero is not a regular file
     """
-    info = os.stat(path)
-    if not stat.S_ISREG(info.st_mode):
-        raise PathRefused(f"{os.fspath(path)} is not a regular file")
-    if info.st_size > max_bytes:
-        raise PathRefused(f"{os.fspath(path)} is bigger than the limit of {max_bytes / 2**20:.0f} MiB")
+    try:
+        check_regular_file(path, max_bytes)
+    except IsADirectoryError:
+        raise PathRefused(f"{os.fspath(path)} is not a regular file") from None
+    except FileFormatError as exc:
+        too_big = "too large" in exc.problem
+        what = f"bigger than the limit of {max_bytes / 2**20:.0f} MiB" if too_big else "not a regular file"
+        raise PathRefused(f"{os.fspath(path)} is {what}") from None
 
 
 class FileRoot:

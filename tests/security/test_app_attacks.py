@@ -252,7 +252,7 @@ def test_dev_zero_is_never_read(app):
 
 def test_crashing_vtk_does_not_kill_the_server(app):
     state = run(authenticated_action(app, "ffd_load_mesh", "bad.vtk"))
-    assert messages(state)[0].startswith("Error: could not load: bad.vtk: a cell refers to point 999999")
+    assert messages(state)[0].startswith("Error: could not load: bad.vtk: ")
 
     async def upload():
         async with connect(app.ws, origin=app.origin) as s:
