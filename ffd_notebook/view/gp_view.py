@@ -69,7 +69,7 @@ class GPExplorer(ModelModes):
         Size of the Nystrom low-rank model rebuilt when ``sigma`` changes.
     noise : float, (3,) or (3, 3) array_like, optional
         Default observation noise of a landmark: variance, per-axis variances or covariance;
-        default ``(0.01 * scale)^2``.
+        default ``(0.01 * scale)^2``. Kept as :attr:`noise`, a 3x3 covariance.
     seed : int
         Seeds the inducing points and the first sample.
     plotter : pyvista.Plotter, optional

@@ -135,6 +135,10 @@ def test_bad_arguments(liver):
     with pytest.raises(ValueError, match="sigma"):
         ex.set_sigma(-1.0)
     ex.close()
+    with pytest.raises(ValueError, match="either a mesh"):
+        GPExplorer(off_screen=True)
+    with pytest.raises(ValueError, match="either a mesh"):
+        GPExplorer(liver, model=STATISMO, off_screen=True)
 
 
 # ---------------------------------------------------------------------- shape models (Statismo files, examples)
