@@ -14,6 +14,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.linalg.blas import dger
 
+from . import _oneshot
 from .basis import bernstein, bernstein_derivative, bspline, bspline_cells, bspline_derivative
 from .lattice import Lattice, _as_points
 
@@ -46,6 +47,12 @@ class FFD:
         every point inside the lattice box (points outside are extrapolated polynomially).
     affine : array_like, optional
         4x4 homogeneous (or 3x4) matrix of the global part ``x -> A x + b``; identity if omitted.
+    only_inside : bool
+        If true, the lattice displaces only the points inside its domain and leaves the others
+        to the affine part alone: the box ``0 <= u <= n - 1`` (lattice coordinates) for the
+        Bernstein basis, as PyGeM does, and the region where the B-spline weights sum to one,
+        ``1 <= u <= n - 2``, for the B-spline basis, as ITK's ``BSplineTransform`` does. The
+        deformation is then discontinuous where the offsets near the domain's faces are not zero.
 
     Examples
     --------
@@ -57,7 +64,9 @@ class FFD:
     [[0.0, 0.0, 1.777778]]
     """
 
-    def __init__(self, lattice: Lattice, basis: str = "bspline", affine: ArrayLike | None = None) -> None:
+    def __init__(
+        self, lattice: Lattice, basis: str = "bspline", affine: ArrayLike | None = None, only_inside: bool = False
+    ) -> None:
         if not isinstance(lattice, Lattice):
             raise TypeError(f"lattice must be a Lattice, got {type(lattice).__name__}")
         if basis not in BASES:
@@ -67,6 +76,7 @@ class FFD:
         self.lattice = lattice
         self.basis = basis
         self.affine = _check_affine(affine)
+        self.only_inside = bool(only_inside)
 
     # ------------------------------------------------------------------ evaluation
     def apply_affine(self, points: ArrayLike) -> NDArray[np.float64]:
@@ -88,12 +98,10 @@ class FFD:
         """
         pts = _as_points(points)
         uvw = self.lattice.to_lattice(pts)
-        if self.basis == "bernstein":
-            bx, by, bz = self._bernstein_values(uvw)
-            return np.einsum("pi,pj,pk,ijkd->pd", bx, by, bz, self.lattice.offsets, optimize=True)
-        cells = _CellGroups(uvw, self.lattice.shape)
-        bu, bv, bw = (bspline(cells.t[:, a]) for a in range(3))
-        return cells.unsort(cells.sum(_pad(self.lattice.offsets), _outer(bu, bv), cells.masked(bw)))
+        local = _oneshot.displacement(self.basis, self.lattice.offsets, uvw)
+        if self.only_inside:
+            local[~_oneshot.in_domain(self.basis, self.lattice.shape, uvw)] = 0.0
+        return local
 
     def deform(self, points: ArrayLike) -> NDArray[np.float64]:
         """Deformed positions ``A x + b + T_local(x)`` of ``(N, 3)`` points.
@@ -140,6 +148,8 @@ class FFD:
         else:
             cells = _CellGroups(uvw, lat.shape)
             d_uvw = cells.unsort(_bspline_lattice_jacobian(cells, lat.offsets, cells.t))
+        if self.only_inside:
+            d_uvw[~_oneshot.in_domain(self.basis, lat.shape, uvw)] = 0.0
         return self._chain(d_uvw)
 
     def _chain(self, d_uvw: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -181,7 +191,8 @@ class FFD:
 
     def __repr__(self) -> str:
         affine = "identity" if np.array_equal(self.affine, np.eye(4)) else "set"
-        return f"FFD({self.lattice!r}, basis={self.basis!r}, affine={affine})"
+        inside = ", only_inside=True" if self.only_inside else ""
+        return f"FFD({self.lattice!r}, basis={self.basis!r}, affine={affine}{inside})"
 
 
 def _pad(offsets: NDArray[np.float64], dtype: Any = np.float64) -> NDArray[Any]:
@@ -309,7 +320,8 @@ class Deformer:
     # ------------------------------------------------------------------ set-up
     def _geometry_key(self) -> tuple:
         lat = self.ffd.lattice
-        return (self.ffd.basis, lat.shape, lat.spacing.tobytes(), lat.origin.tobytes(), lat.rotation.tobytes())
+        geometry = (lat.shape, lat.spacing.tobytes(), lat.origin.tobytes(), lat.rotation.tobytes())
+        return (self.ffd.basis, getattr(self.ffd, "only_inside", False), *geometry)
 
     def _bind(self) -> None:
         lat, n = self.ffd.lattice, len(self.points)
@@ -317,11 +329,16 @@ class Deformer:
         self._affine = self.ffd.affine.copy()
         uvw = lat.to_lattice(self.points)
         self._cells = None
+        # points the lattice may displace (all unless only_inside): the others get zero weights
+        movable = _oneshot.in_domain(self.ffd.basis, lat.shape, uvw) if self.ffd.only_inside else None
         if self.ffd.basis == "bspline":
             cells = _CellGroups(uvw, lat.shape)
             bu, bv, bw = (bspline(cells.t[:, a]) for a in range(3))
             self._buv = _outer(bu, bv).astype(self.dtype)
-            self._bw = cells.masked(bw).astype(self.dtype)
+            bw = cells.masked(bw)
+            if movable is not None:
+                bw[~movable[cells.order]] = 0.0
+            self._bw = bw.astype(self.dtype)
             cells.t = None  # not needed after the weights: keep the cache small
             self._cells = cells
             # inverse permutation: original point p sits at sorted position inverse[p]
@@ -334,6 +351,8 @@ class Deformer:
             bx, by, bz = self.ffd._bernstein_values(uvw)
             nx, ny, _ = lat.shape
             self._bxy = (bx[:, :, None] * by[:, None, :]).reshape(n, nx * ny).astype(self.dtype)
+            if movable is not None:
+                bz[~movable] = 0.0
             self._bz = bz.astype(self.dtype)
         self._base = np.asarray(self.ffd.apply_affine(self.points), dtype=np.float64)
         if self._cells is not None:
