@@ -95,7 +95,10 @@ def save_transform(path: str | os.PathLike[str], ffd: FFD) -> None:
     np.float64(2.0)
     """
     kind = _kind(path)
-    transforms = ffd_to_transforms(ffd)
+    try:
+        transforms = ffd_to_transforms(ffd)
+    except ValueError as exc:
+        raise ValueError(f"{os.fspath(path)}: {exc}") from None
     if kind == "text":
         write_itk_text(path, transforms)
     else:
