@@ -47,8 +47,12 @@ def load_deformation(path: str | os.PathLike[str]) -> FFD:
 
     Examples
     --------
-    >>> ffd = load_deformation("../shared/data/pygem/parameters_test_ffd_sphere.prm")  # doctest: +SKIP
-    >>> ffd.basis, ffd.only_inside  # doctest: +SKIP
+    >>> import pathlib, tempfile
+    >>> from ffd_notebook import Lattice
+    >>> path = pathlib.Path(tempfile.mkdtemp()) / "box.prm"
+    >>> save_prm(path, Lattice((3, 2, 2), 1.0))
+    >>> ffd = load_deformation(path)
+    >>> ffd.basis, ffd.only_inside
     ('bernstein', True)
     """
     suffix = _suffix(path)
