@@ -178,8 +178,9 @@ def transforms_to_ffd(path: str | os.PathLike[str], transforms: list[RawTransfor
     bases = [_base(path, raw) for raw in chain]
     for raw, base in zip(chain, bases, strict=True):
         if base not in _KNOWN:
-            raise _error(path, raw, "kind", f"unsupported transform type {raw.kind!r}; expected a BSplineTransform, "
-                         "alone or in a CompositeTransform with AffineTransform or TranslationTransform parts")  # fmt: skip
+            problem = (f"unsupported transform type {raw.kind!r}; expected a BSplineTransform, alone or in a "
+                       "CompositeTransform with AffineTransform or TranslationTransform parts")  # fmt: skip
+            raise _error(path, raw, "kind", problem)
     where = [i for i, base in enumerate(bases) if base == "BSplineTransform"]
     if len(where) != 1:
         culprit = chain[where[1]] if where else first

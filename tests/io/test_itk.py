@@ -210,7 +210,7 @@ def test_writer_refuses_what_itk_cannot_hold(tmp_path):
         save_transform(path, clamp)
     with pytest.raises(ValueError, match="singular"):
         save_transform(path, FFD(lat, affine=np.diag([1.0, 0.0, 1.0, 1.0])))
-    with pytest.raises(ValueError, match="unknown transform file extension '.mat'"):
+    with pytest.raises(ValueError, match=r"unknown transform file extension '\.mat'"):
         save_transform(tmp_path / "x.mat", FFD(lat))
     assert path.read_text() == "old"  # refused before the file was touched
     assert sorted(os.listdir(tmp_path)) == ["keep.tfm"]  # and no temporary file left behind
@@ -231,19 +231,27 @@ GOOD = (
         (f"{HEADER}\nParameters: 1 2 3\n", r"line 2: 'Parameters:' before any 'Transform:' line"),
         (f"{HEADER}\nTransform:\n", r"line 2: expected a transform type"),
         (f"{HEADER}\nhello\n", r"line 2: expected 'Transform:', 'Parameters:' or 'FixedParameters:', got 'hello'"),
-        (GOOD.replace("Parameters: 0 0", "Parameters: 0 nan"), r"line 4: expected a parameter \(a finite number\), "
-         "got 'nan'"),  # fmt: skip
+        (
+            GOOD.replace("Parameters: 0 0", "Parameters: 0 nan"),
+            r"line 4: expected a parameter \(a finite number\), "
+            "got 'nan'",
+        ),
         (GOOD + "Parameters: 1\n", r"line 6: second 'Parameters:' line for one transform \(the first is line 4\)"),
         (GOOD.replace(" 0 0\n", " 0\n", 1), r"line 4: a 4x4x4 grid has 192 parameters, got 191"),
         (GOOD.replace("4 4 4 0", "4 3 4 0"), r"line 5: expected a grid size of integers in 4..4096"),
         (GOOD.replace("4 4 4 0", "4 4.5 4 0"), r"line 5: expected a grid size of integers"),
         (GOOD.replace("1 1 1 1 0 0", "1 -1 1 1 0 0"), r"line 5: expected a positive grid spacing"),
-        (GOOD.replace("1 0 0 0 1 0 0 0 1", "1 0.5 0 0 1 0 0 0 1"), r"line 5: the grid direction is not orthogonal "
-         r"\(off by 0.5"),  # fmt: skip
+        (
+            GOOD.replace("1 0 0 0 1 0 0 0 1", "1 0.5 0 0 1 0 0 0 1"),
+            r"line 5: the grid direction is not orthogonal "
+            r"\(off by 0.5",
+        ),
         (GOOD.replace("1 0 0 0 1\n", "1 0 0 0\n"), r"line 5: a 3D BSplineTransform has 18 fixed parameters"),
         (GOOD.replace("_double_3_3", "_double_2_2"), r"line 3: unsupported transform type"),
-        (GOOD + "Transform: AffineTransform_double_3_3\nParameters: 1 0 0 0 1 0 0 0 1 0 0 0\n",
-         r"line 6: 2 transforms side by side"),  # fmt: skip
+        (
+            GOOD + "Transform: AffineTransform_double_3_3\nParameters: 1 0 0 0 1 0 0 0 1 0 0 0\n",
+            r"line 6: 2 transforms side by side",
+        ),
     ],
 )
 def test_bad_text_files(tmp_path, text, problem):
