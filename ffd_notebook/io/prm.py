@@ -66,10 +66,16 @@ def rotation_from_angles(angles_deg: np.ndarray) -> np.ndarray:
     return out
 
 
-def _entries(path: str | os.PathLike[str], lines: list[str]) -> dict[str, tuple[str, int, list[tuple[int, str]]]]:
-    """``key -> (section, line, value lines)`` with INI rules: comments, continuation lines."""
+_Entries = dict[tuple[str, str], tuple[int, list[tuple[int, str]]]]
+
+
+def _entries(path: str | os.PathLike[str], lines: list[str]) -> _Entries:
+    """``(section, key) -> (line, value lines)`` with INI rules: comments, continuation lines.
+
+    Each section's header is entered too, as key ``""``, for where a missing key is reported.
+    """
     section = None
-    entries: dict[str, tuple[str, int, list[tuple[int, str]]]] = {}
+    entries: _Entries = {}
     current: list[tuple[int, str]] | None = None
     for number, text in enumerate(lines, start=1):
         stripped = text.strip()
@@ -83,35 +89,41 @@ def _entries(path: str | os.PathLike[str], lines: list[str]) -> dict[str, tuple[
             if not stripped.endswith("]"):
                 raise FileFormatError(path, number, f"expected a section header like [Box info], got {stripped[:40]!r}")
             section, current = " ".join(stripped[1:-1].split()).lower(), None
+            entries.setdefault((section, ""), (number, []))
             continue
         cut = min((i for i in (stripped.find(":"), stripped.find("=")) if i >= 0), default=-1)
         if cut < 0 or section is None:
             what = "'key: value'" if section is not None else "a section header like [Box info]"
             raise FileFormatError(path, number, f"expected {what}, got {stripped[:40]!r}")
         key = " ".join(stripped[:cut].split()).lower()
-        if key in entries and entries[key][0] == section:
-            raise FileFormatError(path, number, f"{key!r} given twice (first on line {entries[key][1]})")
+        if (section, key) in entries:
+            raise FileFormatError(path, number, f"{key!r} given twice (first on line {entries[section, key][0]})")
         value = stripped[cut + 1 :].strip()
         current = [(number, value)] if value else []
-        entries[key] = (section, number, current)
+        entries[section, key] = (number, current)
     return entries
 
 
-def _one_value(path, entries, key: str, section: str, end: int) -> tuple[int, str]:
-    if key not in entries or entries[key][0] != section:
-        raise FileFormatError(path, end, f"missing {key!r} in [{section}]; expected a PyGeM FFD parameter file")
-    _, number, values = entries[key]
+def _missing(path, entries: _Entries, key: str, section: str, end: int) -> FileFormatError:
+    line = entries.get((section, ""), (end, []))[0]
+    return FileFormatError(path, line, f"missing {key!r} in [{section}]; expected a PyGeM FFD parameter file")
+
+
+def _one_value(path, entries: _Entries, key: str, section: str, end: int) -> tuple[int, str]:
+    if (section, key) not in entries:
+        raise _missing(path, entries, key, section, end)
+    number, values = entries[section, key]
     if len(values) != 1 or len(values[0][1].split()) != 1:
         raise FileFormatError(path, number, f"expected one number after {key!r}")
     return values[0]
 
 
-def _weights(path, entries, key: str, shape: tuple[int, int, int], end: int) -> np.ndarray:
-    if key not in entries or entries[key][0] != "parameters weights":
-        raise FileFormatError(path, end, f"missing {key!r} in [Parameters weights]")
+def _weights(path, entries: _Entries, key: str, shape: tuple[int, int, int], end: int) -> np.ndarray:
+    if ("parameters weights", key) not in entries:
+        raise _missing(path, entries, key, "parameters weights", end)
     out = np.zeros(shape)
     seen: dict[tuple[int, int, int], int] = {}
-    for number, text in entries[key][2]:
+    for number, text in entries["parameters weights", key][1]:
         tokens = text.split()
         if len(tokens) != 4:
             raise FileFormatError(path, number, f"expected 'i j k weight' (4 numbers), got {text[:40]!r}")
@@ -165,7 +177,7 @@ def load_prm(path: str | os.PathLike[str]) -> Lattice:
                 raise FileFormatError(path, number, f"expected a positive {key}, got {token!r}")
     shape = (counts[0], counts[1], counts[2])
     if math.prod(shape) > _MAX_POINTS:
-        number = entries["n control points z"][1]
+        number = entries["box info", "n control points z"][0]
         raise FileFormatError(path, number, f"{shape} is more than {_MAX_POINTS} control points")
     weights = np.stack([_weights(path, entries, key, shape, end) for key in _WEIGHTS], axis=-1)
     length, angles = np.array(box["box length"]), np.array(box["rotation angle"])
