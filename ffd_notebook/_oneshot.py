@@ -125,7 +125,8 @@ def bspline_displacement(offsets: NDArray[np.float64], uvw: NDArray[np.float64])
     n = len(uvw)
     dims = np.array(offsets.shape[:3])
     floor = np.floor(uvw)
-    first = floor.astype(np.int64) + 2  # floor(u) - 1, shifted by the 3 zero layers of padding
+    # floor(u) - 1, shifted by the 3 zero layers of padding; clipped first so far points cast safely
+    first = np.clip(floor, -3.0, dims + 1.0).astype(np.int64) + 2
     # one unsigned comparison checks 0 <= first <= dims + 2 (negative numbers wrap to huge ones)
     inside = np.all(first.view(np.uint64) <= (dims + 2).astype(np.uint64), axis=1)
     first[~inside] = 0
