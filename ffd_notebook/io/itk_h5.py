@@ -11,6 +11,7 @@ The layout ITK's ``HDF5TransformIO`` writes (learnt from files SimpleITK wrote):
 from __future__ import annotations
 
 import os
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -60,6 +61,34 @@ def _floats(path: str | os.PathLike[str], group: Any, name: str) -> np.ndarray:
     return values
 
 
+def _check_global_heaps(path: str | os.PathLike[str]) -> None:
+    """Refuse a damaged HDF5 global heap before the HDF5 library reads it.
+
+    The global heap holds variable-length data such as ITK's ``TransformType`` strings, and the
+    HDF5 C library can loop forever on a collection whose object sizes do not add up (found by
+    fuzzing mutated SimpleITK files). A collection is ``"GCOL"``, version 1, three zero bytes, its
+    size (8 bytes), then objects: index (2), reference count (2), reserved (4), size (8), data
+    padded to 8 bytes; index 0 is the free space that ends it, its size (header included) all that
+    is left. Lengths are 8 bytes, the HDF5 default that ITK and h5py write. This catches the damage
+    fuzzing found (an object size that walks into the free space), not every possible one.
+    """
+    data = Path(path).read_bytes()
+    start = data.find(b"GCOL\x01\x00\x00\x00")
+    while start >= 0:
+        end = start + int.from_bytes(data[start + 8 : start + 16], "little")
+        at = start + 16
+        while at + 16 <= end <= len(data):
+            size = int.from_bytes(data[at + 8 : at + 16], "little")
+            if int.from_bytes(data[at : at + 2], "little") == 0:  # free space: exactly the rest of the collection
+                at = at + size if size == end - at else -1
+                break
+            at += 16 + -(-size // 8) * 8
+        if at < 0 or not 0 <= end - at < 16 or end > len(data):
+            raise FileFormatError(path, None, f"damaged HDF5 global heap at byte {start} (its objects do not fill "
+                                  "the collection): not read")  # fmt: skip
+        start = data.find(b"GCOL\x01\x00\x00\x00", start + 4)
+
+
 def read_itk_h5(path: str | os.PathLike[str]) -> list[RawTransform]:
     """The transforms of an ITK HDF5 transform file, in order.
 
@@ -73,6 +102,7 @@ def read_itk_h5(path: str | os.PathLike[str]) -> list[RawTransform]:
     """
     import h5py
 
+    _check_global_heaps(path)
     try:
         f = h5py.File(path, "r")
     except FileNotFoundError:

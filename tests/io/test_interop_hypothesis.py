@@ -100,3 +100,40 @@ def test_random_bytes(tmp_path, data):
         path = tmp_path / name
         path.write_bytes(blob)
         check(load, path)
+
+
+@pytest.fixture(scope="module")
+def h5_bytes(tmp_path_factory):
+    text_path = tmp_path_factory.mktemp("fuzz-h5") / "real.tfm"
+    text_path.write_text(sitk_composite_text(tmp_path_factory))
+    path = text_path.with_suffix(".h5")
+    sitk.WriteTransform(sitk.ReadTransform(os.fspath(text_path)), os.fspath(path))
+    return path.read_bytes()
+
+
+@SETTINGS
+@given(data=st.data())
+def test_mutated_h5(tmp_path, h5_bytes, data):
+    blob = bytearray(h5_bytes)
+    for _ in range(data.draw(st.integers(1, 5))):
+        blob[data.draw(st.integers(0, len(blob) - 1))] = data.draw(st.integers(0, 255))
+    path = tmp_path / "mutated.h5"
+    path.write_bytes(bytes(blob))
+    ffd = check(load_transform, path)
+    if ffd is not None:
+        assert np.all(np.isfinite(ffd.deform(ffd.lattice.control_points().reshape(-1, 3))))
+
+
+def test_damaged_global_heap_is_refused_not_read(tmp_path, h5_bytes):
+    """The HDF5 library loops forever on a global-heap object too long by a few bytes (found by fuzzing)."""
+    blob = bytearray(h5_bytes)
+    heap = blob.index(b"GCOL\x01\x00\x00\x00")
+    at, last = heap + 16, None
+    while int.from_bytes(blob[at : at + 2], "little"):  # walk to the free space, remembering the last object
+        last = at
+        at += 16 + -(-int.from_bytes(blob[at + 8 : at + 16], "little") // 8) * 8
+    blob[last + 8] += 64  # the last string now runs 64 bytes into the free space
+    path = tmp_path / "heap.h5"
+    path.write_bytes(bytes(blob))
+    with pytest.raises(FileFormatError, match=rf"heap.h5: damaged HDF5 global heap at byte {heap}"):
+        load_transform(path)
