@@ -125,6 +125,7 @@ def bspline_displacement(offsets: NDArray[np.float64], uvw: NDArray[np.float64])
     n = len(uvw)
     dims = np.array(offsets.shape[:3])
     floor = np.floor(uvw)
+    t = (uvw - floor).T  # (3, N): the weights are computed along the points
     # floor(u) - 1, shifted by the 3 zero layers of padding; clipped first so far points cast safely
     first = np.clip(floor, -3.0, dims + 1.0).astype(np.int64) + 2
     # one unsigned comparison checks 0 <= first <= dims + 2 (negative numbers wrap to huge ones)
@@ -136,17 +137,17 @@ def bspline_displacement(offsets: NDArray[np.float64], uvw: NDArray[np.float64])
     order = np.argsort(cell.astype(small), kind="stable")
     cell = cell[order]
     bounds = np.r_[0, np.flatnonzero(np.diff(cell)) + 1, n]
-    weights = _bspline_rows((uvw - floor)[order].T)
+    weights = _bspline_rows(np.take(t, order, axis=1))
     weights[:, 2, ~inside[order]] = 0.0  # supports wholly outside the lattice contribute nothing
     buv = (weights[:, 0, None, :] * weights[:, 1][None, :, :]).reshape(16, n)
     bw = weights[:, 2]
     padded = np.pad(offsets, ((3, 3), (3, 3), (3, 3), (0, 0)))
     firsts = first[order[bounds[:-1]]]
-    local = np.empty((3, n))
+    local = np.empty((n, 3))
     for s, e, (i, j, k) in zip(bounds[:-1], bounds[1:], firsts, strict=True):
         block = padded[i : i + 4, j : j + 4, k : k + 4].reshape(16, 12).T  # (n d) x (l m)
         x = (block @ buv[:, s:e]).reshape(4, 3, -1)
-        np.einsum("ndp,np->dp", x, bw[:, s:e], out=local[:, s:e])
-    out = np.empty((n, 3))
-    out[order] = local.T
+        np.einsum("ndp,np->pd", x, bw[:, s:e], out=local[s:e])
+    out = np.empty_like(local)
+    out[order] = local
     return out

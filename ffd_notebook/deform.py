@@ -96,7 +96,10 @@ class FFD:
         >>> FFD(lat, affine=np.diag([3.0, 3.0, 3.0, 1.0])).displacement([[0.5, 0.5, 0.5]]).round(12).tolist()
         [[0.0, 2.0, 0.0]]
         """
-        pts = _as_points(points)
+        return self._displacement(_as_points(points))
+
+    def _displacement(self, pts: NDArray[np.float64]) -> NDArray[np.float64]:
+        """:meth:`displacement` of points already checked (one-shot: see ``_oneshot``)."""
         uvw = self.lattice.to_lattice(pts)
         local = _oneshot.displacement(self.basis, self.lattice.offsets, uvw)
         if self.only_inside:
@@ -116,7 +119,10 @@ class FFD:
         True
         """
         pts = _as_points(points)
-        return self.apply_affine(pts) + self.displacement(pts)
+        local = self._displacement(pts)
+        local += pts @ self.affine[:3, :3].T
+        local += self.affine[:3, 3]
+        return local
 
     __call__ = deform
 
