@@ -61,6 +61,11 @@ def _is_loopback(host: str) -> bool:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Parse ``argv`` (``sys.argv[1:]`` by default), build the editor and serve it until interrupted."""
+    argv = sys.argv[1:] if argv is None else list(argv)
+    if argv and argv[0] == "convert":  # python -m ffd_notebook convert IN OUT
+        from .io.convert import convert_main
+
+        return convert_main(argv[1:])
     parser = build_parser()
     args = parser.parse_args(argv)
     for path, what in ((args.mesh, "mesh"), (args.ffd, ".ffd file")):

@@ -1,4 +1,4 @@
-"""Reading and writing files: .ffd lattices, OBJ meshes with per-vertex colours, other mesh formats.
+"""Reading and writing files: .ffd lattices, ITK transforms, PyGeM .prm files, OBJ meshes, other meshes.
 
 The .ffd, OBJ and PLY parsers are written here (see :mod:`.ffd_file`, :mod:`.obj` and :mod:`.ply`
 for why); STL and VTK formats go through VTK's readers in a child process (see :mod:`.mesh`).
@@ -10,19 +10,28 @@ special files and files over :data:`MAX_FILE_BYTES` are refused before reading
 from __future__ import annotations
 
 from ._safety import MAX_FILE_BYTES, check_regular_file
+from .deformation_files import load_deformation, save_deformation
 from .ffd_file import load_ffd, save_ffd
+from .itk import load_transform, save_transform
 from .mesh import read_mesh, write_mesh
 from .obj import read_obj, write_obj
 from .placement import place_at_mesh_minimum
+from .prm import load_prm, save_prm
 
 __all__ = [
     "MAX_FILE_BYTES",
     "check_regular_file",
+    "load_deformation",
     "load_ffd",
+    "load_prm",
+    "load_transform",
     "place_at_mesh_minimum",
     "read_mesh",
     "read_obj",
+    "save_deformation",
     "save_ffd",
+    "save_prm",
+    "save_transform",
     "write_mesh",
     "write_obj",
 ]
