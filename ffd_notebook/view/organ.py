@@ -21,7 +21,7 @@ import pyvista as pv
 from numpy.typing import NDArray
 from scipy.spatial import Delaunay
 
-from ..solidtex.sampling import SolidTexture, TextureSampler
+from ..solidtex.sampling import SolidTexture, TextureSampler  # noqa: F401  (SolidTexture: the doctests)
 from ..solidtex.tetra import boundary_faces
 
 __all__ = ["auto_subdivisions", "organ_surface", "tetrahedralize", "texture_surface"]

@@ -23,7 +23,7 @@ import pyvista as pv
 from numpy.typing import ArrayLike, NDArray
 from vtkmodules.vtkCommonCore import vtkUnsignedCharArray
 
-from ..solidtex.sampling import SolidTexture, TextureSampler
+from ..solidtex.sampling import SolidTexture, TextureSampler  # noqa: F401  (SolidTexture: the doctests)
 from .camera import _unit as camera_unit
 from .camera import frame_camera, view_direction
 from .notebook import push_to_browser, show_plotter
