@@ -323,11 +323,18 @@ class LazySolidTexture:
             mark[tuple(((i0 + d) // self.step).T)] = True
         self._ensure_tiles(np.argwhere(mark))
         acc = np.zeros((len(c), 3), dtype=np.float32)
+        flat = self._atlas.reshape(-1, 3)
+        s = self.step
         for d in itertools.product((0, 1), repeat=3):
             w = np.prod(np.where(np.array(d, bool), f, 1.0 - f), axis=1)
             v = i0 + d
-            tile = v // self.step
-            acc += w[:, None] * self._atlas[(self._slot[tuple(tile.T)], *(v - tile * self.step).T)]
+            tile, local = np.divmod(v, s)
+            row = (
+                self._slot[tile[:, 0], tile[:, 1], tile[:, 2]] * s**3
+                + (local[:, 0] * s + local[:, 1]) * s
+                + local[:, 2]
+            )
+            acc += w[:, None] * flat[row]
         return np.clip(np.rint(acc), 0, 255).astype(np.uint8)
 
     def volume(self) -> NDArray[np.uint8]:
