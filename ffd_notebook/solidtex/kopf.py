@@ -58,7 +58,7 @@ class _ImageNeighbourhoods:
 
     def nearest(self, queries: NDArray[np.float32]) -> tuple[NDArray[np.int64], NDArray[np.float32]]:
         """Index of the nearest window and the true (full-dimensional) distance to it."""
-        _, idx = self.tree.query((queries - self.mean) @ self.basis, k=1, eps=0.5)
+        _, idx = self.tree.query((queries - self.mean) @ self.basis, k=1, eps=0.5, workers=-1)
         d = np.linalg.norm(self.windows[idx] - queries, axis=1)
         return idx, d
 
