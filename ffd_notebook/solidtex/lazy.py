@@ -17,7 +17,9 @@ Candidates are a fixed pool of exemplar blocks whose overlap features (slab mean
 grid) are computed once, so a block's choice is a few small array operations and a cut's new
 blocks are chosen in one vectorised step per pass. Colours are kept per *tile* (the ``step``-cube
 each block owns; a tile blends its own block with up to seven earlier neighbours by feathering) in
-a growing atlas, so memory follows the sampled area, not the box.
+a growing atlas, so memory follows the sampled area, not the box. Overlaps are feathered:
+minimum-error cuts (``synthesize(seams="cut")``) decide each seam against what was placed
+before, which a block synthesised out of order does not have.
 """
 
 from __future__ import annotations
@@ -169,7 +171,9 @@ class LazySolidTexture:
             self._bias = (flat.mean(axis=0) - gain * probe.mean(axis=0)).astype(np.float32)
 
     @classmethod
-    def fit(cls, exemplar: ArrayLike, bounds: ArrayLike, resolution: int = 256, margin: float = 0.02, **kwargs):
+    def fit(
+        cls, exemplar: ArrayLike, bounds: ArrayLike, resolution: int = 256, margin: float = 0.02, **kwargs
+    ) -> LazySolidTexture:
         """A lazy texture over a box, ``resolution`` voxels along its longest side.
 
         Examples
@@ -188,10 +192,12 @@ class LazySolidTexture:
 
     @property
     def blocks_chosen(self) -> int:
+        """Blocks whose exemplar position is decided (those sampled and those they depend on)."""
         return int(np.count_nonzero(self._choice >= 0))
 
     @property
     def voxels_synthesised(self) -> int:
+        """Voxels whose colours are held: every synthesised tile's ``step**3``."""
         return self.tiles_synthesised * self.step**3
 
     @property

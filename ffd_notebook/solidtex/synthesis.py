@@ -9,7 +9,7 @@ The method of the liver volume-texture paper, in 3D:
    class, the block whose pooled overlap best matches what is already there (sum of squared
    differences of 2x2x2-pooled colours, ``|a|^2 + |b|^2 - 2 a.b`` for all candidates at once);
 3. feather the overlaps (:mod:`~ffd_notebook.solidtex.blending`), or, with ``seams="cut"``, cut
-   them along minimum-error seams (:mod:`~ffd_notebook.solidtex.seams`; not in the paper);
+   them along minimum-error seams (graph cuts, :mod:`~ffd_notebook.solidtex.seams`; not in the paper);
 4. with ``reuse=True``, synthesise only a small initial region from the exemplar, then repeatedly
    double the region, drawing blocks twice as large from the region already synthesised (which is
    kept where it is), until the target is covered. Each doubling places about as many blocks as
@@ -34,11 +34,9 @@ from tqdm.auto import tqdm
 
 from .blending import block_weights
 from .blocks import box_mean, cell_starts, choose_block_size, classify_blocks
-from .seams import new_side
+from .seams import graph_cut_side
 
 __all__ = ["Stage", "plan_stages", "synthesize"]
-
-_COUPLING = 5  # slices whose errors each seam path follows (see seams.new_side)
 
 
 @dataclass(frozen=True)
@@ -217,7 +215,7 @@ def _run_stage(
                 covered = wsum[region]
                 old = acc[region] / np.maximum(covered, 1e-12)[..., None]  # what is there (its own weights sum to 1)
                 if cut:
-                    w = (new_side(old, new, o, has_prev, _COUPLING) | (covered == 0)).astype(np.float32)
+                    w = graph_cut_side(old, new, covered > 0, 2 if o >= 8 else 1).astype(np.float32)  # thick: 2-cubes
                     acc[region] = np.where(w[..., None] > 0, new, old)
                     wsum[region] = 1.0
                 else:
@@ -300,8 +298,8 @@ def synthesize(
     seams : {"feather", "cut"}
         ``"feather"`` (the paper's method): overlapping blocks are averaged with weights that
         ramp across the overlap. ``"cut"``: each overlap is cut where the blocks agree most (a
-        minimum-error boundary, :mod:`~ffd_notebook.solidtex.seams`), so every voxel comes from
-        one block: no blur or ghosting in the overlaps.
+        minimum-error boundary found by a graph cut, :mod:`~ffd_notebook.solidtex.seams`), so
+        every voxel comes from one block: no blur or ghosting in the overlaps. Slower.
     stats : dict, optional
         Filled with ``"seam_mismatch"``: per stage, the seam energy in the sense of Efros-Freeman
         and Kwatra et al.: the squared colour difference between overlapping blocks where the
