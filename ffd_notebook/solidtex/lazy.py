@@ -133,6 +133,7 @@ class LazySolidTexture:
         if len(target) != 3 or min(target) < 1 or not 4 <= b <= min(ex.shape[:3]):
             raise ValueError(f"shape {shape} or block {b} does not fit an exemplar of shape {ex.shape[:3]}")
         self.exemplar, self.block, self.seed = ex, b, int(seed)
+        self._flat = ex.reshape(-1, 3).astype(np.float32)
         self.overlap = _overlap_voxels(b, overlap)
         self.step = b - self.overlap
         self.spacing, self.origin = float(spacing), np.asarray(origin, dtype=np.float64).reshape(3)
@@ -293,9 +294,9 @@ class LazySolidTexture:
                     w = np.broadcast_to(self._fade_out[None, :], (int(ok.sum()), o))
                 idx.append(q[:, a, None] + r[None, :])
                 weights.append(w.astype(np.float32))
-            src = self.exemplar[idx[0][:, :, None, None], idx[1][:, None, :, None], idx[2][:, None, None, :]].astype(
-                np.float32
-            )
+            _, sy, sx = self.exemplar.shape[:3]
+            rows = (idx[0] * (sy * sx))[:, :, None, None] + (idx[1] * sx)[:, None, :, None] + idx[2][:, None, None, :]
+            src = self._flat[rows]  # one gather of whole rows: much faster than four index arrays
             w = weights[0][:, :, None, None] * weights[1][:, None, :, None] * weights[2][:, None, None, :]
             lz, ly, lx = (idx[a].shape[1] for a in range(3))
             out[ok, :lz, :ly, :lx] += w[..., None] * src

@@ -2,7 +2,7 @@
 
 Run from the repository root:
 
-    python tests/benchmarks/bench_solidtex.py [--quick] [--only exemplar,seams,lazy,synthesis,organ]
+    python tests/benchmarks/bench_solidtex.py [--quick] [--only exemplar,seams,lazy,synthesis,organ] [--skip-full512]
 
 Prints, in one run: synthesis of 128^3 from a 64^3 exemplar (target <= 10 s), synthesis of 256^3
 with the reuse growth against fixed blocks (target: reuse >= 3x faster at similar quality, with
@@ -278,6 +278,9 @@ def lazy(ex, quick):
         np.save(path, ex)
         for resolution in (256,) if quick else (256, 512):
             for mode in ("full", "lazy"):
+                if mode == "full" and resolution == 512 and "--skip-full512" in sys.argv:
+                    print("full 512^3               (skipped: --skip-full512; minutes and ~7 GB)")
+                    continue
                 call = f"b.texture_case({mode!r}, {resolution}, {path!r})"
                 code = f"import json, bench_solidtex as b; print(json.dumps({call}))"
                 done = subprocess.run(
