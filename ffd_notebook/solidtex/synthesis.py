@@ -212,8 +212,10 @@ def _run_stage(
                     target = matcher.target(acc[region], wsum[region], has_prev, o, stage.pool)
                     q = matcher.best(target, has_prev, rng, candidates)
                 new = source[q[0] : q[0] + b, q[1] : q[1] + b, q[2] : q[2] + b]
-                covered = wsum[region]
-                old = acc[region] / np.maximum(covered, 1e-12)[..., None]  # what is there (its own weights sum to 1)
+                covered = wsum[region].copy()
+                measure = mismatch is not None and any(has_prev)
+                if cut or measure:  # what is there (its own weights sum to 1)
+                    old = acc[region] / np.maximum(covered, 1e-12)[..., None]
                 if cut:
                     w = graph_cut_side(old, new, covered > 0, 2 if o >= 8 else 1).astype(np.float32)  # thick: 2-cubes
                     acc[region] = np.where(w[..., None] > 0, new, old)
@@ -223,29 +225,39 @@ def _run_stage(
                     w = weights / np.maximum(covered + weights, 1e-12)  # the new block's share once added
                     acc[region] += weights[..., None] * new
                     wsum[region] += weights
-                if mismatch is not None and any(has_prev):
-                    mismatch[0] += _transition_energy(w, np.square(new - old).sum(-1) * (covered > 0))
+                if measure:
+                    mismatch[0] += _transition_energy(w, np.square(new - old).sum(-1), covered > 0, has_prev)
                     mismatch[1] += b * b * sum(has_prev)
                 bar.update()
     crop = tuple(slice(0, r) for r in stage.region)
     return acc[crop] / wsum[crop][..., None]
 
 
-def _transition_energy(share: NDArray[np.float32], error: NDArray[np.float32]) -> float:
+def _transition_energy(share: NDArray[np.float32], error: NDArray[np.float32], covered, has_prev) -> float:
     """Seam energy of one placed block: the blocks' mismatch wherever the result moves from one to the other.
 
     Each voxel face across which the new block's share changes by ``dw`` costs ``dw`` times the
-    mean squared difference between the blocks at its two voxels. A hard cut costs Kwatra et al.'s
-    seam cost (the mismatch beside the seam); feathering spreads the same unit change across the
-    overlap, costing the mismatch averaged over it.
+    squared difference between the blocks at its voxels (the mean over those both blocks cover).
+    Before the block, along an axis with a previous block, the share is 0: a feathered ramp's
+    first step, at the block's border, counts too. A hard cut costs Kwatra et al.'s seam cost (the
+    mismatch beside the seam); feathering spreads the same unit change across the overlap,
+    costing the mismatch averaged over it.
     """
     total = 0.0
+    c = covered.astype(np.float64)
     for ax in range(3):
-        dw = np.abs(np.diff(share, axis=ax))
-        pair = 0.5 * (
-            np.take(error, range(error.shape[ax] - 1), axis=ax) + np.take(error, range(1, error.shape[ax]), axis=ax)
-        )
-        total += float(np.sum(dw * pair, dtype=np.float64))
+        w, e, cov = share, error, c
+        if has_prev[ax]:  # the old texture lies before the block: share 0 there
+            first = [slice(None)] * 3
+            first[ax] = slice(0, 1)
+            w = np.concatenate([np.zeros_like(share[tuple(first)]), share], axis=ax)
+            e = np.concatenate([error[tuple(first)], error], axis=ax)
+            cov = np.concatenate([c[tuple(first)], c], axis=ax)
+        n = w.shape[ax]
+        lo = [np.take(x, range(n - 1), axis=ax) for x in (w, e, cov)]
+        hi = [np.take(x, range(1, n), axis=ax) for x in (w, e, cov)]
+        pair = (lo[1] * lo[2] + hi[1] * hi[2]) / np.maximum(lo[2] + hi[2], 1.0)
+        total += float(np.sum(np.abs(hi[0] - lo[0]) * pair, dtype=np.float64))
     return total
 
 
