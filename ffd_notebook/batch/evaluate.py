@@ -1,0 +1,85 @@
+"""Evaluating many samples on one fixed point set, with what does not change computed once.
+
+Every sample of a :class:`~ffd_notebook.batch.RandomLattice` shares the lattice's placement;
+only the offsets differ. A :class:`~ffd_notebook.Deformer` (float64 weights) bound to the
+points caches each point's cell and basis values, so a sample costs one pass over the cells
+(53k vertices: ~3 ms instead of ~30 ms for ``FFD.deform``; det J ~2x faster). Other samples (GP
+fields, lattices placed elsewhere, border rules the deformer does not know) are evaluated
+directly. NumPy only.
+"""
+
+from __future__ import annotations
+
+import threading
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..deform import FFD, Deformer
+from .models import LatticeSample
+
+__all__ = ["PointEvaluator"]
+
+
+class PointEvaluator:
+    """Deformed positions and Jacobian determinants of samples at one fixed ``(N, 3)`` point set.
+
+    Parameters
+    ----------
+    points : (N, 3) ndarray
+        The points (a mesh's vertices, or vertices and a volume grid).
+    template : FFD, optional
+        An FFD whose placement (lattice geometry, basis, affine) the samples share; without
+        one every sample is evaluated directly.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from ffd_notebook.batch import RandomLattice, sample_rng
+    >>> pts = np.random.default_rng(0).random((300, 3))
+    >>> bound = RandomLattice(5, 0.05).bind(pts)
+    >>> sample = bound.draw(sample_rng(0, 0), 0)
+    >>> fast = PointEvaluator(pts, bound.sample_ffd(bound.lattice.offsets))
+    >>> bool(np.allclose(fast.deform(sample), sample.deform(pts), rtol=0, atol=1e-12))
+    True
+    """
+
+    def __init__(self, points: NDArray[np.float64], template: FFD | None = None) -> None:
+        self.points = points
+        self._deformer = None
+        if template is not None and getattr(template, "border", "zero") == "zero":
+            own = FFD(template.lattice.copy(), basis=template.basis, affine=template.affine)
+            self._deformer = Deformer(own, points, dtype=np.float64)
+        self._lock = threading.Lock()  # the deformer's lattice is shared state (threads scheduler)
+
+    def _fits(self, sample: Any) -> bool:
+        if self._deformer is None or not isinstance(sample, LatticeSample):
+            return False
+        mine, ffd = self._deformer.ffd, sample.ffd
+        lat, other = mine.lattice, ffd.lattice
+        return (
+            getattr(ffd, "border", "zero") == "zero"
+            and ffd.basis == mine.basis
+            and lat.shape == other.shape
+            and np.array_equal(lat.spacing, other.spacing)
+            and np.array_equal(lat.origin, other.origin)
+            and np.array_equal(lat.rotation, other.rotation)
+            and np.array_equal(mine.affine, ffd.affine)
+        )
+
+    def deform(self, sample: Any) -> NDArray[np.float64]:
+        """Deformed positions of the points, ``(N, 3)`` (a new array)."""
+        if not self._fits(sample):
+            return sample.deform(self.points)
+        with self._lock:
+            self._deformer.ffd.lattice.offsets[...] = sample.ffd.lattice.offsets  # type: ignore[union-attr]
+            return self._deformer.update().copy()  # type: ignore[union-attr]
+
+    def jacobian_determinant(self, sample: Any) -> NDArray[np.float64]:
+        """``det J`` of the sample at the points, ``(N,)``."""
+        if not self._fits(sample):
+            return sample.jacobian_determinant(self.points)
+        with self._lock:
+            self._deformer.ffd.lattice.offsets[...] = sample.ffd.lattice.offsets  # type: ignore[union-attr]
+            return self._deformer.jacobian_determinant()  # type: ignore[union-attr]
