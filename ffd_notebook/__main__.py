@@ -7,6 +7,7 @@ Open the bundled sample mesh and browse to the printed address::
     python -m ffd_notebook
     python -m ffd_notebook face.obj --ffd face.ffd --port 8765
     python -m ffd_notebook --shape 6 6 4 --basis bernstein
+    python -m ffd_notebook batch face.ply --n 1000 --out augmented   (see ``batch --help``)
 """
 
 from __future__ import annotations
@@ -54,6 +55,11 @@ def _is_loopback(host: str) -> bool:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Parse ``argv`` (``sys.argv[1:]`` by default), build the editor and serve it until interrupted."""
+    argv = sys.argv[1:] if argv is None else list(argv)
+    if argv and argv[0] in ("batch",):
+        from .batch.cli import main as batch_main
+
+        return batch_main(argv[1:])
     parser = build_parser()
     args = parser.parse_args(argv)
     for path, what in ((args.mesh, "mesh"), (args.ffd, ".ffd file")):
