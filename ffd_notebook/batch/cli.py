@@ -71,9 +71,9 @@ def build_parser() -> argparse.ArgumentParser:
     fold = p.add_argument_group("fold check")
     fold.add_argument("--no-fold-check", action="store_true", help="keep every draw (min det J is still recorded)")
     fold.add_argument("--min-det", type=float, default=0.1,
-                      help="accept a sample only if det J > this at every vertex and grid point (default 0.1)")  # fmt: skip
+                      help="accept a sample only if det J > this at every vertex and grid point")  # fmt: skip
     fold.add_argument("--on-fold", choices=["redraw", "scale"], default="redraw",
-                      help="redraw a folding sample, or scale it down by 0.8 until it passes (default redraw)")  # fmt: skip
+                      help="redraw a folding sample, or scale it down by 0.8 until it passes")  # fmt: skip
     fold.add_argument("--grid", type=int, default=12, help="grid points per axis through the mesh's box (default 12)")
     fold.add_argument("--max-tries", type=int, default=100, help="draws or shrinks per sample before it fails")
     return p
@@ -98,8 +98,9 @@ def _model(args: argparse.Namespace, parser: argparse.ArgumentParser):
         )
     if args.model == "gp":
         ncp = _one_or_three(args.num_control_points, "--num-control-points", parser)
+        ncp = ncp if isinstance(ncp, int) else ncp[0]
         return RandomGP(kernel=args.kernel, scale=args.scale, sigma=args.sigma, rank=args.rank,
-                        n_inducing=args.n_inducing, num_control_points=ncp if isinstance(ncp, int) else ncp[0])  # fmt: skip
+                        n_inducing=args.n_inducing, num_control_points=ncp)  # fmt: skip
     if not args.files:
         parser.error("--model files needs --files")
     return LatticeFiles(args.files, basis=args.basis, border=args.border)
