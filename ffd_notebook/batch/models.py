@@ -105,8 +105,9 @@ class RandomLattice:
     axis ``a`` is drawn independently from ``Uniform(-max_displacement[a], max_displacement[a])``
     (world units, TorchIO's ``(rand - 0.5) * 2 * max_displacement``). ``locked_borders`` sets
     offsets to zero on the outer layers: 0 none, 1 the outermost control points, 2 those and
-    the next layer (for B-splines that layer sits on the mesh's bounding box: its faces stay
-    put, TorchIO's default).
+    the next layer (TorchIO's default; for B-splines that layer sits on the mesh's bounding box,
+    like TorchIO's control points on the image border, and a point on the box's faces keeps at
+    most a sixth of the displacement).
 
     Parameters
     ----------
