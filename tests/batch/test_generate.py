@@ -155,7 +155,8 @@ def test_a_failing_sample_is_named_and_the_others_are_kept(tmp_path):
     assert read_manifest(tmp_path / "out")["parameters_file"].tolist() == [str(paths[i]) for i in (0, 1, 3)]
     # with on_fold="scale" the given file is shrunk until it passes, and replay repeats the shrinking
     rule = FoldFree(on_fold="scale")
-    out = generate(ANT, LatticeFiles(paths), None, tmp_path / "scaled", fold_free=rule, scheduler="sync", progress=0)
+    files = LatticeFiles(paths)
+    out = generate(ANT, files, None, tmp_path / "scaled", fold_free=rule, scheduler="sync", progress=False)
     assert out.rows[2]["scale_downs"] > 0
     saved = read_mesh(tmp_path / "scaled" / "meshes" / "sample_000002.ply")
     assert np.array_equal(np.asarray(replay(tmp_path / "scaled", 2).points, dtype=np.float32), saved.points)
