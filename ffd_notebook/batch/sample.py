@@ -27,6 +27,7 @@ from .folding import FoldFree, accept, volume_grid
 from .gp_model import GPSample, RandomGP
 from .models import BoundLattice, LatticeSample, RandomLattice
 from .output import Layout, read_parameters_txt, write_parameters_txt
+from .ply import TrianglePly
 from .seeds import sample_rng
 
 __all__ = ["MODELS", "Context", "Job", "context", "deformed_mesh", "model_from_spec", "run_sample"]
@@ -81,6 +82,7 @@ class Context:
     bound: Any
     vertices: PointEvaluator
     check: PointEvaluator  # vertices, then the volume grid
+    ply: TrianglePly | None  # the fast writer, for triangle meshes
 
     def min_det_j(self, sample: Any) -> float:
         """Smallest Jacobian determinant over the vertices and the volume grid."""
@@ -113,14 +115,16 @@ def context(job: Job) -> Context:
             bound = model_from_spec(job.spec).bind(points)
             template = _template(bound)
             evaluators = PointEvaluator(points, template), PointEvaluator(check, template)
-            _CONTEXTS[key] = Context(mesh, points, bound, *evaluators)
+            _CONTEXTS[key] = Context(mesh, points, bound, *evaluators, TrianglePly.for_mesh(mesh))
         return _CONTEXTS[key]
 
 
-def deformed_mesh(ctx: Context, sample: Any):
-    """A copy of the mesh (colours and all) with the sample's deformed vertices."""
+def deformed_mesh(ctx: Context, sample: Any, points: np.ndarray | None = None):
+    """A copy of the mesh (colours and all) with the sample's deformed vertices (or the given ones)."""
     mesh = ctx.mesh.copy(deep=True)
-    mesh.points = ctx.vertices.deform(sample)
+    mesh.points = ctx.vertices.deform(sample) if points is None else points
+    if "Normals" in mesh.point_data:
+        del mesh.point_data["Normals"]  # the rest shape's normals are wrong for the deformed one
     return mesh
 
 
@@ -188,12 +192,15 @@ def _run_sample(job: Job, index: int) -> dict[str, Any]:
         got = accept(ctx.bound, index, sample_rng(job.seed, index), ctx.min_det_j, job.rule)
         seconds = dict(got.seconds)
         tic = time.perf_counter()
-        mesh = deformed_mesh(ctx, got.sample)
+        points = ctx.vertices.deform(got.sample)
         seconds["deform"] = time.perf_counter() - tic
         tic = time.perf_counter()
         parameters = _save_parameters(layout, index, ctx.bound, got.sample)
         mesh_path = layout.mesh(index)
-        write_mesh(mesh_path, mesh)
+        if job.format == "ply" and ctx.ply is not None:
+            ctx.ply.write(mesh_path, points)
+        else:
+            write_mesh(mesh_path, deformed_mesh(ctx, got.sample, points))
         row = {
             "id": index,
             "seed": job.seed,
@@ -201,7 +208,7 @@ def _run_sample(job: Job, index: int) -> dict[str, Any]:
             "mesh_file": mesh_path.relative_to(layout.root).as_posix(),
             "parameters_file": parameters,
             "min_det_j": got.min_det_j,
-            "max_displacement": float(np.linalg.norm(np.asarray(mesh.points) - ctx.points, axis=1).max()),
+            "max_displacement": float(np.linalg.norm(points - ctx.points, axis=1).max()),
             "redraws": got.redraws,
             "scale_downs": got.scale_downs,
             "scale": float(got.sample.scale),
