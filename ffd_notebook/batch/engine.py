@@ -20,7 +20,6 @@ from typing import Any
 
 import numpy as np
 
-from ..io import read_mesh
 from .files import LatticeFiles
 from .folding import FoldFree
 from .gp_model import RandomGP
@@ -233,13 +232,11 @@ def generate(
     if scheduler is not None and client is not None:
         raise ValueError("give client= or scheduler=, not both")
     mesh_path = Path(mesh).resolve()
-    read_mesh(mesh_path)  # an unreadable mesh fails here, before any work
     job = Job(str(mesh_path), model.to_spec(), int(seed), rule, str(Path(out).resolve()), format)
+    with one_blas_thread():
+        context(job)  # an unreadable mesh or a model that does not fit it fails here, before any work
     layout = Layout(job.out, format)
     layout.claim(job.settings(mesh_sha256(mesh_path)))
-    if scheduler in (None, "threads", "sync") and client is None:
-        with one_blas_thread():
-            context(job)  # bind once here; threads share it (and a bad model/mesh pair fails before any task)
     result = BatchResult(layout.root)
     todo = []
     for i in range(n):

@@ -49,6 +49,8 @@ def _fit_lattice(points: NDArray[np.float64], shape: tuple[int, int, int], margi
     """``Lattice.around`` with the border rule passed on only when it is not ``"zero"`` (see :func:`make_ffd`)."""
     if border == "zero":
         return Lattice.around(points, shape=shape, margin=margin, basis=basis)
+    if "border" not in inspect.signature(Lattice.around).parameters:
+        raise ValueError(f"border={border!r} needs a Lattice.around that takes a border rule")
     return Lattice.around(points, shape=shape, margin=margin, basis=basis, border=border)  # type: ignore[call-arg]
 
 
