@@ -81,7 +81,7 @@ def test_a_scheduler_address_works_like_a_client(client, tmp_path):
 
 def test_a_worker_killed_mid_run_still_yields_every_sample_once(client, tmp_path, face_model):
     face, model = face_model
-    n = 24
+    n = 40
     outcome: dict = {}
 
     def run():
