@@ -99,6 +99,7 @@ def _template(bound: Any):
 
 
 _CONTEXTS: dict[str, Context] = {}
+_KEEP = 4
 _LOCK = threading.Lock()
 
 
@@ -115,6 +116,8 @@ def context(job: Job) -> Context:
             bound = model_from_spec(job.spec).bind(points)
             template = _template(bound)
             evaluators = PointEvaluator(points, template), PointEvaluator(check, template)
+            while len(_CONTEXTS) >= _KEEP:  # a notebook trying many settings: keep the newest few
+                del _CONTEXTS[next(iter(_CONTEXTS))]
             _CONTEXTS[key] = Context(mesh, points, bound, *evaluators, TrianglePly.for_mesh(mesh))
         return _CONTEXTS[key]
 
