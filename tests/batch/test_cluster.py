@@ -17,7 +17,7 @@ from distributed import Client, LocalCluster
 from pyvista import examples
 
 from ffd_notebook import Lattice, save_ffd
-from ffd_notebook.batch import BatchError, LatticeFiles, RandomLattice, generate, read_manifest, replay
+from ffd_notebook.batch import BatchError, LatticeFiles, RandomGP, RandomLattice, generate, read_manifest, replay
 from ffd_notebook.errors import FileFormatError
 from ffd_notebook.io import read_mesh
 
@@ -69,6 +69,14 @@ def test_cluster_output_is_bit_for_bit_the_single_process_output(client, tmp_pat
     assert _files(tmp_path / "single") == _files(tmp_path / "cluster")
     # both workers took part
     assert len(client.scheduler_info()["workers"]) == 2
+
+
+def test_gp_samples_on_the_cluster_equal_the_local_ones(client, tmp_path):
+    """Each worker rebuilds the low-rank GP from its spec (seeded inducing points, one BLAS thread): same bits."""
+    model = RandomGP(kernel="gaussian", sigma=10.0, scale=0.3, rank=12, n_inducing=80)
+    generate(ANT, model, 4, tmp_path / "local", format="vtp", progress=False)
+    generate(ANT, model, 4, tmp_path / "cluster", format="vtp", client=client, progress=False)
+    assert _files(tmp_path / "local") == _files(tmp_path / "cluster")
 
 
 def test_a_scheduler_address_works_like_a_client(client, tmp_path):
