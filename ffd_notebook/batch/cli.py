@@ -43,7 +43,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--format", choices=["ply", "vtp", "obj"], default="ply", help="mesh file format (default ply)")
     p.add_argument("--scheduler", metavar="ADDR",
                    help="a distributed scheduler address (tcp://host:8786), or threads / processes / sync for the "
-                        "local scheduler (default: the fastest local one for the model)")  # fmt: skip
+                        "local scheduler (default: threads, the fastest measured here)")  # fmt: skip
     p.add_argument("--workers", type=int, help="local workers (default: one per core)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     lat = p.add_argument_group("random-lattice (TorchIO's names)")
