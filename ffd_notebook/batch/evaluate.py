@@ -79,18 +79,18 @@ class PointEvaluator:
 
     def __init__(self, points: NDArray[np.float64], template: FFD | None = None) -> None:
         self.points = points
-        self._deformer = self._jacobian = None
+        self._template = None
         if template is not None and getattr(template, "border", "zero") == "zero":
-            own = FFD(template.lattice.copy(), basis=template.basis, affine=template.affine)
-            self._deformer = Deformer(own, points, dtype=np.float64)
-            if own.basis == "bspline":
-                self._jacobian = _BsplineJacobian(own, points)
+            self._template = FFD(template.lattice.copy(), basis=template.basis, affine=template.affine)
+        # built on first use: the vertices only ever deform, the check points only give det J
+        self._deformer: Deformer | None = None
+        self._jacobian: _BsplineJacobian | None = None
         self._lock = threading.Lock()  # the deformer's lattice is shared state (threads scheduler)
 
     def _fits(self, sample: Any) -> bool:
-        if self._deformer is None or not isinstance(sample, LatticeSample):
+        if self._template is None or not isinstance(sample, LatticeSample):
             return False
-        mine, ffd = self._deformer.ffd, sample.ffd
+        mine, ffd = self._template, sample.ffd
         lat, other = mine.lattice, ffd.lattice
         return (
             getattr(ffd, "border", "zero") == "zero"
@@ -107,15 +107,16 @@ class PointEvaluator:
         if not self._fits(sample):
             return sample.deform(self.points)
         with self._lock:
-            self._deformer.ffd.lattice.offsets[...] = sample.ffd.lattice.offsets  # type: ignore[union-attr]
-            return self._deformer.update().copy()  # type: ignore[union-attr]
+            if self._deformer is None:
+                self._deformer = Deformer(self._template, self.points, dtype=np.float64)  # type: ignore[arg-type]
+            self._deformer.ffd.lattice.offsets[...] = sample.ffd.lattice.offsets
+            return self._deformer.update().copy()
 
     def jacobian_determinant(self, sample: Any) -> NDArray[np.float64]:
         """``det J`` of the sample at the points, ``(N,)``."""
-        if not self._fits(sample):
+        if not self._fits(sample) or sample.ffd.basis != "bspline":
             return sample.jacobian_determinant(self.points)
-        if self._jacobian is not None:
-            return self._jacobian(sample.ffd)  # reads the sample's own lattice: no shared state
         with self._lock:
-            self._deformer.ffd.lattice.offsets[...] = sample.ffd.lattice.offsets  # type: ignore[union-attr]
-            return self._deformer.jacobian_determinant()  # type: ignore[union-attr]
+            if self._jacobian is None:
+                self._jacobian = _BsplineJacobian(self._template, self.points)  # type: ignore[arg-type]
+        return self._jacobian(sample.ffd)  # reads the sample's own lattice: no shared state
