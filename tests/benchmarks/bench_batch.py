@@ -70,7 +70,7 @@ def run_cluster(mesh, model, rule, n, workers, out: Path, trim):
         with LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
             with Client(cluster) as client:
                 startup = time.perf_counter() - tic
-                generate(mesh, model, workers, out.with_name("warm"), fold_free=rule, client=client, progress=False)
+                generate(mesh, model, 4 * workers, out.with_name("warm"), fold_free=rule, client=client, progress=False)
                 result = generate(mesh, model, n, out, fold_free=rule, client=client, progress=False)
                 memory = client.run(lambda: resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024)
     shutil.rmtree(out)
