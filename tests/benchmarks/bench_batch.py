@@ -122,7 +122,8 @@ def main() -> None:
         # 3. LocalCluster, two worker processes: with distributed's default worker environment, then
         # without its MALLOC_TRIM_THRESHOLD_ (see the README: it makes glibc map and fault in every large
         # temporary array afresh, 2-4x slower NumPy work here)
-        for label, trim in (("dask defaults", 65536), ("no malloc trim", None)):
+        # (this order: a nanny leaks the variable into this process's environment, and later workers inherit it)
+        for label, trim in (("no malloc trim", None), ("dask defaults", 65536)):
             cl, memory, startup = run_cluster(args.mesh, model, rule, n, workers, scratch / "cluster", trim)
             cluster_rate = n / cl.wall
             over = overhead(cl, workers)
