@@ -1,0 +1,122 @@
+"""Evaluating many samples on one fixed point set, with what does not change computed once.
+
+Every sample of a :class:`~ffd_notebook.batch.RandomLattice` shares the lattice's placement;
+only the offsets differ. A :class:`~ffd_notebook.Deformer` (float64 weights) bound to the
+points caches each point's cell and basis values, so a sample costs one pass over the cells
+(53k vertices: ~3 ms instead of ~30 ms for ``FFD.deform``; det J ~2x faster). Other samples (GP
+fields, lattices placed elsewhere, border rules the deformer does not know) are evaluated
+directly. NumPy only.
+"""
+
+from __future__ import annotations
+
+import threading
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..basis import bspline, bspline_derivative
+from ..deform import FFD, Deformer, _CellGroups, _det3, _outer, _pad
+from .models import LatticeSample
+
+__all__ = ["PointEvaluator"]
+
+
+class _BsplineJacobian:
+    """``det J`` of B-spline FFDs on one placement at fixed points, with the basis products cached.
+
+    The engine's :meth:`Deformer.jacobian_determinant` recomputes each point's basis values,
+    derivatives and their products on every call (a drag changes little else); here they are
+    the same for every sample, so only the three cell sums, the chain rule and the determinant
+    remain (the same formula as ``deform._bspline_lattice_jacobian``; the cache holds 416 bytes
+    a point).
+    """
+
+    def __init__(self, ffd: FFD, points: NDArray[np.float64]) -> None:
+        self.cells = _CellGroups(ffd.lattice.to_lattice(points), ffd.lattice.shape)
+        t = self.cells.t
+        vals = [bspline(t[:, a]) for a in range(3)]
+        ders = [bspline_derivative(t[:, a]) for a in range(3)]
+        self.factors = []
+        for axis in range(3):
+            bu, bv, bw = (ders[a] if a == axis else vals[a] for a in range(3))
+            self.factors.append((_outer(bu, bv), self.cells.masked(bw.copy())))
+        self.cells.t = None
+        self.inverse = np.empty_like(self.cells.order)
+        self.inverse[self.cells.order] = np.arange(len(points), dtype=self.cells.order.dtype)
+
+    def __call__(self, ffd: FFD) -> NDArray[np.float64]:
+        padded = _pad(ffd.lattice.offsets)
+        d_uvw = np.empty((len(self.inverse), 3, 3))
+        for axis, (buv, bw) in enumerate(self.factors):
+            d_uvw[:, :, axis] = self.cells.sum(padded, buv, bw)
+        return _det3(ffd._chain(d_uvw))[self.inverse]
+
+
+class PointEvaluator:
+    """Deformed positions and Jacobian determinants of samples at one fixed ``(N, 3)`` point set.
+
+    Parameters
+    ----------
+    points : (N, 3) ndarray
+        The points (a mesh's vertices, or vertices and a volume grid).
+    template : FFD, optional
+        An FFD whose placement (lattice geometry, basis, affine) the samples share; without
+        one every sample is evaluated directly.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from ffd_notebook.batch import RandomLattice, sample_rng
+    >>> pts = np.random.default_rng(0).random((300, 3))
+    >>> bound = RandomLattice(5, 0.05).bind(pts)
+    >>> sample = bound.draw(sample_rng(0, 0), 0)
+    >>> fast = PointEvaluator(pts, bound.sample_ffd(bound.lattice.offsets))
+    >>> bool(np.allclose(fast.deform(sample), sample.deform(pts), rtol=0, atol=1e-12))
+    True
+    """
+
+    def __init__(self, points: NDArray[np.float64], template: FFD | None = None) -> None:
+        self.points = points
+        self._template = None
+        if template is not None and getattr(template, "border", "zero") == "zero":
+            self._template = FFD(template.lattice.copy(), basis=template.basis, affine=template.affine)
+        # built on first use: the vertices only ever deform, the check points only give det J
+        self._deformer: Deformer | None = None
+        self._jacobian: _BsplineJacobian | None = None
+        self._lock = threading.Lock()  # the deformer's lattice is shared state (threads scheduler)
+
+    def _fits(self, sample: Any) -> bool:
+        if self._template is None or not isinstance(sample, LatticeSample):
+            return False
+        mine, ffd = self._template, sample.ffd
+        lat, other = mine.lattice, ffd.lattice
+        return (
+            getattr(ffd, "border", "zero") == "zero"
+            and ffd.basis == mine.basis
+            and lat.shape == other.shape
+            and np.array_equal(lat.spacing, other.spacing)
+            and np.array_equal(lat.origin, other.origin)
+            and np.array_equal(lat.rotation, other.rotation)
+            and np.array_equal(mine.affine, ffd.affine)
+        )
+
+    def deform(self, sample: Any) -> NDArray[np.float64]:
+        """Deformed positions of the points, ``(N, 3)`` (a new array)."""
+        if not self._fits(sample):
+            return sample.deform(self.points)
+        with self._lock:
+            if self._deformer is None:
+                self._deformer = Deformer(self._template, self.points, dtype=np.float64)  # type: ignore[arg-type]
+            self._deformer.ffd.lattice.offsets[...] = sample.ffd.lattice.offsets
+            return self._deformer.update().copy()
+
+    def jacobian_determinant(self, sample: Any) -> NDArray[np.float64]:
+        """``det J`` of the sample at the points, ``(N,)``."""
+        if not self._fits(sample) or sample.ffd.basis != "bspline":
+            return sample.jacobian_determinant(self.points)
+        with self._lock:
+            if self._jacobian is None:
+                self._jacobian = _BsplineJacobian(self._template, self.points)  # type: ignore[arg-type]
+        return self._jacobian(sample.ffd)  # reads the sample's own lattice: no shared state
