@@ -25,14 +25,14 @@ from __future__ import annotations
 import importlib
 from typing import Any
 
-from .files import LOADERS, LatticeFiles, load_deformation, register_loader
 from .folding import FoldFree, volume_grid
 from .gp_model import RandomGP
 from .models import LatticeSample, RandomLattice
 from .seeds import sample_rng
 
-# the engine writes meshes through ffd_notebook.io (PyVista): imported on first use only
+# the engine writes meshes and LatticeFiles reads files through ffd_notebook.io (PyVista): imported on first use
 _LAZY = {
+    "LatticeFiles": "ffd_notebook.batch.files",
     "generate": "ffd_notebook.batch.engine",
     "replay": "ffd_notebook.batch.engine",
     "BatchResult": "ffd_notebook.batch.engine",
@@ -41,14 +41,10 @@ _LAZY = {
 }
 
 __all__ = [
-    "LOADERS",
     "FoldFree",
-    "LatticeFiles",
     "LatticeSample",
     "RandomGP",
     "RandomLattice",
-    "load_deformation",
-    "register_loader",
     "sample_rng",
     "volume_grid",
     *sorted(_LAZY),

@@ -36,7 +36,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("mesh", help="the source mesh (PLY, OBJ with colours, VTP, STL, ...)")
     p.add_argument("--model", choices=["random-lattice", "gp", "files"], default="random-lattice",
                    help="random-lattice: TorchIO-style random B-spline grid; gp: low-rank Gaussian process; "
-                        "files: the lattices given with --files, one sample each")  # fmt: skip
+                        "files: the deformation files given with --files, one sample each")  # fmt: skip
     p.add_argument("--n", type=int, help="number of samples (default with --model files: one per file)")
     p.add_argument("--out", required=True, help="output folder; a rerun skips the samples already in it")
     p.add_argument("--seed", type=int, default=0, help="root seed; sample i uses the i-th spawned seed (default 0)")
@@ -55,9 +55,12 @@ def build_parser() -> argparse.ArgumentParser:
     lat.add_argument("--locked-borders", type=int, choices=[0, 1, 2], default=2,
                      help="layers of border control points kept still: 0 none, 1 the outer ring, 2 also the ring "
                           "on the mesh's bounding box (default 2)")  # fmt: skip
-    lat.add_argument("--basis", choices=["bspline", "bernstein"], default="bspline", help="FFD basis (default bspline)")
-    lat.add_argument("--border", choices=["zero", "clamp"], default="zero",
-                     help="control points beyond the lattice: zero (ITK's rule) or clamp (default zero)")  # fmt: skip
+    # default None: --model files refuses them (each file says its basis and border)
+    lat.add_argument("--basis", choices=["bspline", "bernstein"], help="FFD basis (default bspline)")
+    lat.add_argument("--border", choices=["zero", "clamp"],
+                     help="control points beyond the lattice: zero (ITK's rule; the lattice's outer ring lies a "
+                          "spacing outside the mesh) or clamp (copies of the border ones, Blender's; the lattice "
+                          "hugs the mesh's box; its .ffd files record it) (default zero)")  # fmt: skip
     gp = p.add_argument_group("gp")
     gp.add_argument(
         "--kernel", choices=["gaussian", "bspline"], default="gaussian", help="GP kernel (default gaussian)"
@@ -67,7 +70,10 @@ def build_parser() -> argparse.ArgumentParser:
     gp.add_argument("--rank", type=int, default=50, help="basis functions kept (default 50)")
     gp.add_argument("--n-inducing", type=int, default=300, help="Nystrom inducing points (default 300)")
     files = p.add_argument_group("files")
-    files.add_argument("--files", nargs="+", metavar="FILE", help="lattice files (.ffd), sample i is file i")
+    files.add_argument("--files", nargs="+", metavar="FILE",
+                       help="deformation files, sample i is file i: .ffd lattices, ITK transforms (.tfm, .txt, "
+                            ".h5, .hdf5) or PyGeM .prm files, read by extension; each says its own basis and "
+                            "border")  # fmt: skip
     fold = p.add_argument_group("fold check")
     fold.add_argument("--no-fold-check", action="store_true", help="keep every draw (min det J is still recorded)")
     fold.add_argument("--min-det", type=float, default=0.1,
@@ -93,8 +99,8 @@ def _model(args: argparse.Namespace, parser: argparse.ArgumentParser):
             num_control_points=_one_or_three(args.num_control_points, "--num-control-points", parser),
             max_displacement=_one_or_three(args.max_displacement, "--max-displacement", parser),
             locked_borders=args.locked_borders,
-            basis=args.basis,
-            border=args.border,
+            basis=args.basis or "bspline",
+            border=args.border or "zero",
         )
     if args.model == "gp":
         ncp = _one_or_three(args.num_control_points, "--num-control-points", parser)
@@ -103,7 +109,9 @@ def _model(args: argparse.Namespace, parser: argparse.ArgumentParser):
                         n_inducing=args.n_inducing, num_control_points=ncp)  # fmt: skip
     if not args.files:
         parser.error("--model files needs --files")
-    return LatticeFiles(args.files, basis=args.basis, border=args.border)
+    if args.basis or args.border:
+        parser.error("--basis and --border do not apply to --model files: each file says its own")
+    return LatticeFiles(args.files)
 
 
 def main(argv: Sequence[str] | None = None) -> int:

@@ -3,9 +3,11 @@
 Every sample of a :class:`~ffd_notebook.batch.RandomLattice` shares the lattice's placement;
 only the offsets differ. A :class:`~ffd_notebook.Deformer` (float64 weights) bound to the
 points caches each point's cell and basis values, so a sample costs one pass over the cells
-(53k vertices: ~3 ms instead of ~30 ms for ``FFD.deform``; det J ~2x faster). Other samples (GP
-fields, lattices placed elsewhere, border rules the deformer does not know) are evaluated
-directly. NumPy only.
+(53k vertices: ~3 ms instead of ~30 ms for ``FFD.deform``; det J ~2x faster), for either border
+rule and with ``only_inside``. Evaluated directly: samples that do not share the template's
+placement (GP fields, lattices placed elsewhere: there is nothing cached for them) and det J of
+Bernstein samples (every control point reaches every point, so there is no per-cell cache to
+reuse; the deformer computes it directly too). NumPy only.
 """
 
 from __future__ import annotations
@@ -16,9 +18,10 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from .._oneshot import in_domain
 from ..basis import bspline, bspline_derivative
-from ..deform import FFD, Deformer, _CellGroups, _det3, _outer, _pad
-from .models import LatticeSample
+from ..deform import FFD, Deformer, _CellGroups, _det3, _outer
+from .models import LatticeSample, with_lattice
 
 __all__ = ["PointEvaluator"]
 
@@ -30,11 +33,17 @@ class _BsplineJacobian:
     derivatives and their products on every call (a drag changes little else); here they are
     the same for every sample, so only the three cell sums, the chain rule and the determinant
     remain (the same formula as ``deform._bspline_lattice_jacobian``; the cache holds 416 bytes
-    a point).
+    a point). The grouping pads the offsets by the FFD's border rule; with ``only_inside`` the
+    points outside the lattice's domain get the affine part's Jacobian alone, as in
+    :meth:`FFD.jacobian`.
     """
 
     def __init__(self, ffd: FFD, points: NDArray[np.float64]) -> None:
-        self.cells = _CellGroups(ffd.lattice.to_lattice(points), ffd.lattice.shape)
+        uvw = ffd.lattice.to_lattice(points)
+        self.cells = _CellGroups(uvw, ffd.lattice.shape, ffd.border)
+        # in sorted order, like the cell sums; None when every point may move
+        outside = ~in_domain(ffd.basis, ffd.lattice.shape, uvw) if ffd.only_inside else None
+        self.outside = None if outside is None else outside[self.cells.order]
         t = self.cells.t
         vals = [bspline(t[:, a]) for a in range(3)]
         ders = [bspline_derivative(t[:, a]) for a in range(3)]
@@ -47,10 +56,12 @@ class _BsplineJacobian:
         self.inverse[self.cells.order] = np.arange(len(points), dtype=self.cells.order.dtype)
 
     def __call__(self, ffd: FFD) -> NDArray[np.float64]:
-        padded = _pad(ffd.lattice.offsets)
+        padded = self.cells.pad(ffd.lattice.offsets)
         d_uvw = np.empty((len(self.inverse), 3, 3))
         for axis, (buv, bw) in enumerate(self.factors):
             d_uvw[:, :, axis] = self.cells.sum(padded, buv, bw)
+        if self.outside is not None:
+            d_uvw[self.outside] = 0.0
         return _det3(ffd._chain(d_uvw))[self.inverse]
 
 
@@ -62,8 +73,8 @@ class PointEvaluator:
     points : (N, 3) ndarray
         The points (a mesh's vertices, or vertices and a volume grid).
     template : FFD, optional
-        An FFD whose placement (lattice geometry, basis, affine) the samples share; without
-        one every sample is evaluated directly.
+        An FFD whose placement (lattice geometry, basis, border rule, affine part,
+        ``only_inside``) the samples share; without one every sample is evaluated directly.
 
     Examples
     --------
@@ -80,8 +91,8 @@ class PointEvaluator:
     def __init__(self, points: NDArray[np.float64], template: FFD | None = None) -> None:
         self.points = points
         self._template = None
-        if template is not None and getattr(template, "border", "zero") == "zero":
-            self._template = FFD(template.lattice.copy(), basis=template.basis, affine=template.affine)
+        if template is not None:  # on its own lattice copy: the deformer writes the samples' offsets into it
+            self._template = with_lattice(template, template.lattice.copy())
         # built on first use: the vertices only ever deform, the check points only give det J
         self._deformer: Deformer | None = None
         self._jacobian: _BsplineJacobian | None = None
@@ -93,8 +104,9 @@ class PointEvaluator:
         mine, ffd = self._template, sample.ffd
         lat, other = mine.lattice, ffd.lattice
         return (
-            getattr(ffd, "border", "zero") == "zero"
-            and ffd.basis == mine.basis
+            ffd.basis == mine.basis
+            and ffd.border == mine.border
+            and ffd.only_inside == mine.only_inside
             and lat.shape == other.shape
             and np.array_equal(lat.spacing, other.spacing)
             and np.array_equal(lat.origin, other.origin)
@@ -114,7 +126,7 @@ class PointEvaluator:
 
     def jacobian_determinant(self, sample: Any) -> NDArray[np.float64]:
         """``det J`` of the sample at the points, ``(N,)``."""
-        if not self._fits(sample) or sample.ffd.basis != "bspline":
+        if not self._fits(sample) or sample.ffd.basis != "bspline":  # Bernstein: no cells to cache (module doc)
             return sample.jacobian_determinant(self.points)
         with self._lock:
             if self._jacobian is None:

@@ -1,14 +1,17 @@
-"""Replaying deformations made elsewhere: a given list of lattice (or transform) files.
+"""Replaying deformations made elsewhere: a given list of deformation files.
 
-Sample ``i`` is file ``i``. Each format is one loader function ``path -> FFD`` in
-:data:`LOADERS`, keyed by file suffix; ``.ffd`` is read by :func:`~ffd_notebook.load_ffd`.
-Other formats (ITK transforms, PyGeM parameter files) plug in with :func:`register_loader`.
+Sample ``i`` is file ``i``, read by :func:`ffd_notebook.io.load_deformation`, so every format it
+knows works: ``.ffd`` lattices, ITK transforms (``.tfm``, ``.txt``, ``.h5``, ``.hdf5``) and PyGeM
+``.prm`` files. Each file says its deformation: its basis (``.ffd`` and ITK: B-spline, ``.prm``:
+Bernstein), border rule (a ``.ffd`` file's ``#border#`` section), affine part and whether points
+outside the lattice move, so the model has no basis or border of its own. The reader is imported
+with this module, so it is there in every worker process that unpickles a :class:`LatticeFiles`.
 """
 
 from __future__ import annotations
 
 import os
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -16,41 +19,11 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
-from ..deform import BASES, FFD
-from .models import LatticeSample, make_ffd
+from ..deform import FFD
+from ..io.deformation_files import load_deformation
+from .models import LatticeSample, with_lattice
 
-__all__ = ["LOADERS", "LatticeFiles", "load_deformation", "register_loader"]
-
-
-def _load_ffd_file(path: Path, basis: str, border: str) -> FFD:
-    from ..io import load_ffd  # the io package loads PyVista: only when a file is read
-
-    return make_ffd(load_ffd(path), basis, border)
-
-
-#: suffix -> loader(path, basis, border) returning an FFD
-LOADERS: dict[str, Callable[[Path, str, str], FFD]] = {".ffd": _load_ffd_file}
-
-
-def register_loader(suffix: str, loader: Callable[[Path, str, str], FFD]) -> None:
-    """Read files ending in ``suffix`` with ``loader(path, basis, border) -> FFD``.
-
-    Examples
-    --------
-    >>> register_loader(".ffd", _load_ffd_file)
-    >>> sorted(LOADERS)[:1]
-    ['.ffd']
-    """
-    LOADERS[suffix.lower()] = loader
-
-
-def load_deformation(path: str | os.PathLike[str], basis: str = "bspline", border: str = "zero") -> FFD:
-    """Read one lattice/transform file as an FFD, choosing the loader by suffix."""
-    path = Path(path)
-    loader = LOADERS.get(path.suffix.lower())
-    if loader is None:
-        raise ValueError(f"{path}: no loader for {path.suffix or 'files without a suffix'!r}; known: {sorted(LOADERS)}")
-    return loader(path, basis, border)
+__all__ = ["LatticeFiles"]
 
 
 @dataclass(frozen=True)
@@ -60,10 +33,9 @@ class LatticeFiles:
     Parameters
     ----------
     files : sequence of paths
-        Lattice or transform files (``.ffd``; more formats through :func:`register_loader`).
-        Each is read once up front, so a bad file is an error before any work starts.
-    basis, border
-        The FFD basis and border rule the lattices are evaluated with (``.ffd`` stores neither).
+        Deformation files in any format :func:`ffd_notebook.io.load_deformation` reads (chosen
+        by extension). Each is read once up front, so a bad file is an error before any work
+        starts.
 
     Notes
     -----
@@ -74,35 +46,32 @@ class LatticeFiles:
     Examples
     --------
     >>> import pathlib, tempfile
-    >>> from ffd_notebook import Lattice, save_ffd
-    >>> path = pathlib.Path(tempfile.mkdtemp()) / "a.ffd"
-    >>> save_ffd(path, Lattice((4, 4, 4), 1.0))
-    >>> LatticeFiles([path]).bind(None).draw(None, 0).ffd.lattice.shape
-    (4, 4, 4)
+    >>> from ffd_notebook import Lattice, save_ffd, save_prm
+    >>> folder = pathlib.Path(tempfile.mkdtemp())
+    >>> save_ffd(folder / "a.ffd", Lattice((4, 4, 4), 1.0)); save_prm(folder / "b.prm", Lattice((3, 3, 3), 1.0))
+    >>> bound = LatticeFiles([folder / "a.ffd", folder / "b.prm"]).bind(None)
+    >>> [(s.ffd.basis, s.ffd.lattice.shape) for s in (bound.draw(None, 0), bound.draw(None, 1))]
+    [('bspline', (4, 4, 4)), ('bernstein', (3, 3, 3))]
     """
 
     files: tuple[str, ...]
-    basis: str = "bspline"
-    border: str = "zero"
 
     name = "files"
 
     def __post_init__(self) -> None:
         if isinstance(self.files, str | os.PathLike) or not isinstance(self.files, Sequence) or not self.files:
             raise ValueError(f"files must be a non-empty list of paths, got {self.files!r}")
-        if self.basis not in BASES:
-            raise ValueError(f"basis must be one of {BASES}, got {self.basis!r}")
         object.__setattr__(self, "files", tuple(str(Path(f).resolve()) for f in self.files))
         for f in self.files:
-            load_deformation(f, self.basis, self.border)  # every file checked before any work starts
+            load_deformation(f)  # every file checked before any work starts
 
     def to_spec(self) -> dict[str, Any]:
         """The parameters as JSON values, with the model's name under ``"model"``."""
-        return {"model": self.name, "files": list(self.files), "basis": self.basis, "border": self.border}
+        return {"model": self.name, "files": list(self.files)}
 
     def bind(self, points: ArrayLike | None) -> BoundFiles:
         """The files do not depend on the mesh: read them."""
-        return BoundFiles(self, tuple(load_deformation(f, self.basis, self.border) for f in self.files))
+        return BoundFiles(self, tuple(load_deformation(f) for f in self.files))
 
 
 @dataclass(frozen=True)
@@ -114,9 +83,8 @@ class BoundFiles:
     can_redraw = False
 
     def draw(self, rng: np.random.Generator | None, index: int) -> LatticeSample:
-        """File ``index`` (no randomness)."""
+        """File ``index`` (no randomness), on a copy of its lattice."""
         if not 0 <= index < len(self.deformations):
             raise IndexError(f"sample {index}: only {len(self.deformations)} files were given")
         ffd = self.deformations[index]
-        lattice = ffd.lattice.copy()
-        return LatticeSample(make_ffd(lattice, ffd.basis, getattr(ffd, "border", "zero"), ffd.affine))
+        return LatticeSample(with_lattice(ffd, ffd.lattice.copy()))

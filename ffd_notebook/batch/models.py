@@ -9,49 +9,31 @@ NumPy only: no VTK here.
 
 from __future__ import annotations
 
-import inspect
 from dataclasses import asdict, dataclass
 from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from ..basis import check_border
 from ..deform import BASES, FFD
 from ..lattice import Lattice
 
-__all__ = ["BORDERS", "LatticeSample", "RandomLattice", "make_ffd"]
-
-BORDERS = ("zero", "clamp")
+__all__ = ["LatticeSample", "RandomLattice"]
 
 
-def make_ffd(lattice: Lattice, basis: str = "bspline", border: str = "zero", affine: Any = None) -> FFD:
-    """``FFD(lattice, basis, affine)``, passing ``border`` only when it is not the default ``"zero"``.
-
-    The ``border`` argument of :class:`~ffd_notebook.FFD` is newer than this module; with an FFD
-    that does not take it, ``border="clamp"`` is a clear ``ValueError`` instead of a ``TypeError``.
+def with_lattice(ffd: FFD, lattice: Lattice) -> FFD:
+    """An FFD like ``ffd`` (basis, border rule, affine part, ``only_inside``) on another lattice.
 
     Examples
     --------
     >>> from ffd_notebook import Lattice
-    >>> make_ffd(Lattice((4, 4, 4), 1.0)).basis
-    'bspline'
+    >>> ffd = FFD(Lattice((4, 4, 4), 1.0), border="clamp", only_inside=True)
+    >>> other = with_lattice(ffd, Lattice((5, 5, 5), 2.0))
+    >>> other.border, other.only_inside, other.lattice.shape
+    ('clamp', True, (5, 5, 5))
     """
-    if border not in BORDERS:
-        raise ValueError(f"border must be one of {BORDERS}, got {border!r}")
-    if border == "zero":
-        return FFD(lattice, basis=basis, affine=affine)
-    if "border" not in inspect.signature(FFD).parameters:
-        raise ValueError(f"border={border!r} needs an FFD that takes a border rule; this version has only 'zero'")
-    return FFD(lattice, basis=basis, border=border, affine=affine)  # type: ignore[call-arg]
-
-
-def _fit_lattice(points: NDArray[np.float64], shape: tuple[int, int, int], margin: float, basis: str, border: str):
-    """``Lattice.around`` with the border rule passed on only when it is not ``"zero"`` (see :func:`make_ffd`)."""
-    if border == "zero":
-        return Lattice.around(points, shape=shape, margin=margin, basis=basis)
-    if "border" not in inspect.signature(Lattice.around).parameters:
-        raise ValueError(f"border={border!r} needs a Lattice.around that takes a border rule")
-    return Lattice.around(points, shape=shape, margin=margin, basis=basis, border=border)  # type: ignore[call-arg]
+    return FFD(lattice, basis=ffd.basis, border=ffd.border, affine=ffd.affine, only_inside=ffd.only_inside)
 
 
 def _triple(value: Any, name: str, kind: type) -> tuple:
@@ -93,8 +75,7 @@ class LatticeSample:
         """The same draw with every offset multiplied by ``factor`` (the affine part kept)."""
         lattice = self.ffd.lattice.copy()
         lattice.offsets *= factor
-        border = getattr(self.ffd, "border", "zero")
-        return LatticeSample(make_ffd(lattice, self.ffd.basis, border, self.ffd.affine), self.scale * factor)
+        return LatticeSample(with_lattice(self.ffd, lattice), self.scale * factor)
 
 
 @dataclass(frozen=True)
@@ -123,7 +104,8 @@ class RandomLattice:
         The FFD basis.
     border : {"zero", "clamp"}
         How control points beyond the lattice count: ``"zero"`` (the seed formula, ITK's) or
-        ``"clamp"`` (the border control points extend outward; needs an FFD that has it).
+        ``"clamp"`` (the border control points extend outward, so the lattice hugs the mesh's box;
+        see :meth:`Lattice.around`). A saved sample's ``.ffd`` records it in a ``#border#`` section.
     margin : float
         Room around the mesh as a fraction of its largest extent (:meth:`Lattice.around`).
 
@@ -170,7 +152,7 @@ class RandomLattice:
             raise ValueError(f"locked_borders={self.locked_borders} locks every control point of a {shape} lattice")
         if not (np.isfinite(self.margin) and self.margin >= 0):
             raise ValueError(f"margin must be >= 0, got {self.margin!r}")
-        make_ffd(Lattice((4, 4, 4), 1.0), self.basis, self.border)  # an unknown or unsupported border fails here
+        check_border(self.border)
         object.__setattr__(self, "num_control_points", shape)
         object.__setattr__(self, "max_displacement", disp)
 
@@ -181,7 +163,9 @@ class RandomLattice:
     def bind(self, points: ArrayLike) -> BoundLattice:
         """Fit the lattice around the points (a mesh's vertices)."""
         pts = np.asarray(points, dtype=np.float64)
-        lattice = _fit_lattice(pts, self.num_control_points, self.margin, self.basis, self.border)  # type: ignore[arg-type]
+        lattice = Lattice.around(
+            pts, shape=self.num_control_points, margin=self.margin, basis=self.basis, border=self.border
+        )
         return BoundLattice(self, lattice)
 
 
@@ -207,4 +191,4 @@ class BoundLattice:
         """An FFD on a copy of the fitted lattice with the given offsets."""
         lattice = self.lattice.copy()
         lattice.set_offsets(offsets)
-        return make_ffd(lattice, self.model.basis, self.model.border)
+        return FFD(lattice, basis=self.model.basis, border=self.model.border)

@@ -159,6 +159,8 @@ def load_sample(layout: Layout, row: dict[str, Any], ctx: Context, rule: FoldFre
         loaded = load_ffd(path)
         if loaded.shape != bound.lattice.shape:
             raise ValueError(f"{path}: lattice shape {loaded.shape}, the run's is {bound.lattice.shape}")
+        if loaded.border != bound.lattice.border:
+            raise ValueError(f"{path}: border {loaded.border!r}, the run's is {bound.lattice.border!r}")
         return LatticeSample(bound.sample_ffd(loaded.offsets))
     return bound.sample_from(read_parameters_txt(path, bound.process.rank))
 

@@ -10,7 +10,7 @@ from pyvista import examples
 from scipy import stats
 
 from ffd_notebook import FFD, Lattice, save_ffd
-from ffd_notebook.batch import FoldFree, LatticeFiles, RandomGP, RandomLattice, load_deformation, sample_rng
+from ffd_notebook.batch import FoldFree, LatticeFiles, RandomGP, RandomLattice, sample_rng
 from ffd_notebook.batch.evaluate import PointEvaluator
 from ffd_notebook.batch.folding import accept
 from ffd_notebook.io import read_mesh
@@ -159,5 +159,6 @@ def test_lattice_files_read_each_file_and_name_a_bad_one(tmp_path, ant):
     (tmp_path / "bad.ffd").write_text("#dimension#\n3\n#control grid size#\n4 x 4\n")
     with pytest.raises(ValueError, match=r"bad\.ffd, line"):
         LatticeFiles([tmp_path / "a.ffd", tmp_path / "bad.ffd"])
-    with pytest.raises(ValueError, match=r"no loader for '\.tfm'"):
-        load_deformation(tmp_path / "x.tfm")
+    (tmp_path / "x.vtk").write_text("")
+    with pytest.raises(ValueError, match=r"x\.vtk: unknown deformation file extension"):
+        LatticeFiles([tmp_path / "a.ffd", tmp_path / "x.vtk"])
