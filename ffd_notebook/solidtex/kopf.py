@@ -13,8 +13,16 @@ optimised coarse to fine; at each level it alternates two steps, a few times:
   the paper's *histogram matching* divides each weight by how over-represented the colour it
   brings already is in the volume, which keeps the volume's colour statistics those of the image.
 
-At the end, a sliced optimal-transport colour transfer gives the volume the image's joint colour
-distribution (averaging narrows it).
+Before every step, and once at the end, a sliced optimal-transport colour transfer gives the
+volume the image's joint colour distribution: averaging narrows it, and the per-bin weights alone
+do not undo that (measured: histogram distance 0.23 with them alone). Transferring only once at
+the end stretched the contrast of a volume optimised blurred, which undid most of the
+optimisation (mean slice-neighbourhood distance 4.8 before, 7.1 after, on the notebook's image);
+transferring before every step lets each step repair the structure at the right contrast (5.6
+after the final transfer, same histogram distance). Measured per step, the energy falls at
+every step of the finer levels; at the coarsest it rises slightly after the first step, which
+the histogram matching causes (without it, it falls and then stays flat): matching the colours
+costs some neighbourhood fit.
 
 The volume wraps around (its neighbourhoods are taken periodically), so the result tiles, and it
 is the exemplar :func:`~ffd_notebook.solidtex.synthesize` grows larger volumes from. Hand-written
@@ -233,6 +241,8 @@ def exemplar_from_image(
                 ]
             ) / (level_img.shape[0] * level_img.shape[1])
             for it in range(iters[level]):
+                if it or level:  # the shuffled start already has the image's colours
+                    volume = _transfer_colours(volume, level_img, 5, seed + it)
                 volume = _optimise(volume.astype(np.float32), index, target_hist, 2, it)
                 bar.update()
     volume = _transfer_colours(volume, img, 20, seed)

@@ -217,7 +217,8 @@ def _run_stage(
                 if cut or measure:  # what is there (its own weights sum to 1)
                     old = acc[region] / np.maximum(covered, 1e-12)[..., None]
                 if cut:
-                    w = graph_cut_side(old, new, covered > 0, 2 if o >= 8 else 1).astype(np.float32)  # thick: 2-cubes
+                    # thick overlaps are cut on 2-cubes (a coarse cut: 0.46 instead of 0.39 at 8 voxels)
+                    w = graph_cut_side(old, new, covered > 0, 2 if o >= 12 else 1).astype(np.float32)
                     acc[region] = np.where(w[..., None] > 0, new, old)
                     wsum[region] = 1.0
                 else:
@@ -273,7 +274,7 @@ def synthesize(
     exemplar: ArrayLike,
     shape: int | tuple[int, int, int],
     block: int | None = None,
-    overlap: float = 1 / 6,
+    overlap: float | None = None,
     seed: int = 0,
     reuse: bool = True,
     *,
@@ -293,8 +294,10 @@ def synthesize(
         Size of the result, ``(Z, Y, X)``.
     block : int, optional
         Block edge in voxels (even). Chosen by :func:`choose_block_size` if omitted.
-    overlap : float
-        Overlap between neighbouring blocks as a fraction of the block (the paper: 1/6).
+    overlap : float, optional
+        Overlap between neighbouring blocks as a fraction of the block. Default: 1/6 (the paper's)
+        when feathering, 1/4 with cuts: a minimum-error boundary needs room to find agreement
+        (seam energy 0.76x feathering's at 1/6, 0.64x at 1/4 at 128^3 with reuse).
     seed : int
         The result is the same for the same seed.
     reuse : bool
@@ -343,6 +346,8 @@ def synthesize(
     target = (int(shape),) * 3 if np.isscalar(shape) else tuple(int(s) for s in shape)
     if block is None:
         block = choose_block_size(ex, seed=seed)
+    if overlap is None:
+        overlap = 1 / 4 if seams == "cut" else 1 / 6
     stages = plan_stages(ex.shape, target, int(block), overlap, reuse)
     rng = np.random.default_rng(seed)
     source = ex.astype(np.float32)

@@ -202,7 +202,8 @@ def seams(ex, quick):
                 ),
                 1,
             )
-            last = plan_stages(ex.shape, (size,) * 3, block, reuse=reuse)[-1]
+            overlap = 1 / 4 if method == "cut" else 1 / 6  # synthesize's default for each
+            last = plan_stages(ex.shape, (size,) * 3, block, overlap, reuse=reuse)[-1]
             res[method] = (stats["seam_mismatch"][-1], histogram_distance(vol, ex))
             grad = seam_energy(vol, last.step, last.overlap)
             name = f"{method} {size}^3 {growth}"
@@ -210,7 +211,8 @@ def seams(ex, quick):
         ratio = res["cut"][0] / res["feather"][0]
         good = ratio <= 0.7 and res["cut"][1] <= res["feather"][1]
         row(f"  seam energy ratio cut / feather, {size}^3 {growth}", ratio, "x", _ok(good, "<= 0.7 at equal hist."))
-    print("  (seam energy: squared colour difference of overlapping blocks where the result passes from one to")
+    print("  (overlaps: 1/6 of the block feathered (the paper's), 1/4 cut (synthesize's defaults);")
+    print("   seam energy: squared colour difference of overlapping blocks where the result passes from one to")
     print("   the other, per voxel of overlap face, relative to two unrelated voxels (1 = blocks joined at")
     print("   random), final stage; grad. ratio: the older seam_energy, gradient")
     print("   energy in the overlap bands over everywhere, 1 = as smooth as the rest, < 1 blurred, > 1 steps)\n")

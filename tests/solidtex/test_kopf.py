@@ -38,12 +38,13 @@ def test_every_slice_orientation_looks_like_the_image(image, solid):
     rng = np.random.default_rng(0)
     start = image.reshape(-1, 3)[rng.integers(0, 64 * 64, 32**3)].reshape(32, 32, 32, 3)  # shuffled pixels
     extruded = volume_from_slices(sliding_crops(image, 32, 32, step=(1, 1)))
-    # the optimisation lowers its energy far below the shuffled start (0.54 measured), and the
-    # colour transfer gives it the image's joint colours (0.012 measured; the extrusion: 0.11)
-    assert neighbourhood_distance(solid, image) < 0.65 * neighbourhood_distance(start, image)
+    # the optimisation lowers its energy far below the shuffled start (0.41 measured; 0.54 when the
+    # colours were transferred only at the end), and the colour transfers give it the image's joint
+    # colours (0.005 measured; the extrusion: 0.11)
+    assert neighbourhood_distance(solid, image) < 0.5 * neighbourhood_distance(start, image)
     assert histogram_distance(solid, image) < 0.5 * histogram_distance(extruded, image)
-    # alike along all three axes (1.06 measured), unlike the sheared extrusion, whose z slices are
-    # the image and whose x and y sections are streaks; ours are no farther than those (0.95)
+    # alike along all three axes (1.11 measured), unlike the sheared extrusion, whose z slices are
+    # the image and whose x and y sections are streaks; ours are nearer than those (0.75)
     ours = _per_axis(solid, image)
     extrusion = _per_axis(extruded, image)
     assert ours.max() < 1.2 * ours.min()

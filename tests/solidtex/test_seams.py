@@ -82,7 +82,7 @@ def test_cut_seams_in_the_reuse_growth(exemplar):
     feather, cut = {}, {}
     synthesize(exemplar, 96, block=12, progress=False, stats=feather)
     synthesize(exemplar, 96, block=12, progress=False, seams="cut", stats=cut)
-    # the doublings' large blocks have thick overlaps, where the seam has room to follow agreement
-    # (0.83 and 0.11 measured); the first stage's 2-voxel overlaps leave it none (1.0)
-    assert cut["seam_mismatch"][0] < 1.1 * feather["seam_mismatch"][0]
-    assert all(c < 0.9 * f for c, f in zip(cut["seam_mismatch"][1:], feather["seam_mismatch"][1:], strict=True))
+    # cuts default to 1/4-block overlaps (feathering: 1/6), room for the seam to follow agreement:
+    # 0.81, 0.58 and 0.12 of feathering's measured per stage
+    assert cut["seam_mismatch"][0] < 0.95 * feather["seam_mismatch"][0]
+    assert all(c < 0.75 * f for c, f in zip(cut["seam_mismatch"][1:], feather["seam_mismatch"][1:], strict=True))
