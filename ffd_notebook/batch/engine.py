@@ -22,10 +22,11 @@ from typing import Any
 
 import numpy as np
 
+from ..blas import one_blas_thread
 from .files import LatticeFiles
 from .folding import FoldFree
 from .output import FORMATS, Layout
-from .sample import Job, context, deformed_mesh, load_sample, mesh_sha256, one_blas_thread, run_sample
+from .sample import Job, context, deformed_mesh, load_sample, mesh_sha256, run_sample
 
 __all__ = ["BatchError", "BatchResult", "generate", "replay"]
 

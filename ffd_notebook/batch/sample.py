@@ -18,8 +18,8 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from threadpoolctl import ThreadpoolController
 
+from ..blas import one_blas_thread
 from ..io import load_ffd, read_mesh, save_ffd, write_mesh
 from .evaluate import PointEvaluator
 from .files import BoundFiles, LatticeFiles
@@ -165,27 +165,13 @@ def load_sample(layout: Layout, row: dict[str, Any], ctx: Context, rule: FoldFre
     return bound.sample_from(read_parameters_txt(path, bound.process.rank))
 
 
-_CONTROLLER: list[ThreadpoolController] = []
-
-
-def one_blas_thread():
-    """Run a block with BLAS on one thread (a context manager).
-
-    Samples run in parallel already, and a multi-threaded BLAS on small products only fights
-    the other workers for the cores (3x slower on a busy 2-core machine). It also makes a
-    sample's numbers independent of how many BLAS threads a worker happens to have, which is
-    what keeps the outputs bit-for-bit the same on any cluster, and in :func:`replay`.
-    """
-    if not _CONTROLLER:
-        _CONTROLLER.append(ThreadpoolController())
-    return _CONTROLLER[0].limit(limits=1, user_api="blas")
-
-
 def run_sample(job: Job, index: int) -> dict[str, Any]:
     """Make sample ``index``: returns ``{"id", "row", "seconds"}``, or ``{"id", "error"}`` naming the sample.
 
     Errors are returned, not raised, so that one bad sample never stops a Dask computation.
     """
+    # one BLAS thread: samples run in parallel already, and a sample's numbers must not depend on how
+    # many BLAS threads a worker has (bit-for-bit equal outputs on any cluster, and in replay)
     with one_blas_thread():
         return _run_sample(job, index)
 
