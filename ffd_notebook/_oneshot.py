@@ -50,6 +50,10 @@ __all__ = ["bernstein_displacement", "bspline_displacement", "displacement", "in
 
 _BLOCK_VALUES = 2**17  # Bernstein x-y weights per block, (nx*ny, block): 1 MB, about one core's L2 cache
 _CHUNK = 8192  # points per B-spline chunk (sorted order): its intermediates fill ~2.5 MB
+# B-spline points per (12, 16) @ (16, m) product at most: 12 * 16 * 1024 multiply-adds stay below
+# OpenBLAS's threshold for threading a product (4 * 65536), so the products run on the calling
+# thread; a second BLAS thread waiting for a busy core made them many times slower on a loaded machine
+_RUN = 1024
 _PAD = 4  # layers of padding around the offsets for the B-spline sum (see the module docstring)
 
 
@@ -195,8 +199,8 @@ def bspline_displacement(
     cell = cell.astype(small)
     order = np.argsort(cell, kind="stable")
     cell = cell[order]
-    # runs of equal cells, also cut at chunk boundaries: each chunk's intermediates stay in cache
-    cuts = np.union1d(np.flatnonzero(cell[1:] != cell[:-1]) + 1, np.arange(0, n, _CHUNK))
+    # runs of equal cells, also cut every _RUN points (chunk boundaries among them)
+    cuts = np.union1d(np.flatnonzero(cell[1:] != cell[:-1]) + 1, np.arange(0, n, _RUN))
     bounds = np.r_[cuts, n].tolist()
     firsts = np.column_stack(np.unravel_index(cell[cuts], tuple(grid))).tolist()
     padded = np.pad(offsets, [(_PAD, _PAD)] * 3 + [(0, 0)], mode="constant" if border == "zero" else "edge")
