@@ -160,9 +160,10 @@ class FFD:
         rows = self._local_rows(pts)
         rows += self.affine[:3, 3, None]
         linear = self.affine[:3, :3]
-        out = pts.copy() if np.array_equal(linear, np.eye(3)) else pts @ linear.T
+        base = pts if np.array_equal(linear, np.eye(3)) else pts @ linear.T
+        out = np.empty_like(base)
         for d in range(3):  # column by column: adding (N, 3) to rows.T would run along the short axis
-            out[:, d] += rows[d]
+            np.add(base[:, d], rows[d], out=out[:, d])
         return out
 
     __call__ = deform
