@@ -150,25 +150,24 @@ def bernstein_displacement(offsets: NDArray[np.float64], rows: NDArray[np.float6
 
 
 def _bspline_rows(t: NDArray[np.float64], w: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Cubic B-spline weights ``B_0 .. B_3`` of ``t`` into ``w`` ``(4,) + t.shape`` (the report's formulas).
+    """Six times the cubic B-spline weights ``B_0 .. B_3`` of ``t``, into ``w`` ``(4,) + t.shape``.
 
-    ``B_1 = t^3 / 2 - t^2 + 2/3`` and ``B_2 = (t + t^2 - t^3) / 2 + 1/6`` are the report's
-    ``(3t^3 - 6t^2 + 4) / 6`` and ``(-3t^3 + 3t^2 + 3t + 1) / 6`` with fewer passes.
+    ``6 B_0 = (1 - t)^3``, ``6 B_1 = (3t - 6) t^2 + 4`` (the report's ``3t^3 - 6t^2 + 4``),
+    ``6 B_3 = t^3`` and ``6 B_2 = 6 - 6 B_0 - 6 B_1 - 6 B_3``: twelve passes. The caller divides
+    the offsets by ``6^3`` instead.
     """
     t2 = t * t
     np.multiply(t2, t, out=w[3])  # t^3
     np.subtract(1.0, t, out=w[2])
     np.multiply(w[2], w[2], out=w[0])
     w[0] *= w[2]  # (1 - t)^3
-    np.multiply(w[3], 0.5, out=w[1])
-    w[1] -= t2
-    w[1] += 2.0 / 3.0
-    np.add(t, t2, out=w[2])
+    np.multiply(t, 3.0, out=w[1])
+    w[1] -= 6.0
+    w[1] *= t2
+    w[1] += 4.0
+    np.subtract(6.0, w[0], out=w[2])
+    w[2] -= w[1]
     w[2] -= w[3]
-    w[2] *= 0.5
-    w[2] += 1.0 / 6.0
-    w[0] *= 1.0 / 6.0
-    w[3] *= 1.0 / 6.0
     return w
 
 
@@ -202,11 +201,13 @@ def bspline_displacement(
     # runs of equal cells, also cut every _RUN points (chunk boundaries among them)
     cuts = np.union1d(np.flatnonzero(cell[1:] != cell[:-1]) + 1, np.arange(0, n, _RUN))
     bounds = np.r_[cuts, n].tolist()
-    firsts = np.column_stack(np.unravel_index(cell[cuts], tuple(grid))).tolist()
-    padded = np.pad(offsets, [(_PAD, _PAD)] * 3 + [(0, 0)], mode="constant" if border == "zero" else "edge")
+    padded = np.pad(offsets / 216.0, [(_PAD, _PAD)] * 3 + [(0, 0)], mode="constant" if border == "zero" else "edge")
+    # each run's 64 offsets as a (12, 16) matrix, (z slot, component) x (x slot, y slot), gathered at once
+    windows = np.lib.stride_tricks.sliding_window_view(padded, (4, 4, 4), axis=(0, 1, 2))  # (.., 3, l, m, n)
+    blocks = windows[np.unravel_index(cell[cuts], tuple(grid))].transpose(0, 4, 1, 2, 3).reshape(-1, 12, 16)
     c = min(_CHUNK, n)
     tt, weights, buv = np.empty((3, c)), np.empty((4, 3, c)), np.empty((4, 4, c))
-    x = np.empty((12, c))
+    x, local = np.empty((12, c)), np.empty((3, c))
     out = np.empty((3, n))
     run = 0
     for start in range(0, n, c):
@@ -216,13 +217,13 @@ def bspline_displacement(
         w = _bspline_rows(tt[:, :m], weights[:, :, :m])  # (4, 3, m)
         np.multiply(w[:, None, 0, :], w[None, :, 1, :], out=buv[:, :, :m])
         wuv = buv.reshape(16, c)
-        while run < len(firsts) and bounds[run] < start + m:
-            (i, j, k), s, e = firsts[run], bounds[run] - start, bounds[run + 1] - start
-            np.matmul(padded[i : i + 4, j : j + 4, k : k + 4].reshape(16, 12).T, wuv[:, s:e], out=x[:, s:e])
+        while run < len(blocks) and bounds[run] < start + m:
+            s, e = bounds[run] - start, bounds[run + 1] - start
+            np.matmul(blocks[run], wuv[:, s:e], out=x[:, s:e])
             run += 1
         xz = x[:, :m].reshape(4, 3, m)
         xz *= w[:, None, 2, :]
-        local = xz.sum(axis=0)
+        xz.sum(axis=0, out=local[:, :m])
         for d in range(3):  # 1-D scatters, several times faster than one of (m, 3) rows
-            out[d, idx] = local[d]
+            out[d, idx] = local[d, :m]
     return out
