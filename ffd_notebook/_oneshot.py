@@ -50,10 +50,13 @@ __all__ = ["bernstein_displacement", "bspline_displacement", "displacement", "in
 
 _BLOCK_VALUES = 2**17  # Bernstein x-y weights per block, (nx*ny, block): 1 MB, about one core's L2 cache
 _CHUNK = 8192  # points per B-spline chunk (sorted order): its intermediates fill ~2.5 MB
-# B-spline points per (12, 16) @ (16, m) product at most: 12 * 16 * 1024 multiply-adds stay below
-# OpenBLAS's threshold for threading a product (4 * 65536), so the products run on the calling
-# thread; a second BLAS thread waiting for a busy core made them many times slower on a loaded machine
-_RUN = 1024
+# OpenBLAS threads a product above 4 * 65536 multiply-adds. On the loaded 2-core machine a second
+# BLAS thread waiting for a busy core made these products 10-50x slower (the Bernstein 11^3 one-shot
+# 0.3-1.4 s instead of 28 ms), so they are cut below that size and run on the calling thread; that
+# costs ~12% at 11^3 with one thread, and gives up a speed-up only two idle cores would have given.
+_SERIAL_MADDS = 4 * 65536
+_RUN = 1024  # B-spline points per (12, 16) @ (16, m) product at most (12 * 16 * 1024 multiply-adds)
+_MIN_COLUMNS = 32  # Bernstein products are cut only if each piece keeps this many points (<= 13^3)
 _PAD = 4  # layers of padding around the offsets for the B-spline sum (see the module docstring)
 
 
@@ -139,11 +142,16 @@ def bernstein_displacement(offsets: NDArray[np.float64], rows: NDArray[np.float6
     out = np.empty((3, n))
     b = min(n, max(1024, min(8192, _BLOCK_VALUES // (nx * ny))))
     up, wxy, x = np.empty((max(nx, ny, nz), 3, b)), np.empty((nx, ny, b)), np.empty((nz * 3, b))
+    piece = _SERIAL_MADDS // table.size  # points per product that stays on one BLAS thread
+    piece = piece if piece >= _MIN_COLUMNS else b  # a big lattice: one product per block, threads welcome
     for start in range(0, n, b):
         m = min(b, n - start)
         px, py, pz = _bernstein_rows(s_all[:, start : start + m], (nx - 1, ny - 1, nz - 1), up[:, :, :m])
         w = np.multiply(px[:, None, :], py[None, :, :], out=wxy[:, :, :m])
-        xz = np.matmul(table, w.reshape(nx * ny, m), out=x[:, :m]).reshape(nz, 3, m)
+        w, xm = w.reshape(nx * ny, m), x[:, :m]
+        for p in range(0, m, piece):
+            np.matmul(table, w[:, p : p + piece], out=xm[:, p : p + piece])
+        xz = xm.reshape(nz, 3, m)
         xz *= pz[:, None, :]
         xz.sum(axis=0, out=out[:, start : start + m])
     return out
