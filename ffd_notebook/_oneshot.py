@@ -49,7 +49,7 @@ if TYPE_CHECKING:
 __all__ = ["bernstein_displacement", "bspline_displacement", "displacement", "in_domain", "lattice_rows"]
 
 _BLOCK_VALUES = 2**17  # Bernstein x-y weights per block, (nx*ny, block): 1 MB, about one core's L2 cache
-_CHUNK = 8192  # points per B-spline chunk (sorted order): its intermediates fill ~2.5 MB
+_CHUNK = 8192  # points per B-spline chunk (sorted order; a multiple of _RUN): its intermediates fill ~2.5 MB
 # OpenBLAS threads a product above 4 * 65536 multiply-adds. On the loaded 2-core machine a second
 # BLAS thread waiting for a busy core made these products 10-50x slower (the Bernstein 11^3 one-shot
 # 0.3-1.4 s instead of 28 ms), so they are cut below that size and run on the calling thread; that
