@@ -134,20 +134,15 @@ class FFD:
         >>> FFD(lat, affine=np.diag([3.0, 3.0, 3.0, 1.0])).displacement([[0.5, 0.5, 0.5]]).round(12).tolist()
         [[0.0, 2.0, 0.0]]
         """
-        return self._displacement(_as_points(points))
+        return np.ascontiguousarray(self._local_rows(_as_points(points)).T)
 
-    def _displacement(self, pts: NDArray[np.float64]) -> NDArray[np.float64]:
-        """:meth:`displacement` of points already checked (one-shot: see ``_oneshot``)."""
-        uvw = self.lattice.to_lattice(pts)
-        if self.basis == "bernstein" or self.border == "zero":
-            local = _oneshot.displacement(self.basis, self.lattice.offsets, uvw)
-        else:  # the clamp rule: supports beyond the lattice read copies of the border layer
-            cells = _CellGroups(uvw, self.lattice.shape, self.border)
-            bu, bv, bw = (bspline(cells.t[:, a]) for a in range(3))
-            local = cells.unsort(cells.sum(cells.pad(self.lattice.offsets), _outer(bu, bv), cells.masked(bw)))
-        if self.only_inside:
-            local[~_oneshot.in_domain(self.basis, self.lattice.shape, uvw)] = 0.0
-        return local
+    def _local_rows(self, pts: NDArray[np.float64]) -> NDArray[np.float64]:
+        """``T_local`` of points already checked, as rows ``(3, N)`` (one-shot: see ``_oneshot``)."""
+        lat = self.lattice
+        rows = _oneshot.displacement(self.basis, lat.offsets, _oneshot.lattice_rows(lat, pts), self.border)
+        if self.only_inside:  # the domain test on to_lattice's coordinates, as the cached path does
+            rows[:, ~_oneshot.in_domain(self.basis, lat.shape, lat.to_lattice(pts))] = 0.0
+        return rows
 
     def deform(self, points: ArrayLike) -> NDArray[np.float64]:
         """Deformed positions ``A x + b + T_local(x)`` of ``(N, 3)`` points.
@@ -162,10 +157,14 @@ class FFD:
         True
         """
         pts = _as_points(points)
-        local = self._displacement(pts)
-        local += pts @ self.affine[:3, :3].T
-        local += self.affine[:3, 3]
-        return local
+        rows = self._local_rows(pts)
+        rows += self.affine[:3, 3, None]
+        linear = self.affine[:3, :3]
+        base = pts if np.array_equal(linear, np.eye(3)) else pts @ linear.T
+        out = np.empty_like(base)
+        for d in range(3):  # column by column: adding (N, 3) to rows.T would run along the short axis
+            np.add(base[:, d], rows[d], out=out[:, d])
+        return out
 
     __call__ = deform
 

@@ -3,12 +3,13 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from reference_ffd import bernstein_loop, deform_loop
 
 from ffd_notebook import FFD, Lattice
-from ffd_notebook._oneshot import in_domain
+from ffd_notebook._oneshot import in_domain, lattice_rows
 
 
 def random_lattice(seed: int, low: int = 4, high: int = 9) -> Lattice:
@@ -65,6 +66,31 @@ def test_bspline_big_lattice_uses_wide_cell_numbers():
     points = points_around(lat, rng, 3000, reach=2.0)
     expected = deform_loop(points[:200], lat.offsets, lat.spacing, lat.origin)
     np.testing.assert_allclose(FFD(lat).deform(points)[:200], expected, rtol=0, atol=1e-12)
+
+
+@pytest.mark.parametrize("border", ["zero", "clamp"])
+def test_bspline_chunks_and_far_points_equal_the_loop(border):
+    """More points than one chunk (8192), cells cut across chunks, and points far beyond the lattice
+    (their supports are moved into the padding): equal to the reference loop and the cached path."""
+    lat = random_lattice(7, low=2 if border == "clamp" else 4)
+    rng = np.random.default_rng(7)
+    points = points_around(lat, rng, 20000, reach=3.0)
+    points[::50] = lat.to_world(rng.uniform(-1e6, 1e6, (len(points[::50]), 3)))
+    ffd = FFD(lat, border=border)
+    fast = ffd.deform(points)
+    np.testing.assert_allclose(fast, ffd.bind(points, dtype=np.float64).update(), rtol=0, atol=1e-9)
+    some = slice(0, 20000, 97)
+    expected = deform_loop(points[some], lat.offsets, lat.spacing, lat.origin, lat.rotation, border=border)
+    np.testing.assert_allclose(fast[some], expected, rtol=0, atol=1e-9)
+    assert fast.flags.c_contiguous and ffd.displacement(points[:5]).flags.c_contiguous
+
+
+@settings(max_examples=30, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1))
+def test_lattice_rows_are_to_lattice_transposed(seed):
+    lat = random_lattice(seed)
+    points = points_around(lat, np.random.default_rng(seed), 50, reach=3.0)
+    np.testing.assert_allclose(lattice_rows(lat, points), lat.to_lattice(points).T, rtol=0, atol=1e-12)
 
 
 def test_far_away_points_do_not_move():
