@@ -12,8 +12,8 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.linalg.blas import dger
 
 from .basis import bspline
-from .deform import _bspline_lattice_jacobian, _CellGroups, _det3, _outer
-from .lattice import _as_points
+from .lattice import as_points
+from .weights import CellGroups, bernstein_values, bspline_lattice_jacobian, det3, jacobian_to_world, outer_uv
 
 if TYPE_CHECKING:
     from .deform import FFD
@@ -61,7 +61,7 @@ class Deformer:
 
     def __init__(self, ffd: FFD, points: ArrayLike, dtype: Any = np.float32) -> None:
         self.ffd = ffd
-        self.points = _as_points(points)
+        self.points = as_points(points)
         self.dtype = np.dtype(dtype)
         if self.dtype not in (np.float32, np.float64):
             raise ValueError(f"dtype must be float32 or float64, got {self.dtype}")
@@ -80,9 +80,9 @@ class Deformer:
         uvw = lat.to_lattice(self.points)
         self._cells = None
         if self.ffd.basis == "bspline":
-            cells = _CellGroups(uvw, lat.shape, self.ffd.border)
+            cells = CellGroups(uvw, lat.shape, self.ffd.border)
             bu, bv, bw = (bspline(cells.t[:, a]) for a in range(3))
-            self._buv = _outer(bu, bv).astype(self.dtype)
+            self._buv = outer_uv(bu, bv).astype(self.dtype)
             self._bw = cells.masked(bw).astype(self.dtype)
             cells.t = None  # not needed after the weights: keep the cache small
             self._cells = cells
@@ -93,7 +93,7 @@ class Deformer:
             # points' order by one gather (np.take) per update
             self._sorted = np.zeros((n, 3))
         else:
-            bx, by, bz = self.ffd._bernstein_values(uvw)
+            bx, by, bz = bernstein_values(lat.shape, uvw)
             nx, ny, _ = lat.shape
             self._bxy = (bx[:, :, None] * by[:, None, :]).reshape(n, nx * ny).astype(self.dtype)
             self._bz = bz.astype(self.dtype)
@@ -187,8 +187,8 @@ class Deformer:
         if self._cells is None:  # Bernstein: every control point reaches every point
             return self.ffd.jacobian_determinant(self.points)
         uvw = self.ffd.lattice.to_lattice(self.points)[self._cells.order]
-        d_uvw = _bspline_lattice_jacobian(self._cells, self.ffd.lattice.offsets, uvw - np.floor(uvw))
-        return _det3(self.ffd._chain(d_uvw))[self._inverse]
+        d_uvw = bspline_lattice_jacobian(self._cells, self.ffd.lattice.offsets, uvw - np.floor(uvw))
+        return det3(jacobian_to_world(self.ffd.lattice, self.ffd.affine, d_uvw))[self._inverse]
 
     def _full(self) -> None:
         offsets = self.ffd.lattice.offsets

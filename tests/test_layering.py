@@ -13,7 +13,7 @@ import pytest
 
 PACKAGE = Path(__file__).resolve().parents[1] / "ffd_notebook"
 MODEL_FILES = sorted(
-    [PACKAGE / f"{name}.py" for name in ("__init__", "lattice", "basis", "deform", "deformer", "fit", "errors")]
+    [PACKAGE / f"{name}.py" for name in ("__init__", "lattice", "basis", "deform", "deformer", "weights", "fit", "errors")]
     + list((PACKAGE / "gp").glob("*.py"))
     + list((PACKAGE / "solidtex").glob("*.py"))
 )
