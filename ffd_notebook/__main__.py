@@ -78,7 +78,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     os.environ.setdefault("TRAME_ARGS", "")
     print("loading the editor...", flush=True)
     from .errors import FileFormatError
-    from .view.app import run_app
+    from .view.editor.app import run_app
 
     try:
         run_app(args.mesh, ffd=args.ffd, port=args.port, host=args.host, shape=tuple(args.shape), basis=args.basis,

@@ -15,8 +15,8 @@ configure_rendering()
 
 _LAZY = {
     "Editor": "ffd_notebook.view.editor",
-    "edit": "ffd_notebook.view.notebook",
-    "ControlPanel": "ffd_notebook.view.panel",
+    "edit": "ffd_notebook.view.editor.notebook",
+    "ControlPanel": "ffd_notebook.view.editor.notebook_panel",
     "GPExplorer": "ffd_notebook.view.gp_view",
     "TexturedOrgan": "ffd_notebook.view.solid_cut",
     "CutViewer": "ffd_notebook.view.solid_cut",

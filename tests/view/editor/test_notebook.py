@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import base64
 import io
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -20,7 +21,7 @@ def static_backend(monkeypatch):
 def test_static_view_follows_the_panel(static_backend):
     from PIL import Image
 
-    from ffd_notebook.view.notebook import _EditorOutput, edit, editor_widget
+    from ffd_notebook.view.editor.notebook import _EditorOutput, edit, editor_widget
 
     editor = edit(colored_sphere(), shape=(4, 4, 4), window_size=(200, 150))
     try:
@@ -70,7 +71,6 @@ print(json.dumps({
 def test_trame_view_in_a_kernel(tmp_path, monkeypatch):
     """A real kernel: edit() serves the plotter through trame, registers the triggers, honours the proxy."""
     import json
-    import os
     import urllib.request
 
     import nbformat
@@ -78,7 +78,7 @@ def test_trame_view_in_a_kernel(tmp_path, monkeypatch):
 
     monkeypatch.delenv("PYVISTA_JUPYTER_BACKEND", raising=False)  # the kernel inherits it: use the default
     monkeypatch.setenv("FFD_NOTEBOOK_TEST_HOOKS", "1")  # the ffd_state / ffd_widget_px triggers (test-only)
-    tests_dir = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    tests_dir = str(Path(__file__).resolve().parents[2])
     nb = nbformat.v4.new_notebook()
     nb.cells = [
         nbformat.v4.new_code_cell(f"import sys; sys.path.insert(0, {tests_dir!r})"),
@@ -115,6 +115,7 @@ import numpy as np
 import pyvista as pv
 from ffd_notebook.solidtex import SolidTexture
 from ffd_notebook.view import CutViewer, GPExplorer, TexturedOrgan
+from ffd_notebook.view.jupyter import views_of
 from ffd_notebook.view.organ import tetrahedralize
 
 explorer = GPExplorer(pv.Sphere(radius=10, theta_resolution=16, phi_resolution=12), sigma=8.0, rank=20,
@@ -131,7 +132,7 @@ texture = SolidTexture.fit(rng.integers(0, 255, (8, 8, 8, 3), dtype=np.uint8), g
 cut_widget = CutViewer(TexturedOrgan(grid, texture, subdivisions=0), window_size=(320, 240)).show()
 print(json.dumps({
     "gp_src": gp_widget.src, "cut_src": cut_widget.src,
-    "gp_server_side": explorer.plotter._ffd_notebook_viewer is gp_widget.viewer,
+    "gp_server_side": gp_widget.viewer in views_of(explorer.plotter).viewers,
     "pushed": len(pushed),
     "gp_iframe": 'class="pyvista"' in gp_widget.value,
 }))

@@ -22,11 +22,9 @@ import pyvista as pv
 from numpy.typing import ArrayLike, NDArray
 
 __all__ = [
-    "COLOR_ARRAYS",
     "DISPLACEMENT_ARRAY",
     "FIELDS",
     "FOLDING_ARRAY",
-    "color_array_name",
     "displacement_magnitude",
     "folding_mask",
     "show_field",
@@ -37,30 +35,8 @@ __all__ = [
 FIELDS = (None, "displacement", "jacobian")
 DISPLACEMENT_ARRAY = "ffd_displacement"
 FOLDING_ARRAY = "ffd_folding"
-COLOR_ARRAYS = ("RGB", "RGBA", "Colors", "colors", "RGBColors")
 FOLD_COLOR = "red"
 NO_FOLD_COLOR = "lightgray"
-
-
-def color_array_name(mesh: pv.DataSet) -> str | None:
-    """Name of the mesh's per-vertex colour array (uint8, 3 or 4 components), or ``None``.
-
-    Examples
-    --------
-    >>> import numpy as np, pyvista as pv
-    >>> m = pv.Sphere()
-    >>> color_array_name(m) is None
-    True
-    >>> m.point_data["RGB"] = np.zeros((m.n_points, 3), dtype=np.uint8)
-    >>> color_array_name(m)
-    'RGB'
-    """
-    for name in COLOR_ARRAYS:
-        if name in mesh.point_data:
-            arr = mesh.point_data[name]
-            if arr.dtype == np.uint8 and arr.ndim == 2 and arr.shape[1] in (3, 4):
-                return name
-    return None
 
 
 def displacement_magnitude(rest: ArrayLike, deformed: ArrayLike) -> NDArray[np.float32]:

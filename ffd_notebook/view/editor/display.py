@@ -10,7 +10,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from . import fields
+from ...meshing import color_array_name
+from . import coloring as fields
 
 __all__ = ["EditorDisplayMixin"]
 
@@ -31,7 +32,7 @@ class EditorDisplayMixin:
     @property
     def has_colors(self) -> bool:
         """Whether the mesh has per-vertex colours."""
-        return fields.color_array_name(self.mesh) is not None
+        return color_array_name(self.mesh) is not None
 
     def _write_trace(self, index: int, ijk: tuple[int, int, int], center: ArrayLike) -> None:
         record = {
@@ -81,7 +82,7 @@ class EditorDisplayMixin:
         self._notify("display")
 
     def _apply_coloring(self) -> None:
-        name = fields.color_array_name(self._display)
+        name = color_array_name(self._display)
         if self._field is not None:
             vmax = self._display.point_data[fields.DISPLACEMENT_ARRAY].max() if self._field == "displacement" else 1
             fields.show_field(self.mesh_actor, self._field, vmax)

@@ -19,7 +19,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from .file_root import (
+from ..file_root import (
     FFD_SUFFIXES,
     MESH_SUFFIXES,
     FileRoot,
@@ -55,7 +55,7 @@ def upload_bytes(upload: Any) -> tuple[str, bytes] | None:
 
 
 class AppFilesMixin:
-    """File actions of :class:`~ffd_notebook.view.app.EditorApp` (see the module docstring).
+    """File actions of :class:`~ffd_notebook.view.editor.app.EditorApp` (see the module docstring).
 
     Needs ``self.editor``, ``self.state``, ``self.files`` (a FileRoot) and ``self.sync()``.
     """
@@ -155,7 +155,7 @@ class AppFilesMixin:
     # ------------------------------------------------------------------ writing
     def save_ffd(self, path: str) -> None:
         """Save the lattice to a .ffd file in the app's folder (atomically)."""
-        from ..io import save_ffd
+        from ...io import save_ffd
 
         target = self._typed(path, lambda p: self.files.for_writing(p, FFD_SUFFIXES), "save")
         if target is not None:
@@ -166,7 +166,7 @@ class AppFilesMixin:
 
     def save_mesh(self, path: str) -> None:
         """Save the deformed mesh in the app's folder (format from the extension, atomically)."""
-        from ..io import write_mesh
+        from ...io import write_mesh
 
         target = self._typed(path, lambda p: self.files.for_writing(p, MESH_SUFFIXES), "save")
         if target is not None:
@@ -223,14 +223,14 @@ class AppFilesMixin:
 
     async def download_ffd(self) -> bytes:
         """The lattice as the bytes of a .ffd file (the page's download button saves them in the browser)."""
-        from ..io import save_ffd
+        from ...io import save_ffd
 
         lattice = self.editor.lattice.copy()
         return await self._written_bytes("download.ffd", lambda path: save_ffd(path, lattice))
 
     async def download_mesh(self, fmt: str = "obj") -> bytes:
         """The deformed mesh as the bytes of a ``fmt`` file (one of :data:`MESH_FORMATS`)."""
-        from ..io import write_mesh
+        from ...io import write_mesh
 
         if fmt not in MESH_FORMATS:
             raise ValueError(f"mesh format must be one of {MESH_FORMATS}")

@@ -22,10 +22,10 @@ import numpy as np
 import pyvista as pv
 from numpy.typing import ArrayLike, NDArray
 
-from ..deform import FFD, Deformer
-from ..lattice import Lattice
-from .editor_display import EditorDisplayMixin
-from .editor_files import EditorFilesMixin
+from ...deform import FFD, Deformer
+from ...lattice import Lattice
+from .display import EditorDisplayMixin
+from .files import EditorFilesMixin
 from .history import History, LatticeSwap, OffsetEdit
 from .lattice_actor import LatticeActor
 from .message_log import MessageLog
@@ -118,7 +118,7 @@ class Editor(EditorDisplayMixin, EditorFilesMixin):
         spacing on each side instead (rotate or zoom out to reach the corners). The view is from the
         front right, slightly above, with +y up: the convention of OBJ, PLY and STL meshes.
         """
-        from .camera import frame_camera
+        from ..camera import frame_camera
 
         lat = self.lattice
         inset = 0.5 if min(lat.shape) > 2 else 0.0

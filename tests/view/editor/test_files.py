@@ -9,8 +9,8 @@ from scipy.spatial import cKDTree
 
 from ffd_notebook import FileFormatError
 from ffd_notebook.io import load_ffd, read_mesh, read_obj, write_mesh
+from ffd_notebook.meshing import decimate_keeping_colors
 from ffd_notebook.view.editor import Editor
-from ffd_notebook.view.editor_files import decimate_keeping_colors
 
 
 def unplaced_ffd_text(shape=(4, 4, 4), spacing=0.8, moved=((1, 2, 1), (0.0, 0.0, 0.25))) -> str:

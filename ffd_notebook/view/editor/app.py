@@ -25,11 +25,11 @@ from typing import Any
 
 import numpy as np
 
+from ..file_root import DEFAULT_MAX_FILE_BYTES, FileRoot
+from ..web_security import AccessPolicy, new_token, protect, test_hooks_enabled, url_with_token
 from .app_files import MESH_FORMATS, AppFilesMixin
-from .app_panel import build_layout
+from .app_layout import build_layout
 from .editor import Editor
-from .file_root import DEFAULT_MAX_FILE_BYTES, FileRoot
-from .web_security import AccessPolicy, new_token, protect, test_hooks_enabled, url_with_token
 
 __all__ = ["EditorApp", "run_app"]
 
@@ -82,7 +82,7 @@ class EditorApp(AppFilesMixin):
 
     Examples
     --------
-    >>> from ffd_notebook.view.app import EditorApp
+    >>> from ffd_notebook.view.editor.app import EditorApp
     >>> import pyvista as pv
     >>> from ffd_notebook.view import Editor
     >>> app = EditorApp(Editor(pv.Sphere(), shape=(4, 4, 4), window_size=(200, 150)), name="doctest_app")

@@ -14,9 +14,9 @@ import pyvista as pv
 from ffd_notebook import Lattice, load_ffd, save_ffd
 from ffd_notebook.__main__ import build_parser
 from ffd_notebook.view import Editor
-from ffd_notebook.view.app import EditorApp
+from ffd_notebook.view.editor.app import EditorApp
 
-REPO = Path(__file__).resolve().parents[2]
+REPO = Path(__file__).resolve().parents[3]
 
 
 @pytest.fixture

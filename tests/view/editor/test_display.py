@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 import pyvista as pv
 
-from ffd_notebook.view import fields
+from ffd_notebook.view.editor import coloring as fields
 from ffd_notebook.view.editor import Editor
 
 

@@ -16,7 +16,7 @@ import numpy as np
 import pyvista as pv
 from numpy.typing import ArrayLike, NDArray
 
-from ..lattice import Lattice
+from ...lattice import Lattice
 
 __all__ = ["LatticeActor", "widget_radius"]
 

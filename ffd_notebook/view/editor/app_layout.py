@@ -146,7 +146,7 @@ def _messages_section() -> None:
 
 
 def build_layout(app: Any) -> tuple[Any, Any]:
-    """Build the page for ``app`` (an :class:`~ffd_notebook.view.app.EditorApp`); return (layout, view)."""
+    """Build the page for ``app`` (an :class:`~ffd_notebook.view.editor.app.EditorApp`); return (layout, view)."""
     from trame.ui.vuetify3 import SinglePageWithDrawerLayout
     from trame.widgets import html
     from trame.widgets import vuetify3 as v

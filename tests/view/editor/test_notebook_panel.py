@@ -7,7 +7,7 @@ import pytest
 from editor_testing import assert_view_matches_model, shown_points, widget_index
 
 from ffd_notebook.io import load_ffd, read_obj
-from ffd_notebook.view.panel import ControlPanel
+from ffd_notebook.view.editor.notebook_panel import ControlPanel
 
 
 @pytest.fixture
