@@ -253,5 +253,3 @@ def png_bytes(image: NDArray[np.uint8]) -> bytes:
     buf = io.BytesIO()
     Image.fromarray(image).save(buf, format="PNG")
     return buf.getvalue()
-
-

@@ -50,8 +50,6 @@ def edit(
     return editor
 
 
-
-
 def _trame_view(editor: Editor) -> Any:
     """The editor's trame view: server-side rendering, and the editor pushes frames after its changes."""
     from ..web_security import test_hooks_enabled

@@ -119,7 +119,9 @@ def test_upload_of_a_ffd_file(app, tmp_path):
     save_ffd(tmp_path / "up.ffd", upload)
     content = (tmp_path / "up.ffd").read_bytes()
     # what the trame client sends for a Vuetify file input: a list of file dicts, content possibly chunked
-    app._on_ffd_upload([{"name": "up.ffd", "size": len(content), "type": "", "content": [content[:100], content[100:]]}])
+    app._on_ffd_upload(
+        [{"name": "up.ffd", "size": len(content), "type": "", "content": [content[:100], content[100:]]}]
+    )
     assert app.editor.lattice.offsets[2, 2, 2, 0] == 0.25
     assert app.state.ffd_upload is None and "up.ffd (uploaded)" in app.state.messages[0]["text"]
     app._on_ffd_upload({"name": "bad.ffd", "content": b"#dimension#\nthree\n"})
