@@ -22,17 +22,9 @@ NAMEDTUPLE_API = {"_replace", "_asdict", "_fields", "_make"}
 
 # Shrink-only allow-lists while the view layer is being reorganised (issue 9): a test fails on any
 # offender not listed here or above its count, and another when an entry is stale.
-_VIEW = "ffd_notebook.view."
-KNOWN_CYCLES: set[frozenset[str]] = {
-    frozenset(_VIEW + m for m in ("editor.editor", "editor.display", "editor.notebook", "editor.notebook_panel"))
-}
+KNOWN_CYCLES: set[frozenset[str]] = set()
 KNOWN_PRIVATE: dict[str, int] = {
-    "ffd_notebook/view/editor/app.py": 2,
-    "ffd_notebook/view/editor/display.py": 17,
-    "ffd_notebook/view/editor/editor.py": 5,
-    "ffd_notebook/view/editor/files.py": 23,
-    "ffd_notebook/view/editor/notebook.py": 5,
-    "ffd_notebook/view/solid_cut.py": 1,
+    "ffd_notebook/view/solid_cut.py": 1,  # camera._unit: fixed when solid_cut.py moves (another branch edits it)
 }
 
 

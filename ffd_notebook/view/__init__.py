@@ -15,7 +15,8 @@ configure_rendering()
 
 _LAZY = {
     "Editor": "ffd_notebook.view.editor",
-    "edit": "ffd_notebook.view.editor.notebook",
+    "edit": "ffd_notebook.view.editor",
+    "EditingSession": "ffd_notebook.view.editor",
     "ControlPanel": "ffd_notebook.view.editor.notebook_panel",
     "GPExplorer": "ffd_notebook.view.gp_view",
     "TexturedOrgan": "ffd_notebook.view.solid_cut",

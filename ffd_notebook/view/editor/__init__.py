@@ -9,16 +9,17 @@ from __future__ import annotations
 import importlib
 from typing import Any
 
-from .editor import Editor
+from .changes import Change
+from .editor import Editor, edit
+from .session import EditingSession, MeshIO
 
 _LAZY = {
-    "edit": "ffd_notebook.view.editor.notebook",
     "ControlPanel": "ffd_notebook.view.editor.notebook_panel",
     "EditorApp": "ffd_notebook.view.editor.app",
     "run_app": "ffd_notebook.view.editor.app",
 }
 
-__all__ = ["Editor", *sorted(_LAZY)]
+__all__ = ["Change", "EditingSession", "Editor", "MeshIO", "edit", *sorted(_LAZY)]
 
 
 def __getattr__(name: str) -> Any:

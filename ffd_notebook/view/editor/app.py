@@ -26,7 +26,7 @@ from typing import Any
 import numpy as np
 
 from ..file_root import DEFAULT_MAX_FILE_BYTES, FileRoot
-from ..web_security import AccessPolicy, new_token, protect, test_hooks_enabled, url_with_token
+from ..web_security import AccessPolicy, new_token, protect, url_with_token
 from .app_files import MESH_FORMATS, AppFilesMixin
 from .app_layout import build_layout
 from .editor import Editor
@@ -76,9 +76,6 @@ class EditorApp(AppFilesMixin):
         The session token the page must present (default: a fresh random one).
     max_file_bytes : int
         Largest file the app reads or accepts as an upload.
-    test_hooks : bool, optional
-        Register the test-only ``ffd_widget_px`` / ``ffd_state`` triggers (internal state for
-        browser tests). Default: only if ``FFD_NOTEBOOK_TEST_HOOKS=1`` is set. Tests only.
 
     Examples
     --------
@@ -102,7 +99,6 @@ class EditorApp(AppFilesMixin):
         root: str | os.PathLike[str] | None = None,
         token: str | None = None,
         max_file_bytes: int = DEFAULT_MAX_FILE_BYTES,
-        test_hooks: bool | None = None,
     ) -> None:
         from trame.app import get_server
 
@@ -142,16 +138,14 @@ class EditorApp(AppFilesMixin):
         ):
             self.server.controller.trigger(name_)(method)
         self.layout, self.view = build_layout(self)
-        if test_hooks_enabled() if test_hooks is None else test_hooks:
-            editor.register_triggers(self.server)
-        editor.attach_viewer(self.view)
+        editor.scene.views.add(self.view)
         editor.observe(self._on_editor_event)
         self.state.change("sel_i", "sel_j", "sel_k")(self._on_selection_typed)
         self.state.change("basis")(self._on_basis_chosen)
         self.state.change("colors")(self._on_colors_switched)
         self.state.change("field")(self._on_field_chosen)
-        self.state.change("ffd_upload")(self._on_ffd_upload)
-        self.state.change("mesh_upload")(self._on_mesh_upload)
+        self.state.change("ffd_upload")(self.receive_ffd_upload)
+        self.state.change("mesh_upload")(self.receive_mesh_upload)
 
     # ------------------------------------------------------------------ editor -> page
     def _editor_values(self) -> dict[str, Any]:

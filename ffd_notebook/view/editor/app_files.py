@@ -203,12 +203,14 @@ class AppFilesMixin:
             return None
         return target, shown
 
-    def _on_ffd_upload(self, ffd_upload: Any, **_: Any) -> None:
+    def receive_ffd_upload(self, ffd_upload: Any, **_: Any) -> None:
+        """A .ffd file arrived from the browser's file input: load it."""
         received = self._receive(ffd_upload, FFD_SUFFIXES, "ffd_upload")
         if received is not None:
             self._read_ffd(*received)
 
-    def _on_mesh_upload(self, mesh_upload: Any, **_: Any) -> None:
+    def receive_mesh_upload(self, mesh_upload: Any, **_: Any) -> None:
+        """A mesh arrived from the browser's file input: load it."""
         received = self._receive(mesh_upload, MESH_SUFFIXES, "mesh_upload")
         if received is not None:
             self._read_mesh(*received)

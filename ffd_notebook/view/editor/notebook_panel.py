@@ -11,11 +11,12 @@ from __future__ import annotations
 
 import html
 from collections.abc import Callable
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import ipywidgets as widgets
 
-from .editor import Editor
+if TYPE_CHECKING:
+    from .editor import Editor
 
 __all__ = ["ControlPanel"]
 

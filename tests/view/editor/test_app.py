@@ -10,6 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import pyvista as pv
+from editor_instrument import Instrument
 
 from ffd_notebook import Lattice, load_ffd, save_ffd
 from ffd_notebook.__main__ import build_parser
@@ -24,7 +25,8 @@ def app(tmp_path):
     mesh = pv.Sphere(theta_resolution=20, phi_resolution=20)
     mesh.point_data["RGB"] = np.tile(np.array([200, 40, 40], dtype=np.uint8), (mesh.n_points, 1))
     editor = Editor(mesh, shape=(4, 5, 4), window_size=(160, 120))
-    app = EditorApp(editor, name=f"test_{uuid.uuid4().hex}", root=tmp_path, test_hooks=True)
+    app = EditorApp(editor, name=f"test_{uuid.uuid4().hex}", root=tmp_path)
+    Instrument(editor).register_triggers(app.server)  # the tests' own triggers (tests/editor_instrument.py)
     yield app
     app.close()
 
@@ -119,18 +121,18 @@ def test_upload_of_a_ffd_file(app, tmp_path):
     save_ffd(tmp_path / "up.ffd", upload)
     content = (tmp_path / "up.ffd").read_bytes()
     # what the trame client sends for a Vuetify file input: a list of file dicts, content possibly chunked
-    app._on_ffd_upload(
+    app.receive_ffd_upload(
         [{"name": "up.ffd", "size": len(content), "type": "", "content": [content[:100], content[100:]]}]
     )
     assert app.editor.lattice.offsets[2, 2, 2, 0] == 0.25
     assert app.state.ffd_upload is None and "up.ffd (uploaded)" in app.state.messages[0]["text"]
-    app._on_ffd_upload({"name": "bad.ffd", "content": b"#dimension#\nthree\n"})
+    app.receive_ffd_upload({"name": "bad.ffd", "content": b"#dimension#\nthree\n"})
     assert app.state.messages[0]["error"] and app.editor.lattice.offsets[2, 2, 2, 0] == 0.25
 
 
 def test_a_drag_updates_the_panel_and_the_triggers(app):
     app.editor.on_widget_moved(app.editor.lattice.control_points()[1, 1, 1] + [0.0, 0.0, 0.2], index=5 * 4 + 4 + 1)
-    app.editor._on_widget_end(5 * 4 + 4 + 1)  # the mouse lets go
+    app.editor.session.end_drag()  # the mouse lets go
     assert (app.state.sel_i, app.state.sel_j, app.state.sel_k) == (1, 1, 1)
     assert app.state.dz == pytest.approx(0.2)
     px = app.server.controller.trigger_fn("ffd_widget_px")()

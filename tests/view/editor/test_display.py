@@ -44,12 +44,12 @@ def test_colours_requested_on_a_mesh_without_them():
 
 def test_displacement_field_follows_drags(editor):
     editor.set_field("displacement")
-    shown = editor._display.point_data[fields.DISPLACEMENT_ARRAY]
+    shown = editor.scene.display.point_data[fields.DISPLACEMENT_ARRAY]
     assert not shown.any() and mapper(editor).GetArrayName() == fields.DISPLACEMENT_ARRAY
     index = int(np.ravel_multi_index((2, 2, 3), editor.lattice.shape))
     center = np.array(editor.plotter.widgets.sphere_widgets[index].GetCenter()) + (0, 0, 0.5)
     editor.on_widget_moved(center, index)
-    shown = editor._display.point_data[fields.DISPLACEMENT_ARRAY]
+    shown = editor.scene.display.point_data[fields.DISPLACEMENT_ARRAY]
     expected = np.linalg.norm(editor.ffd.deform(editor.mesh.points) - editor.mesh.points, axis=1)
     np.testing.assert_allclose(shown, expected, atol=1e-5)
     assert mapper(editor).GetScalarRange() == pytest.approx((0.0, expected.max()), rel=1e-5)
@@ -66,7 +66,7 @@ def test_folding_is_highlighted(editor):
     editor.update()
     folded = editor.ffd.jacobian_determinant(editor.mesh.points) <= 0
     assert 0 < folded.sum() < editor.mesh.n_points
-    np.testing.assert_array_equal(editor._display.point_data[fields.FOLDING_ARRAY] > 0.5, folded)
+    np.testing.assert_array_equal(editor.scene.display.point_data[fields.FOLDING_ARRAY] > 0.5, folded)
     editor.plotter.view_zy()  # the folded half faces -x
     assert red_pixels(editor.screenshot()) > 200
     editor.set_field("jacobian")
@@ -87,7 +87,7 @@ def test_folding_view_follows_drags(editor):
         index = int(np.ravel_multi_index(ijk, editor.lattice.shape))
         center = np.array(widgets[index].GetCenter()) + delta
         editor.on_widget_moved(center, index)
-        shown = editor._display.point_data[fields.FOLDING_ARRAY] > 0.5
+        shown = editor.scene.display.point_data[fields.FOLDING_ARRAY] > 0.5
         np.testing.assert_array_equal(shown, editor.ffd.jacobian_determinant(editor.mesh.points) <= 0)
         folds.append(int(shown.sum()))
     assert folds[0] > 0 and folds[2] < folds[0]  # folded, then partly unfolded again

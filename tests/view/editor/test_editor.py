@@ -6,6 +6,7 @@ import json
 
 import numpy as np
 import pytest
+from editor_instrument import Instrument
 from editor_testing import assert_view_matches_model, line_points, shown_points, widget_centers, widget_index
 
 from ffd_notebook import FFD, Lattice
@@ -23,6 +24,7 @@ def drag(editor, ijk, delta):
 
 
 def test_widget_callback_updates_mesh_lines_and_history(editor):
+    inst = Instrument(editor)
     rest = editor.mesh.points.copy()
     drag(editor, (2, 2, 3), (0.0, 0.0, 0.4))
     np.testing.assert_allclose(editor.lattice.offsets[2, 2, 3], (0, 0, 0.4), atol=1e-12)
@@ -31,7 +33,7 @@ def test_widget_callback_updates_mesh_lines_and_history(editor):
     assert np.abs(shown_points(editor) - rest).max() > 0.05  # the mesh really moved
     np.testing.assert_array_equal(editor.mesh.points, rest)  # the rest mesh did not
     assert editor.selected == (2, 2, 3)
-    assert editor.n_callbacks == 1 and editor.last_callback_ms > 0
+    assert inst.n_drags == 1 and editor.last_callback_ms > 0
     assert len(editor.history) == 1 and editor.can_undo
     # the same drag continues: still one undo step
     drag(editor, (2, 2, 3), (0.1, 0.0, 0.0))
@@ -134,7 +136,7 @@ def test_set_shape_and_basis_are_undoable(editor):
     assert editor.lattice.shape == (4, 5, 6) and not editor.lattice.offsets.any()
     assert len(editor.plotter.widgets.sphere_widgets) == 120
     assert line_points(editor).shape == (120, 3)
-    assert editor._lattice_actor.lines.n_cells == len(editor.lattice.edges())
+    assert editor.scene.lattice_actor.lines.n_cells == len(editor.lattice.edges())
     assert_view_matches_model(editor)
     editor.set_basis("bernstein")
     assert editor.basis == "bernstein" and editor.ffd.basis == "bernstein"
@@ -182,9 +184,10 @@ def test_given_lattice_and_assignment(sphere):
 
 
 def test_callback_errors_become_messages(editor):
+    inst = Instrument(editor)
     editor.on_widget_moved((0.0, 0.0, 0.0), 10_000)  # no such control point: must not raise into VTK
     assert editor.messages[-1].startswith("Error: widget callback failed for control point 10000")
-    assert not editor.lattice.offsets.any() and editor.n_callbacks == 0
+    assert not editor.lattice.offsets.any() and inst.n_drags == 0
 
 
 def fingerprint(points):
@@ -194,21 +197,22 @@ def fingerprint(points):
 
 
 def test_checksum_sees_moves_across_the_position_vector(editor):
-    before = editor.checksum()
+    inst = Instrument(editor)
+    before = inst.fingerprint()
     assert before == pytest.approx(fingerprint(shown_points(editor)))
     points = shown_points(editor)
     k = int(np.argmax(np.linalg.norm(points, axis=1)))
     p = points[k].astype(float)
     across = np.cross(p, [0.0, 0.0, 1.0]) if abs(p[2]) < np.linalg.norm(p) * 0.9 else np.cross(p, [1.0, 0, 0])
     across *= 1e-3 / np.linalg.norm(across)  # |p| unchanged to first order: sum |p| would not see it
-    editor._display_points[k] = p + across
-    assert editor.checksum() != pytest.approx(before, rel=1e-12, abs=1e-9)
+    editor.scene.display_points[k] = p + across
+    assert inst.fingerprint() != pytest.approx(before, rel=1e-12, abs=1e-9)
 
 
-def test_trace_file_records_each_callback(sphere, tmp_path, monkeypatch):
+def test_trace_file_records_each_callback(sphere, tmp_path):
     trace = tmp_path / "trace.jsonl"
-    monkeypatch.setenv("FFD_NOTEBOOK_TRACE", str(trace))
     editor = Editor(sphere, window_size=(160, 120))
+    Instrument(editor, trace=trace)
     try:
         drag(editor, (2, 2, 2), (0.1, 0, 0))
         drag(editor, (2, 2, 1), (0, 0.1, 0))
@@ -225,8 +229,9 @@ def test_trace_file_records_each_callback(sphere, tmp_path, monkeypatch):
 def test_widget_display_positions_and_triggers(editor):
     from trame.app import get_server
 
+    inst = Instrument(editor)
     editor.screenshot()
-    positions = editor.widget_display_positions()
+    positions = inst.widget_display_positions()
     assert [p["index"] for p in positions] == list(range(125))
     # independent projection: the renderer's world -> normalised view transform
     camera = editor.plotter.camera
@@ -239,7 +244,7 @@ def test_widget_display_positions_and_triggers(editor):
         assert p["u"] == pytest.approx((ndc[0] + 1) / 2, abs=1e-3)
         assert p["v"] == pytest.approx((ndc[1] + 1) / 2, abs=1e-3)
     server = get_server("ffd-editor-test-triggers")
-    editor.register_triggers(server)
+    inst.register_triggers(server)
     drag(editor, (2, 2, 2), (0.1, 0, 0))
     state = server.controller.trigger_fn("ffd_state")()
     assert state == {
@@ -282,17 +287,17 @@ def test_a_click_grabs_the_nearest_sphere(editor, from_below):
     w, h = editor.plotter.window_size
     nz = editor.lattice.shape[2]
     nearest_k = 0 if from_below else nz - 1
-    positions = editor.widget_display_positions()
+    positions = Instrument(editor).widget_display_positions()
     for i, j in [(1, 1), (2, 3), (3, 2)]:
         column = [widget_index(editor, (i, j, k)) for k in range(nz)]
         u = [positions[c]["u"] for c in column]
         v = [positions[c]["v"] for c in column]
         assert np.ptp(u) * w < 0.01 and np.ptp(v) * h < 0.01  # the column's spheres overlap exactly on screen
-        assert editor._lattice_actor.nearest_widget_at(u[0] * w, v[0] * h) == column[nearest_k]
+        assert editor.scene.lattice_actor.nearest_widget_at(u[0] * w, v[0] * h) == column[nearest_k]
         mouse_drag(editor, (u[0] * w, v[0] * h), (4, 0))
         assert editor.selected == (i, j, nearest_k)
         moved = np.flatnonzero(np.any(editor.lattice.offsets.reshape(-1, 3) != 0, axis=1))
         assert moved.tolist() == [column[nearest_k]] and editor.lattice.offsets[i, j, nearest_k, 0] != 0
         editor.undo()
     # every sphere is pickable again after the drags (other pickers are not affected)
-    assert all(actor.GetPickable() for actor in editor._lattice_actor._sphere_actors)
+    assert all(actor.GetPickable() for actor in editor.scene.lattice_actor._sphere_actors)

@@ -9,7 +9,7 @@ from ffd_notebook.view.editor.message_log import MAX_MESSAGES, MessageLog
 
 def test_messages_are_bounded_newest_last(editor):
     for n in range(MAX_MESSAGES + 250):
-        editor._info(f"message {n}")
+        editor.session.info(f"message {n}")
     assert len(editor.messages) == MAX_MESSAGES
     assert editor.messages[-1] == f"message {MAX_MESSAGES + 249}" and editor.messages[0] == "message 250"
     assert [m for m in editor.messages][-2:] == editor.messages[-2:]  # iterable and sliceable like a list
@@ -17,7 +17,7 @@ def test_messages_are_bounded_newest_last(editor):
 
 def test_attempt_still_explains_failures_once_the_log_is_full(editor):
     for n in range(MAX_MESSAGES):
-        editor._info(f"message {n}")
+        editor.session.info(f"message {n}")
     assert not editor.attempt(int, "not a number")
     assert editor.messages[-1].startswith("Error: invalid literal")
     assert not editor.attempt(editor.move_control_point, (99, 0, 0), (0.0, 0.0, 1.0))

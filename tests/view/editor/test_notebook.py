@@ -21,16 +21,17 @@ def static_backend(monkeypatch):
 def test_static_view_follows_the_panel(static_backend):
     from PIL import Image
 
-    from ffd_notebook.view.editor.notebook import _EditorOutput, edit, editor_widget
+    from ffd_notebook.view.editor import edit
+    from ffd_notebook.view.editor.notebook import EditorOutput
 
     editor = edit(colored_sphere(), shape=(4, 4, 4), window_size=(200, 150))
     try:
-        bundle = _EditorOutput(editor)._repr_mimebundle_()
+        bundle = EditorOutput(editor)._repr_mimebundle_()
         assert "application/vnd.jupyter.widget-view+json" in bundle and bundle["text/plain"] == repr(editor)
         png = Image.open(io.BytesIO(base64.b64decode(bundle["image/png"])))
         assert png.size == (200, 150)
-        box = editor_widget(editor)
-        assert editor_widget(editor) is box  # one widget per editor
+        box = editor.widget
+        assert editor.widget is box  # one widget per editor
         view, panel = box.children
         before = bytes(view.value)
         panel.xyz[2].value = 0.5
@@ -46,8 +47,10 @@ import pyvista as pv
 from ffd_notebook.view import edit
 from editor_testing import colored_sphere
 editor = edit(colored_sphere(), shape=(4, 4, 4), window_size=(320, 240))
-view, panel = editor._notebook_widget.children
+from editor_instrument import Instrument
+view, panel = editor.widget.children
 server = view.viewer.server
+Instrument(editor).register_triggers(server)  # the tests' own triggers, installed by test code
 state0 = server.controller.trigger_fn("ffd_state")()
 index = 21
 center = [c + 0.3 for c in editor.plotter.widgets.sphere_widgets[index].GetCenter()]
@@ -56,7 +59,7 @@ state1 = server.controller.trigger_fn("ffd_state")()
 pv.global_theme.trame.server_proxy_enabled = True
 pv.global_theme.trame.server_proxy_prefix = "/proxy/"
 second = edit(colored_sphere(12), shape=(4, 4, 4), window_size=(320, 240))
-proxied = second._notebook_widget.children[0].src
+proxied = second.widget.children[0].src
 print(json.dumps({
     "iframe_class_pyvista": 'class="pyvista"' in view.value,
     "src": view.src, "port": server.port, "proxied": proxied,
@@ -77,7 +80,6 @@ def test_trame_view_in_a_kernel(tmp_path, monkeypatch):
     from nbclient import NotebookClient
 
     monkeypatch.delenv("PYVISTA_JUPYTER_BACKEND", raising=False)  # the kernel inherits it: use the default
-    monkeypatch.setenv("FFD_NOTEBOOK_TEST_HOOKS", "1")  # the ffd_state / ffd_widget_px triggers (test-only)
     tests_dir = str(Path(__file__).resolve().parents[2])
     nb = nbformat.v4.new_notebook()
     nb.cells = [

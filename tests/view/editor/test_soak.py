@@ -17,6 +17,7 @@ import tracemalloc
 
 import numpy as np
 import pytest
+from editor_instrument import Instrument
 from editor_testing import assert_view_matches_model, colored_sphere
 
 from ffd_notebook.view.editor import Editor
@@ -38,7 +39,7 @@ def scene_objects(editor) -> dict:
         "widgets": len(editor.plotter.widgets.sphere_widgets),
         "mesh_input": editor.mesh_actor.GetMapper().GetInput().__this__,
         "mesh_points": editor.mesh_actor.GetMapper().GetInput().GetPoints().GetData().__this__,
-        "line_points": editor._lattice_actor.lines.GetPoints().GetData().__this__,
+        "line_points": editor.scene.lattice_actor.lines.GetPoints().GetData().__this__,
     }
 
 
@@ -64,6 +65,7 @@ def drag_events(editor, n, rng):
 @pytest.mark.slow
 def test_ten_thousand_drag_events_leak_nothing():
     editor = Editor(colored_sphere(40), shape=(5, 5, 5), window_size=(160, 120))
+    inst = Instrument(editor)
     try:
         rng = np.random.default_rng(7)
         drag_events(editor, 1000, rng)  # warm-up: caches, OpenGL buffers, a full undo history
@@ -79,7 +81,7 @@ def test_ten_thousand_drag_events_leak_nothing():
         rss_growth = rss_bytes() - rss_before
         python_growth = tracemalloc.get_traced_memory()[0] - python_before
         tracemalloc.stop()
-        assert editor.n_callbacks == 1000 + EVENTS and not any(m.startswith("Error") for m in editor.messages)
+        assert inst.n_drags == 1000 + EVENTS and not any(m.startswith("Error") for m in editor.messages)
         assert scene_objects(editor) == objects  # no actor, widget or points array was re-created
         assert rss_growth < 5 * 2**20, f"resident memory grew by {rss_growth / 2**20:.1f} MB"
         assert python_growth < 1 * 2**20, f"Python memory grew by {python_growth / 2**20:.2f} MB"
