@@ -18,7 +18,8 @@ import argparse
 import ipaddress
 import os
 import sys
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
+from typing import Any
 
 __all__ = ["build_parser", "main"]
 
@@ -59,8 +60,11 @@ def _is_loopback(host: str) -> bool:
         return False
 
 
-def main(argv: Sequence[str] | None = None) -> int:
-    """Parse ``argv`` (``sys.argv[1:]`` by default), build the editor and serve it until interrupted."""
+def main(argv: Sequence[str] | None = None, *, setup: Callable[[Any], None] | None = None) -> int:
+    """Parse ``argv`` (``sys.argv[1:]`` by default), build the editor and serve it until interrupted.
+
+    ``setup(app)`` (code only, e.g. a test's instrumentation) runs on the app before it serves.
+    """
     parser = build_parser()
     args = parser.parse_args(argv)
     for path, what in ((args.mesh, "mesh"), (args.ffd, ".ffd file")):
@@ -82,7 +86,7 @@ def main(argv: Sequence[str] | None = None) -> int:
 
     try:
         run_app(args.mesh, ffd=args.ffd, port=args.port, host=args.host, shape=tuple(args.shape), basis=args.basis,
-                root=args.root, max_file_bytes=int(args.max_file_mb * 2**20))  # fmt: skip
+                root=args.root, max_file_bytes=int(args.max_file_mb * 2**20), setup=setup)  # fmt: skip
     except (FileFormatError, ValueError, OSError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 1

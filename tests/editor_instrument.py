@@ -120,14 +120,18 @@ def instrument_notebook_editors(trace: str | os.PathLike[str] | None = None) -> 
     After each cell, new editors get an :class:`Instrument` (tracing to ``trace``) whose triggers are
     registered on the trame server that serves the package's notebook views.
     """
-    from IPython import get_ipython
+    import sys
 
-    from ffd_notebook.view.editor import Editor
+    from IPython import get_ipython
 
     shell = get_ipython()
     seen: dict[int, Instrument] = {}
 
     def after_cell(_result: Any = None) -> None:
+        if "ffd_notebook.view.editor" not in sys.modules:  # no editor yet: import nothing
+            return
+        from ffd_notebook.view.editor import Editor
+
         for value in list(shell.user_ns.values()):
             if isinstance(value, Editor) and id(value) not in seen:
                 from trame_pyvista.widgets import get_server

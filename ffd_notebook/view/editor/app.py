@@ -290,15 +290,19 @@ def run_app(
     basis: str = "bspline",
     root: str | os.PathLike[str] | None = None,
     max_file_bytes: int = DEFAULT_MAX_FILE_BYTES,
+    setup: Callable[[EditorApp], None] | None = None,
 ) -> EditorApp:
     """Build the editor (``mesh`` path or the sample mesh, optional ``ffd`` lattice) and serve it (blocking).
 
     Typed paths are confined to ``root`` (default: the current folder); uploads are removed at exit.
+    ``setup(app)`` runs before the server starts (a hook for code, e.g. tests' instrumentation).
     """
     editor = Editor(mesh, shape=tuple(shape), basis=basis)
     if ffd is not None:
         editor.load_ffd(ffd)
     app = EditorApp(editor, root=root, max_file_bytes=max_file_bytes)
+    if setup is not None:
+        setup(app)
     atexit.register(app.cleanup_files)  # also when the server ends by a signal or an error
     try:
         app.start(port=port, host=host)
