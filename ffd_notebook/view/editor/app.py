@@ -23,40 +23,19 @@ import time
 from collections.abc import Callable
 from typing import Any
 
-import numpy as np
-
 from ..file_root import DEFAULT_MAX_FILE_BYTES, FileRoot
 from ..web_security import AccessPolicy, new_token, protect, url_with_token
+from . import controls as panel_controls
 from .app_files import MESH_FORMATS, AppFilesMixin
 from .app_layout import build_layout
+from .changes import Change
+from .controls import by_key, editor_state, run
 from .editor import Editor
 
 __all__ = ["EditorApp", "run_app"]
 
-FIELDS = ["none", "displacement", "jacobian"]
-BASES = ["bspline", "bernstein"]
-N_MESSAGES = 5
 # while a sphere is dragged, the panel's X/Y/Z follow at most this often (each sync is a websocket message)
 DRAG_SYNC_S = 0.25
-
-
-def _number(value: Any, what: str, kind: type = float) -> Any:
-    """``value`` from a text field as ``kind``; a ValueError naming the field otherwise."""
-    try:
-        number = float(value)
-        if not np.isfinite(number) or (kind is int and number != int(number)):
-            raise ValueError
-    except (TypeError, ValueError):
-        raise ValueError(f"{what} must be {'a whole number' if kind is int else 'a number'}, got {value!r}") from None
-    return kind(number)
-
-
-def _triple(values: Any, what: str, kind: type = float) -> list[Any]:
-    """Three numbers from three text fields (``what`` names them, e.g. ``"lattice size"``)."""
-    values = list(values) if isinstance(values, (list, tuple)) else [values]
-    if len(values) != 3:
-        raise ValueError(f"{what} needs three values, got {values!r}")
-    return [_number(v, f"{what} {axis}", kind) for v, axis in zip(values, "xyz", strict=True)]
 
 
 class EditorApp(AppFilesMixin):
@@ -85,7 +64,8 @@ class EditorApp(AppFilesMixin):
     >>> app = EditorApp(Editor(pv.Sphere(), shape=(4, 4, 4), window_size=(200, 150)), name="doctest_app")
     >>> app.state.nx, app.state.basis, app.state.can_undo
     (4, 'bspline', False)
-    >>> app.apply_offset([1, 2, 1, 0.0, 0.0, 0.25])
+    >>> app.run("apply", [1, 2, 1, 0.0, 0.0, 0.25])
+    True
     >>> app.editor.lattice.offsets[1, 2, 1].tolist(), app.state.can_undo
     ([0.0, 0.0, 0.25], True)
     >>> app.editor.close()
@@ -111,22 +91,19 @@ class EditorApp(AppFilesMixin):
         self._last_drag_sync = 0.0
         self._scratch = None
         self._tasks: set[Any] = set()
+        self.controls = [c for c in panel_controls.CONTROLS if "app" in c.panels]
         self.state.update(self._editor_values())
+        self.state.update({c.key: c.default for c in self.controls if c.default is not None})
+        self.state.update({f"{c.key}_items": [{"value": v, "title": t} for v, t in c.choices] for c in self.controls})
         self.state.update(
             trame__title="ffd_notebook editor",
             root_name=str(self.files.path),
-            ffd_path="lattice.ffd",
-            mesh_path="",
-            mesh_save_path="deformed.obj",
-            reduction=0.5,
             ffd_upload=None,
             mesh_upload=None,
             mesh_format=MESH_FORMATS[0],
             mesh_format_items=MESH_FORMATS,
             busy=False,
             busy_text="",
-            field_items=FIELDS,
-            basis_items=BASES,
         )
         for name_, method in (
             ("ffd_load_ffd", self.load_ffd),
@@ -139,50 +116,27 @@ class EditorApp(AppFilesMixin):
             self.server.controller.trigger(name_)(method)
         self.layout, self.view = build_layout(self)
         editor.scene.views.add(self.view)
-        editor.observe(self._on_editor_event)
-        self.state.change("sel_i", "sel_j", "sel_k")(self._on_selection_typed)
-        self.state.change("basis")(self._on_basis_chosen)
-        self.state.change("colors")(self._on_colors_switched)
-        self.state.change("field")(self._on_field_chosen)
+        editor.session.subscribe(self._on_editor_change)
+        for control in self.controls:
+            if control.command is not None and control.kind != "button":  # inputs act when their value changes
+                self.state.change(*control.state)(self._input_handler(control))
         self.state.change("ffd_upload")(self.receive_ffd_upload)
         self.state.change("mesh_upload")(self.receive_mesh_upload)
 
     # ------------------------------------------------------------------ editor -> page
     def _editor_values(self) -> dict[str, Any]:
-        ed = self.editor
-        values: dict[str, Any] = {
-            "nx": ed.lattice.shape[0],
-            "ny": ed.lattice.shape[1],
-            "nz": ed.lattice.shape[2],
-            "max_i": ed.lattice.shape[0] - 1,
-            "max_j": ed.lattice.shape[1] - 1,
-            "max_k": ed.lattice.shape[2] - 1,
-            "basis": ed.basis,
-            "colors": ed.colors_shown,
-            "has_colors": ed.has_colors,
-            "field": ed.field or "none",
-            "can_undo": ed.can_undo,
-            "can_redo": ed.can_redo,
-            "has_selection": ed.selected is not None,
-            "mesh_info": f"{ed.mesh.n_points} vertices, {ed.mesh.n_cells} faces",
-            "moved_points": int(np.any(ed.lattice.offsets != 0, axis=-1).sum()),
-            "messages": [{"text": t, "error": t.startswith("Error")} for t in list(ed.messages)[-N_MESSAGES:][::-1]],
-        }
-        if ed.selected is not None:
-            offset = ed.lattice.offsets[ed.selected]
-            values.update(zip(("sel_i", "sel_j", "sel_k"), ed.selected, strict=True))
-            values.update(zip(("dx", "dy", "dz"), (float(f"{v:.6g}") for v in offset), strict=True))
-        elif "sel_i" not in self.state:
+        values = editor_state(self.editor)
+        if "sel_i" not in values and "sel_i" not in self.state:
             values.update(sel_i=0, sel_j=0, sel_k=0, dx=0.0, dy=0.0, dz=0.0)
         return values
 
     def sync(self) -> None:
-        """Copy the editor's state (lattice size, selection, offsets, flags, messages) to the page."""
+        """Copy the editor's state (:func:`.controls.editor_state`) to the page."""
         with self.state:
             self.state.update(self._editor_values())
 
-    def _on_editor_event(self, event: str) -> None:
-        if event == "drag":  # every mouse move: keep the page cheap to update
+    def _on_editor_change(self, change: Change) -> None:
+        if change.kind == "drag":  # every mouse move: keep the page cheap to update
             now = time.monotonic()
             if now - self._last_drag_sync < DRAG_SYNC_S:
                 return
@@ -190,69 +144,27 @@ class EditorApp(AppFilesMixin):
         self.sync()
 
     # ------------------------------------------------------------------ page -> editor
-    def _act(self, action: Callable[[], Any]) -> bool:
-        """Run an editor action; a failure becomes a message on the page instead of a traceback."""
-        ok = self.editor.attempt(action)
+    def _input_handler(self, control: Any) -> Any:
+        return lambda **values: self.run(control.key, [values[k] for k in control.state])
+
+    def run(self, key: str, values: list[Any] | None = None) -> bool:
+        """Run the panel control ``key`` (see :data:`.controls.CONTROLS`) with the page's ``values``.
+
+        A failure becomes a message on the page instead of a traceback. File actions go through the
+        app's root folder and a worker thread (their named triggers) instead of the editor's own.
+        """
+        control = by_key(key, self.controls)
+        if control.app_trigger is not None:
+            self.server.controller.trigger_fn(control.app_trigger)(*(values or []))
+            return True
+        ok = run(self.editor, control, values or [])
         self.sync()
         return ok
-
-    def rebuild(self, shape: list[Any]) -> None:
-        """Fit a new lattice with ``shape = [nx, ny, nz]`` control points (from the panel)."""
-        self._act(lambda: self.editor.set_shape(_triple(shape, "lattice size", int)))
-
-    def apply_offset(self, values: list[Any]) -> None:
-        """``values = [i, j, k, dx, dy, dz]``: set control point (i, j, k)'s displacement."""
-
-        def action() -> None:
-            self.editor.move_control_point(_triple(values[:3], "index", int), _triple(values[3:], "displacement"))
-
-        self._act(action)
-
-    def reset_point(self, ijk: list[Any]) -> None:
-        """Zero the displacement of control point ``ijk``."""
-        self._act(lambda: self.editor.reset(_triple(ijk, "index", int)))
-
-    def reset_all(self) -> None:
-        """Zero every displacement."""
-        self._act(self.editor.reset)
-
-    def undo(self) -> None:
-        """Undo the last edit."""
-        self._act(self.editor.undo)
-
-    def redo(self) -> None:
-        """Redo the last undone edit."""
-        self._act(self.editor.redo)
-
-    def decimate(self, reduction: Any) -> None:
-        """Decimate the loaded mesh by a fraction of its faces (0 restores it)."""
-        self._act(lambda: self.editor.decimate(_number(reduction, "the reduction")))
 
     def reset_camera(self) -> None:
         """Fit the camera to the scene."""
         self.editor.plotter.reset_camera()
         self.view.update()
-
-    def _on_selection_typed(self, sel_i: Any, sel_j: Any, sel_k: Any, **_: Any) -> None:
-        try:
-            ijk = tuple(_triple((sel_i, sel_j, sel_k), "index", int))
-        except ValueError:
-            return  # half-typed number: wait for the rest
-        if ijk != self.editor.selected:
-            self._act(lambda: self.editor.select(ijk))
-
-    def _on_basis_chosen(self, basis: str, **_: Any) -> None:
-        if basis != self.editor.basis:
-            self._act(lambda: self.editor.set_basis(basis))
-
-    def _on_colors_switched(self, colors: Any, **_: Any) -> None:
-        if bool(colors) != self.editor.colors_shown:
-            self._act(lambda: self.editor.show_colors(bool(colors)))
-
-    def _on_field_chosen(self, field: str, **_: Any) -> None:
-        wanted = None if field in (None, "none") else field
-        if wanted != self.editor.field:
-            self._act(lambda: self.editor.set_field(wanted))
 
     # ------------------------------------------------------------------ running
     def start(self, port: int = 8080, host: str = "127.0.0.1", **kwargs: Any) -> Any:

@@ -40,29 +40,29 @@ def test_initial_state_mirrors_the_editor(app):
 
 
 def test_apply_reset_undo_redo(app):
-    app.apply_offset(["1", "2", "1", "0.1", "-0.2", "0.3"])  # text fields send strings
+    app.run("apply", ["1", "2", "1", "0.1", "-0.2", "0.3"])  # text fields send strings
     assert app.editor.lattice.offsets[1, 2, 1].tolist() == [0.1, -0.2, 0.3]
     assert (app.state.sel_i, app.state.sel_j, app.state.sel_k) == (1, 2, 1)
     assert (app.state.dx, app.state.dy, app.state.dz) == (0.1, -0.2, 0.3)
     assert app.state.can_undo and app.state.moved_points == 1
-    app.reset_point([1, 2, 1])
+    app.run("reset_point", [1, 2, 1])
     assert not app.editor.lattice.offsets.any() and app.state.dx == 0.0
-    app.undo()
+    app.run("undo")
     assert app.editor.lattice.offsets[1, 2, 1, 2] == 0.3 and app.state.can_redo
-    app.redo()
+    app.run("redo")
     assert not app.editor.lattice.offsets.any()
-    app.apply_offset([0, 0, 0, 1, 1, 1])
-    app.apply_offset([3, 4, 3, 1, 1, 1])
-    app.reset_all()
+    app.run("apply", [0, 0, 0, 1, 1, 1])
+    app.run("apply", [3, 4, 3, 1, 1, 1])
+    app.run("reset_all")
     assert not app.editor.lattice.offsets.any() and app.state.moved_points == 0
 
 
 def test_bad_input_becomes_a_message_and_changes_nothing(app):
     before = app.editor.lattice.copy()
-    app.apply_offset([1, 2, 1, "abc", 0, 0])
-    app.apply_offset([9, 0, 0, 1, 0, 0])  # outside the lattice: the editor's own error
-    app.rebuild([4, "", 4])
-    app.rebuild([3, 3, 3])  # too small for the B-spline basis
+    app.run("apply", [1, 2, 1, "abc", 0, 0])
+    app.run("apply", [9, 0, 0, 1, 0, 0])  # outside the lattice: the editor's own error
+    app.run("rebuild", [4, "", 4])
+    app.run("rebuild", [3, 3, 3])  # too small for the B-spline basis
     assert app.editor.lattice == before
     texts = [m["text"] for m in app.state.messages]
     assert len(texts) == 4 and all(t.startswith("Error") for t in texts)
@@ -72,34 +72,34 @@ def test_bad_input_becomes_a_message_and_changes_nothing(app):
 
 
 def test_rebuild_basis_colors_field_and_decimate(app):
-    app.rebuild(["5", "6", "4"])
+    app.run("rebuild", ["5", "6", "4"])
     assert app.editor.lattice.shape == (5, 6, 4) and (app.state.nx, app.state.ny) == (5, 6)
-    app._on_basis_chosen("bernstein")
+    app.run("basis", ["bernstein"])
     assert app.editor.basis == "bernstein" and app.state.basis == "bernstein"
-    app._on_colors_switched(False)
+    app.run("colors", [False])
     assert not app.editor.colors_shown and not app.state.colors
-    app._on_field_chosen("displacement")
+    app.run("field", ["displacement"])
     assert app.editor.field == "displacement"
-    app._on_field_chosen("none")
+    app.run("field", ["none"])
     assert app.editor.field is None
     n = app.editor.mesh.n_cells
-    app.decimate("0.5")
+    app.run("decimate", ["0.5"])
     assert app.editor.mesh.n_cells < 0.7 * n and app.state.mesh_info.endswith(f"{app.editor.mesh.n_cells} faces")
 
 
 def test_selection_typed_in_the_panel(app):
-    app._on_selection_typed("2", "3", "1")
+    app.run("ijk", ["2", "3", "1"])
     assert app.editor.selected == (2, 3, 1) and app.state.has_selection
-    app._on_selection_typed("2", "", "1")  # half-typed: ignored
+    app.run("ijk", ["2", "", "1"])  # half-typed: ignored
     assert app.editor.selected == (2, 3, 1)
 
 
 def test_ffd_and_mesh_files_by_path(app, tmp_path):
-    app.apply_offset([1, 1, 2, 0.0, 0.5, 0.0])
+    app.run("apply", [1, 1, 2, 0.0, 0.5, 0.0])
     app.save_ffd(str(tmp_path / "a.ffd"))
     saved = load_ffd(tmp_path / "a.ffd")
     assert saved.offsets[1, 1, 2].tolist() == [0.0, 0.5, 0.0]
-    app.reset_all()
+    app.run("reset_all")
     app.load_ffd(str(tmp_path / "a.ffd"))
     assert app.editor.lattice.offsets[1, 1, 2, 1] == 0.5
     app.load_ffd(str(tmp_path / "missing.ffd"))

@@ -105,7 +105,7 @@ def test_mesh_files_decimation_and_display(panel, editor, shared_data, tmp_path)
     set_ijk(panel, (2, 2, 2))
     panel.xyz[0].value = 10.0
     panel.apply_button.click()
-    panel.mesh_path.value = str(tmp_path / "deformed.obj")
+    panel.mesh_save_path.value = str(tmp_path / "deformed.obj")
     panel.save_mesh_button.click()
     back = read_obj(tmp_path / "deformed.obj")
     np.testing.assert_allclose(back.points, editor.deformed_mesh.points, rtol=1e-5, atol=1e-3)
