@@ -37,6 +37,12 @@ _LAZY = {
     "read_mesh": "ffd_notebook.io",
     "write_mesh": "ffd_notebook.io",
     "place_at_mesh_minimum": "ffd_notebook.io",
+    "load_transform": "ffd_notebook.io",
+    "save_transform": "ffd_notebook.io",
+    "load_prm": "ffd_notebook.io",
+    "save_prm": "ffd_notebook.io",
+    "load_deformation": "ffd_notebook.io",
+    "save_deformation": "ffd_notebook.io",
     "edit": "ffd_notebook.view",
     "Editor": "ffd_notebook.view",
 }

@@ -10,11 +10,17 @@ Open the bundled sample mesh and browse to the printed address::
     python -m ffd_notebook --root ~/meshes --host 0.0.0.0
 
 The printed address carries a session token; the page's file paths stay inside ``--root``.
+
+Subcommands (each with its own ``--help``)::
+
+    python -m ffd_notebook convert lattice.ffd lattice.tfm     # .ffd, ITK .tfm/.txt/.h5, PyGeM .prm
+    python -m ffd_notebook batch face.ply --n 1000 --out augmented
 """
 
 from __future__ import annotations
 
 import argparse
+import importlib
 import ipaddress
 import os
 import sys
@@ -22,6 +28,9 @@ from collections.abc import Callable, Sequence
 from typing import Any
 
 __all__ = ["build_parser", "main"]
+
+#: ``python -m ffd_notebook NAME ...`` -> (module, function taking the remaining arguments)
+_SUBCOMMANDS = {"convert": ("ffd_notebook.io.convert", "convert_main"), "batch": ("ffd_notebook.batch.cli", "main")}
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -65,6 +74,10 @@ def main(argv: Sequence[str] | None = None, *, setup: Callable[[Any], None] | No
 
     ``setup(app)`` (code only, e.g. a test's instrumentation) runs on the app before it serves.
     """
+    argv = sys.argv[1:] if argv is None else list(argv)
+    if argv and argv[0] in _SUBCOMMANDS:  # imported on use: the editor needs neither
+        module, function = _SUBCOMMANDS[argv[0]]
+        return getattr(importlib.import_module(module), function)(argv[1:])
     parser = build_parser()
     args = parser.parse_args(argv)
     for path, what in ((args.mesh, "mesh"), (args.ffd, ".ffd file")):

@@ -14,6 +14,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from . import _oneshot
 from .basis import BASES, bspline, check_border
 from .fit import fit_points as _fit_points
 from .lattice import Lattice, as_points
@@ -65,6 +66,12 @@ class FFD:
         with ``"clamp"`` or loaded from a .ffd file that says so), read at every evaluation.
     affine : array_like, optional
         4x4 homogeneous (or 3x4) matrix of the global part ``x -> A x + b``; identity if omitted.
+    only_inside : bool
+        If true, the lattice displaces only the points inside its domain and leaves the others
+        to the affine part alone: the box ``0 <= u <= n - 1`` (lattice coordinates) for the
+        Bernstein basis, as PyGeM does, and the region where the B-spline weights sum to one,
+        ``1 <= u <= n - 2``, for the B-spline basis, as ITK's ``BSplineTransform`` does. The
+        deformation is then discontinuous where the offsets near the domain's faces are not zero.
 
     Examples
     --------
@@ -81,7 +88,12 @@ class FFD:
     """
 
     def __init__(
-        self, lattice: Lattice, basis: str = "bspline", border: str | None = None, affine: ArrayLike | None = None
+        self,
+        lattice: Lattice,
+        basis: str = "bspline",
+        border: str | None = None,
+        affine: ArrayLike | None = None,
+        only_inside: bool = False,
     ) -> None:
         if not isinstance(lattice, Lattice):
             raise TypeError(f"lattice must be a Lattice, got {type(lattice).__name__}")
@@ -96,6 +108,7 @@ class FFD:
             )
         self.basis = basis
         self.affine = _check_affine(affine)
+        self.only_inside = bool(only_inside)
 
     @property
     def border(self) -> str:
@@ -120,14 +133,20 @@ class FFD:
         >>> FFD(lat, affine=np.diag([3.0, 3.0, 3.0, 1.0])).displacement([[0.5, 0.5, 0.5]]).round(12).tolist()
         [[0.0, 2.0, 0.0]]
         """
-        pts = as_points(points)
+        return self._displacement(as_points(points))
+
+    def _displacement(self, pts: NDArray[np.float64]) -> NDArray[np.float64]:
+        """:meth:`displacement` of points already checked (one-shot: see ``_oneshot``)."""
         uvw = self.lattice.to_lattice(pts)
-        if self.basis == "bernstein":
-            bx, by, bz = bernstein_values(self.lattice.shape, uvw)
-            return np.einsum("pi,pj,pk,ijkd->pd", bx, by, bz, self.lattice.offsets, optimize=True)
-        cells = CellGroups(uvw, self.lattice.shape, self.border)
-        bu, bv, bw = (bspline(cells.t[:, a]) for a in range(3))
-        return cells.unsort(cells.sum(cells.pad(self.lattice.offsets), outer_uv(bu, bv), cells.masked(bw)))
+        if self.basis == "bernstein" or self.border == "zero":
+            local = _oneshot.displacement(self.basis, self.lattice.offsets, uvw)
+        else:  # the clamp rule: supports beyond the lattice read copies of the border layer
+            cells = CellGroups(uvw, self.lattice.shape, self.border)
+            bu, bv, bw = (bspline(cells.t[:, a]) for a in range(3))
+            local = cells.unsort(cells.sum(cells.pad(self.lattice.offsets), outer_uv(bu, bv), cells.masked(bw)))
+        if self.only_inside:
+            local[~_oneshot.in_domain(self.basis, self.lattice.shape, uvw)] = 0.0
+        return local
 
     def deform(self, points: ArrayLike) -> NDArray[np.float64]:
         """Deformed positions ``A x + b + T_local(x)`` of ``(N, 3)`` points.
@@ -142,7 +161,10 @@ class FFD:
         True
         """
         pts = as_points(points)
-        return self.apply_affine(pts) + self.displacement(pts)
+        local = self._displacement(pts)
+        local += pts @ self.affine[:3, :3].T
+        local += self.affine[:3, 3]
+        return local
 
     __call__ = deform
 
@@ -174,6 +196,8 @@ class FFD:
         else:
             cells = CellGroups(uvw, lat.shape, self.border)
             d_uvw = cells.unsort(bspline_lattice_jacobian(cells, lat.offsets, cells.t))
+        if self.only_inside:
+            d_uvw[~_oneshot.in_domain(self.basis, lat.shape, uvw)] = 0.0
         return jacobian_to_world(lat, self.affine, d_uvw)
 
     def jacobian_determinant(self, points: ArrayLike) -> NDArray[np.float64]:
@@ -221,4 +245,5 @@ class FFD:
 
     def __repr__(self) -> str:
         affine = "identity" if np.array_equal(self.affine, np.eye(4)) else "set"
-        return f"FFD({self.lattice!r}, basis={self.basis!r}, border={self.border!r}, affine={affine})"
+        inside = ", only_inside=True" if self.only_inside else ""
+        return f"FFD({self.lattice!r}, basis={self.basis!r}, border={self.border!r}, affine={affine}{inside})"

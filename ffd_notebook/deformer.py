@@ -11,6 +11,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.linalg.blas import dger
 
+from ._oneshot import in_domain
 from .basis import bspline
 from .lattice import as_points
 from .weights import CellGroups, bernstein_values, bspline_lattice_jacobian, det3, jacobian_to_world, outer_uv
@@ -71,7 +72,7 @@ class Deformer:
     def _geometry_key(self) -> tuple:
         lat = self.ffd.lattice
         geometry = (lat.shape, lat.spacing.tobytes(), lat.origin.tobytes(), lat.rotation.tobytes())
-        return (self.ffd.basis, self.ffd.border, *geometry)
+        return (self.ffd.basis, self.ffd.border, self.ffd.only_inside, *geometry)
 
     def _bind(self) -> None:
         lat, n = self.ffd.lattice, len(self.points)
@@ -79,11 +80,16 @@ class Deformer:
         self._affine = self.ffd.affine.copy()
         uvw = lat.to_lattice(self.points)
         self._cells = None
+        # points the lattice may displace (all unless only_inside): the others get zero weights
+        movable = in_domain(self.ffd.basis, lat.shape, uvw) if self.ffd.only_inside else None
         if self.ffd.basis == "bspline":
             cells = CellGroups(uvw, lat.shape, self.ffd.border)
             bu, bv, bw = (bspline(cells.t[:, a]) for a in range(3))
             self._buv = outer_uv(bu, bv).astype(self.dtype)
-            self._bw = cells.masked(bw).astype(self.dtype)
+            bw = cells.masked(bw)
+            if movable is not None:
+                bw[~movable[cells.order]] = 0.0
+            self._bw = bw.astype(self.dtype)
             cells.t = None  # not needed after the weights: keep the cache small
             self._cells = cells
             # inverse permutation: original point p sits at sorted position inverse[p]
@@ -96,6 +102,8 @@ class Deformer:
             bx, by, bz = bernstein_values(lat.shape, uvw)
             nx, ny, _ = lat.shape
             self._bxy = (bx[:, :, None] * by[:, None, :]).reshape(n, nx * ny).astype(self.dtype)
+            if movable is not None:
+                bz[~movable] = 0.0
             self._bz = bz.astype(self.dtype)
         self._base = np.asarray(self.ffd.apply_affine(self.points), dtype=np.float64)
         if self._cells is not None:
@@ -188,6 +196,8 @@ class Deformer:
             return self.ffd.jacobian_determinant(self.points)
         uvw = self.ffd.lattice.to_lattice(self.points)[self._cells.order]
         d_uvw = bspline_lattice_jacobian(self._cells, self.ffd.lattice.offsets, uvw - np.floor(uvw))
+        if self.ffd.only_inside:
+            d_uvw[~in_domain(self.ffd.basis, self.ffd.lattice.shape, uvw)] = 0.0
         return det3(jacobian_to_world(self.ffd.lattice, self.ffd.affine, d_uvw))[self._inverse]
 
     def _full(self) -> None:

@@ -1,4 +1,4 @@
-"""Reading and writing files: .ffd lattices, OBJ meshes with per-vertex colours, other mesh formats.
+"""Reading and writing files: .ffd lattices, ITK transforms, PyGeM .prm files, OBJ meshes, other meshes.
 
 The .ffd, OBJ and PLY parsers are written here (see :mod:`.ffd_file`, :mod:`.obj` and :mod:`.ply`
 for why); STL and VTK formats go through VTK's readers in a child process (see :mod:`.mesh`).
@@ -16,8 +16,11 @@ import importlib
 from typing import Any
 
 from ._safety import MAX_FILE_BYTES, check_regular_file
+from .deformation_files import load_deformation, save_deformation
 from .ffd_file import load_ffd, save_ffd
+from .itk import load_transform, save_transform
 from .placement import place_at_mesh_minimum
+from .prm import load_prm, save_prm
 
 # mesh functions (PyVista, hence VTK) -> the module that defines them
 _LAZY = {
@@ -30,11 +33,17 @@ _LAZY = {
 __all__ = [
     "MAX_FILE_BYTES",
     "check_regular_file",
+    "load_deformation",
     "load_ffd",
+    "load_prm",
+    "load_transform",
     "place_at_mesh_minimum",
     "read_mesh",
     "read_obj",
+    "save_deformation",
     "save_ffd",
+    "save_prm",
+    "save_transform",
     "write_mesh",
     "write_obj",
 ]

@@ -316,7 +316,9 @@ def _to_polydata(path, columns: dict[str, dict], first_line: dict, elements: lis
         raise FileFormatError(path, line, "expected an element 'vertex' with properties x, y, z and at least one row")
     if any(not isinstance(vertex[k], np.ndarray) or vertex[k].ndim != 1 for k in vertex):
         raise FileFormatError(path, line, "vertex properties must be numbers, not lists")
-    points = np.column_stack([vertex["x"], vertex["y"], vertex["z"]]).astype(np.float64)
+    # the file's precision, as VTK's reader keeps it: float32 stays float32, anything else is float64
+    single = all(vertex[k].dtype == np.float32 for k in "xyz")
+    points = np.column_stack([vertex["x"], vertex["y"], vertex["z"]]).astype(np.float32 if single else np.float64)
     if not np.isfinite(points).all():
         bad = int(np.flatnonzero(~np.isfinite(points).all(axis=1))[0])
         raise FileFormatError(path, _row_line(first_line, "vertex", bad), f"vertex {bad} has a coordinate that is "

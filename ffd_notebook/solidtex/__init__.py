@@ -1,4 +1,4 @@
-"""Solid (volume) textures: exemplars from slice stacks, block synthesis, sampling on meshes.
+"""Solid (volume) textures: exemplars from slice stacks or one image, block synthesis (whole or lazy), sampling.
 
 Plain NumPy/SciPy (and tqdm); the meshes, tetrahedra and the cutting-plane viewer are in
 :mod:`ffd_notebook.view.organ`.
@@ -8,15 +8,20 @@ from __future__ import annotations
 
 from .blending import axis_ramp, block_weights
 from .blocks import box_mean, choose_block_size, classify_blocks, feature_inclusiveness
+from .kopf import exemplar_from_image
+from .lazy import LazySolidTexture
+from .neighbourhoods import neighbourhood_distance, seam_error
 from .quality import colour_histogram, gradient_energy, histogram_distance, seam_energy
-from .sampling import SolidTexture
+from .sampling import SolidTexture, TextureSampler
 from .slices import as_rgb8, sliding_crops, volume_from_slices
 from .synthesis import Stage, plan_stages, synthesize
 from .tetra import boundary_faces
 
 __all__ = [
+    "LazySolidTexture",
     "SolidTexture",
     "Stage",
+    "TextureSampler",
     "as_rgb8",
     "axis_ramp",
     "block_weights",
@@ -25,11 +30,14 @@ __all__ = [
     "choose_block_size",
     "classify_blocks",
     "colour_histogram",
+    "exemplar_from_image",
     "feature_inclusiveness",
     "gradient_energy",
     "histogram_distance",
+    "neighbourhood_distance",
     "plan_stages",
     "seam_energy",
+    "seam_error",
     "sliding_crops",
     "synthesize",
     "volume_from_slices",

@@ -9,12 +9,33 @@ must follow it when the organ deforms.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Protocol, runtime_checkable
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy import ndimage
 
-__all__ = ["SolidTexture"]
+__all__ = ["SolidTexture", "TextureSampler"]
+
+
+@runtime_checkable
+class TextureSampler(Protocol):
+    """What the organ viewer needs from a solid texture: colours at rest-frame points, and a voxel size.
+
+    :class:`SolidTexture` (a whole volume) and :class:`~ffd_notebook.solidtex.LazySolidTexture`
+    (blocks synthesised on demand) both are one.
+
+    Examples
+    --------
+    >>> isinstance(SolidTexture(np.zeros((2, 2, 2, 3), np.uint8)), TextureSampler)
+    True
+    """
+
+    spacing: float
+
+    def sample(self, points: ArrayLike) -> NDArray[np.uint8]:
+        """``(N, 3)`` uint8 colours at ``(N, 3)`` rest-frame points."""
+        ...
 
 
 @dataclass

@@ -21,7 +21,7 @@ import pyvista as pv
 from numpy.typing import NDArray
 from scipy.spatial import Delaunay
 
-from ..solidtex.sampling import SolidTexture
+from ..solidtex.sampling import SolidTexture, TextureSampler  # noqa: F401  (SolidTexture: the doctests)
 from ..solidtex.tetra import boundary_faces
 
 __all__ = ["auto_subdivisions", "organ_surface", "tetrahedralize", "texture_surface"]
@@ -184,7 +184,7 @@ def organ_surface(grid: pv.UnstructuredGrid) -> pv.PolyData:
     return surf
 
 
-def auto_subdivisions(surface: pv.PolyData, texture: SolidTexture, samples_per_voxel: float = 1.0) -> int:
+def auto_subdivisions(surface: pv.PolyData, texture: TextureSampler, samples_per_voxel: float = 1.0) -> int:
     """How many linear subdivisions bring the mean edge length down to the texture's voxel size.
 
     Each subdivision halves the edges (and multiplies the triangles by four); the answer is at
@@ -202,15 +202,16 @@ def auto_subdivisions(surface: pv.PolyData, texture: SolidTexture, samples_per_v
     return int(np.clip(np.ceil(np.log2(max(mean_edge / wanted, 1.0))), 0, 4))
 
 
-def texture_surface(surface: pv.PolyData, texture: SolidTexture, subdivisions: int | str = "auto") -> pv.PolyData:
+def texture_surface(surface: pv.PolyData, texture: TextureSampler, subdivisions: int | str = "auto") -> pv.PolyData:
     """Colour a surface from a solid texture, sampled at rest-frame positions.
 
     Parameters
     ----------
     surface : pyvista.PolyData
         Triangles; point data ``"rest"`` gives rest positions (the points themselves if absent).
-    texture : SolidTexture
-        The volume texture, placed in the rest frame.
+    texture : SolidTexture or LazySolidTexture
+        The volume texture, placed in the rest frame (anything with ``sample(points)`` and
+        ``spacing``: a lazy texture synthesises the blocks the surface touches).
     subdivisions : int or "auto"
         Linear subdivisions before sampling (geometry unchanged, ``"rest"`` interpolated);
         ``"auto"`` uses :func:`auto_subdivisions` (about one sample per texture voxel).

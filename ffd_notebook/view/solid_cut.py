@@ -23,7 +23,7 @@ import pyvista as pv
 from numpy.typing import ArrayLike, NDArray
 from vtkmodules.vtkCommonCore import vtkUnsignedCharArray
 
-from ..solidtex.sampling import SolidTexture
+from ..solidtex.sampling import SolidTexture, TextureSampler  # noqa: F401  (SolidTexture: the doctests)
 from .camera import _unit as camera_unit
 from .camera import frame_camera, view_direction
 from .notebook import push_to_browser, show_plotter
@@ -46,8 +46,10 @@ class TexturedOrgan:
     ----------
     grid : pyvista.UnstructuredGrid
         Linear tetrahedra with point data ``"rest"`` (see :func:`tetrahedralize`).
-    texture : SolidTexture
-        Placed in the rest frame (e.g. ``SolidTexture.fit(volume, grid.bounds)``).
+    texture : SolidTexture or LazySolidTexture
+        Placed in the rest frame (e.g. ``SolidTexture.fit(volume, grid.bounds)``). A
+        :class:`~ffd_notebook.solidtex.LazySolidTexture` synthesises only the blocks that the
+        surface and each cut face sample, and keeps them for the next cut.
     subdivisions : int or "auto"
         Linear subdivisions of the outer surface before sampling (:func:`texture_surface`).
     face_subdivisions : int
@@ -68,7 +70,7 @@ class TexturedOrgan:
     def __init__(
         self,
         grid: pv.UnstructuredGrid,
-        texture: SolidTexture,
+        texture: TextureSampler,
         subdivisions: int | str = "auto",
         face_subdivisions: int = 2,
     ) -> None:

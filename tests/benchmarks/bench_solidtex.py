@@ -1,8 +1,8 @@
-"""Solid-texture benchmark (issue: solid textures for organ models).
+"""Solid-texture benchmark (issues: solid textures for organ models; textures that look like tissue).
 
 Run from the repository root:
 
-    python tests/benchmarks/bench_solidtex.py [--quick]
+    python tests/benchmarks/bench_solidtex.py [--quick] [--only exemplar,seams,lazy,synthesis,organ] [--skip-full512]
 
 Prints, in one run: synthesis of 128^3 from a 64^3 exemplar (target <= 10 s), synthesis of 256^3
 with the reuse growth against fixed blocks (target: reuse >= 3x faster at similar quality, with
@@ -10,10 +10,24 @@ the histogram distance to the exemplar, the seam energy at the final block borde
 gradient energy as quality figures), tetrahedralisation and texture mapping on the frog liver,
 and one cut update (target < 100 ms for a ~20k-tetrahedron model). Medians of several repeats:
 the machine is shared.
+
+Issue 14 adds, each measured against its baseline in the same run:
+
+* ``exemplar``: the sheared extrusion of the image (sliding crops) against ``exemplar_from_image``
+  (Kopf et al. 2007) at 64^3: time, the mean distance from random axis-aligned slice
+  neighbourhoods to their nearest image neighbourhood (target: optimised <= 0.7x extrusion), and
+  the colour-histogram distance to the image (target: no worse); target <= 60 s;
+* ``seams``: feathered against cut seams at 128^3 and 256^3 (target: seam energy <= 0.7x at an
+  equal or better histogram distance);
+* ``lazy``: the frog liver textured whole (``synthesize`` the box, then sample) against lazily
+  (``LazySolidTexture``) at 256^3 and 512^3-equivalent resolution: time, peak memory (each case in
+  its own process: peak RSS above the RSS before texturing), voxels synthesised, and for the lazy
+  texture the time of a new cut (targets: 512^3 in <= 10 s and <= 500 MB; a new cut <= 200 ms).
 """
 
 from __future__ import annotations
 
+import os
 import statistics
 import sys
 import time
@@ -25,10 +39,13 @@ import ffd_notebook.view  # noqa: F401  (headless settings first)
 from ffd_notebook import FFD, Lattice
 from ffd_notebook.datasets import frog_liver
 from ffd_notebook.solidtex import (
+    LazySolidTexture,
     SolidTexture,
     choose_block_size,
+    exemplar_from_image,
     gradient_energy,
     histogram_distance,
+    neighbourhood_distance,
     plan_stages,
     seam_energy,
     sliding_crops,
@@ -127,11 +144,188 @@ def organ(volume, quick):
     viewer.plotter.close()
 
 
+def load() -> str:
+    return f"load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores"
+
+
+def image_crop():
+    """The image region the sheared extrusion is cut from (the notebook's exemplar)."""
+    return skimage.data.immunohistochemistry()[100:228, 100:228]
+
+
+def extrusion():
+    img = skimage.data.immunohistochemistry()
+    return volume_from_slices(sliding_crops(img, 64, 96, step=(1, 1), start=(84, 84)), roi=(16, 80, 16, 80))
+
+
+def exemplars(quick):
+    print(f"-- exemplar from one image ({load()})")
+    crop = image_crop()
+    t_ext, ext = timed(extrusion, 1)
+    t_opt, opt = timed(lambda: exemplar_from_image(crop, 64), 1)
+    print(f"{'':<34}{'time s':>8}{'nbhd dist':>11}{'hist dist':>11}")
+    figures = {}
+    for name, t, vol in (("sheared extrusion (baseline)", t_ext, ext), ("exemplar_from_image (Kopf)", t_opt, opt)):
+        figures[name] = (neighbourhood_distance(vol, crop), histogram_distance(vol, crop))
+        print(f"{name:<34}{t:8.2f}{figures[name][0]:11.3f}{figures[name][1]:11.4f}")
+    (d_ext, h_ext), (d_opt, h_opt) = figures.values()
+    row(
+        "  neighbourhood distance ratio (optimised / extrusion)",
+        d_opt / d_ext,
+        "x",
+        _ok(d_opt <= 0.7 * d_ext, "<= 0.7"),
+    )
+    row("  histogram distance ratio (optimised / extrusion)", h_opt / h_ext, "x", _ok(h_opt <= h_ext, "<= 1"))
+    row("  time of exemplar_from_image 64^3", t_opt, "s", _ok(t_opt <= 60, "<= 60 s"))
+    print("  (nbhd dist: RMS colour difference per value, 0-255, from 5x5 windows on random x/y/z slices to the")
+    print("   nearest window of the 128x128 image; the extrusion's z slices are crops of the image, distance 0)\n")
+    return opt
+
+
+def _ok(good, target):
+    return f"target {target}  {'ok' if good else 'MISSED'}"
+
+
+def seams(ex, quick):
+    print(f"-- feathered against cut seams, reuse growth from a 64^3 exemplar ({load()})")
+    print(f"{'':<22}{'time s':>8}{'seam energy':>13}{'hist dist':>11}{'grad. ratio':>13}")
+    block = choose_block_size(ex)
+    cases = [(128, True), (128, False)] if quick else [(128, True), (256, True), (128, False)]
+    for size, reuse in cases:
+        res = {}
+        growth = "reuse" if reuse else "fixed"
+        for method in ("feather", "cut"):
+            stats = {}
+            t, vol = timed(
+                lambda m=method, st=stats, n=size, r=reuse: synthesize(
+                    ex, n, reuse=r, progress=False, seams=m, stats=st
+                ),
+                1,
+            )
+            overlap = 1 / 4 if method == "cut" else 1 / 6  # synthesize's default for each
+            last = plan_stages(ex.shape, (size,) * 3, block, overlap, reuse=reuse)[-1]
+            res[method] = (stats["seam_mismatch"][-1], histogram_distance(vol, ex))
+            grad = seam_energy(vol, last.step, last.overlap)
+            name = f"{method} {size}^3 {growth}"
+            print(f"{name:<22}{t:8.2f}{res[method][0]:13.3f}{res[method][1]:11.4f}{grad:13.3f}")
+        ratio = res["cut"][0] / res["feather"][0]
+        good = ratio <= 0.7 and res["cut"][1] <= res["feather"][1]
+        row(f"  seam energy ratio cut / feather, {size}^3 {growth}", ratio, "x", _ok(good, "<= 0.7 at equal hist."))
+    print("  (overlaps: 1/6 of the block feathered (the paper's), 1/4 cut (synthesize's defaults);")
+    print("   seam energy: squared colour difference of overlapping blocks where the result passes from one to")
+    print("   the other, per voxel of overlap face, relative to two unrelated voxels (1 = blocks joined at")
+    print("   random), final stage; grad. ratio: the older seam_energy, gradient")
+    print("   energy in the overlap bands over everywhere, 1 = as smooth as the rest, < 1 blurred, > 1 steps)\n")
+
+
+def _status_mb(key: str) -> float:
+    with open("/proc/self/status") as f:
+        return next(int(line.split()[1]) for line in f if line.startswith(key)) / 1024
+
+
+def texture_case(mode: str, resolution: int, exemplar_path: str) -> dict:
+    """One liver texturing in this process (run in a child process so its peak memory is its own)."""
+    ex = np.load(exemplar_path)
+    grid = tetrahedralize(frog_liver(2500), method="tetgen")
+    with open("/proc/self/clear_refs", "w") as f:
+        f.write("5")  # reset the peak (VmHWM): loading the frog volume above is not texturing
+    before = _status_mb("VmRSS")
+    t0 = time.perf_counter()
+    if mode == "full":
+        b = np.asarray(grid.bounds).reshape(3, 2)
+        extent = (b[:, 1] - b[:, 0]) * 1.02
+        shape = tuple(int(v) for v in np.ceil(extent / (extent.max() / resolution))[::-1])
+        texture = SolidTexture.fit(synthesize(ex, shape, progress=False), grid.bounds)
+        voxels = int(np.prod(shape))
+    else:
+        texture = LazySolidTexture.fit(ex, grid.bounds, resolution=resolution)
+    model = TexturedOrgan(grid, texture, subdivisions=3)
+    seconds = time.perf_counter() - t0
+    out = {"seconds": seconds, "points": model.surface.n_points, "peak_mb": _status_mb("VmHWM") - before}
+    if mode == "lazy":
+        voxels = texture.voxels_synthesised
+        centre = np.array(grid.center)
+        cuts, shares = [], []
+        sample = texture.sample
+
+        def timed_sample(points):  # the texture's share of a cut: sampling, with the new tiles it makes
+            t = time.perf_counter()
+            colours = sample(points)
+            shares[-1] += time.perf_counter() - t
+            return colours
+
+        texture.sample = timed_sample
+        for k, d in enumerate(np.linspace(-30, 30, 7)):
+            origin, normal = centre + (d, 0.2 * d, 0), (1.0, 0.3 * np.sin(k), 0.2)
+            shares.append(0.0)
+            t1 = time.perf_counter()
+            model.cut(origin, normal)
+            cuts.append(time.perf_counter() - t1)
+        out.update(cut_ms=1000 * statistics.median(cuts), sample_ms=1000 * statistics.median(shares))
+        out["peak_mb_with_cuts"] = _status_mb("VmHWM") - before
+        out["voxels_after_cuts"] = texture.voxels_synthesised
+    out["voxels"] = voxels
+    return out
+
+
+def lazy(ex, quick):
+    import json
+    import subprocess
+    import tempfile
+
+    print(f"-- the frog liver textured whole against lazily ({load()}); surface subdivided 3 times")
+    print(f"{'':<24}{'time s':>8}{'peak MB':>9}{'voxels synthesised':>20}{'new cut ms':>12}")
+    with tempfile.TemporaryDirectory() as tmp:
+        path = f"{tmp}/exemplar.npy"
+        np.save(path, ex)
+        for resolution in (256,) if quick else (256, 512):
+            for mode in ("full", "lazy"):
+                if mode == "full" and resolution == 512 and "--skip-full512" in sys.argv:
+                    print("full 512^3               (skipped: --skip-full512; minutes and ~7 GB)")
+                    continue
+                call = f"b.texture_case({mode!r}, {resolution}, {path!r})"
+                code = f"import json, bench_solidtex as b; print(json.dumps({call}))"
+                done = subprocess.run(
+                    [sys.executable, "-c", code],
+                    capture_output=True,
+                    text=True,
+                    cwd=os.path.dirname(__file__),
+                    env={**os.environ, "PYTHONPATH": os.pathsep.join([os.getcwd(), os.environ.get("PYTHONPATH", "")])},
+                )
+                if done.returncode:
+                    print(f"{mode} {resolution}: failed\n{done.stderr[-2000:]}")
+                    continue
+                r = json.loads(done.stdout.strip().splitlines()[-1])
+                cut = f"{r['cut_ms']:8.0f} ({r['sample_ms']:.0f} texture)" if mode == "lazy" else ""
+                print(f"{mode + f' {resolution}^3':<24}{r['seconds']:8.2f}{r['peak_mb']:9.0f}{r['voxels']:20,d}  {cut}")
+                if mode == "lazy" and resolution == 512:
+                    good = r["seconds"] <= 10 and r["peak_mb"] <= 500
+                    row("  lazy 512^3: time / peak memory", r["seconds"], "s", _ok(good, "<= 10 s, <= 500 MB"))
+                    row(
+                        "  lazy 512^3: a new cut (clip + section + sampling)",
+                        r["cut_ms"],
+                        "ms",
+                        _ok(r["cut_ms"] <= 200, "<= 200 ms"),
+                    )
+    print("  (peak MB: peak resident memory of the case's own process above its size before texturing, the")
+    print("   peak reset with /proc/self/clear_refs after loading the liver; for lazy, the cuts are not included;")
+    print("   new cut: median over 7 new planes after the surface, with the part spent sampling the texture)\n")
+
+
 def main() -> None:
     quick = "--quick" in sys.argv
-    print("solid textures, machine: 2 shared cores (medians)\n")
-    volume = synthesis(exemplar(), quick)
-    organ(volume, quick)
+    only = sys.argv[sys.argv.index("--only") + 1].split(",") if "--only" in sys.argv else None
+    wanted = lambda name: only is None or name in only  # noqa: E731
+    print(f"solid textures, machine: {os.cpu_count()} shared cores (medians); {load()}\n")
+    opt = exemplars(quick) if wanted("exemplar") or wanted("lazy") else None
+    if wanted("seams"):
+        seams(extrusion(), quick)
+    if wanted("lazy"):
+        lazy(opt, quick)
+    if wanted("synthesis") or wanted("organ"):
+        volume = synthesis(exemplar(), quick)
+        if wanted("organ"):
+            organ(volume, quick)
 
 
 if __name__ == "__main__":

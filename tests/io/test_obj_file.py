@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import os
-import time
 
 import numpy as np
 import pytest
@@ -74,15 +73,11 @@ def test_vtk_reader_is_not_faithful(shared_data):
     assert vtk_colored.point_data["RGB"][1].tolist() == [14, 12, 7]  # 0.0588 * 255 = 14.99 -> 14
 
 
-def test_template_loads_fast(shared_data):
-    path = shared_data / "face" / "template_colored.obj"
-    times = []
-    for _ in range(3):
-        start = time.perf_counter()
-        mesh = read_obj(path)
-        times.append(time.perf_counter() - start)
+def test_template_loads(shared_data):
+    # its speed is measured by tests/benchmarks/bench_io.py against VTK's reader in the same run
+    mesh = read_obj(shared_data / "face" / "template_colored.obj")
     assert mesh.n_points == 53349
-    assert sorted(times)[1] < 1.0, times  # typically 0.2 s; generous for a shared machine
+    assert mesh.point_data["RGB"].shape == (53349, 3)
 
 
 def test_colour_round_trip(shared_data, tmp_path):

@@ -10,7 +10,7 @@ import skimage.data
 import ffd_notebook.view  # noqa: F401  (headless settings before any plotter)
 from ffd_notebook import FFD, Lattice
 from ffd_notebook.datasets import frog_liver
-from ffd_notebook.solidtex import SolidTexture, sliding_crops, volume_from_slices
+from ffd_notebook.solidtex import LazySolidTexture, SolidTexture, sliding_crops, volume_from_slices
 from ffd_notebook.view import organ as organ_module
 from ffd_notebook.view.organ import organ_surface, tetrahedralize, texture_surface
 from ffd_notebook.view.solid_cut import CutViewer, TexturedOrgan, add_cut
@@ -183,3 +183,27 @@ def test_add_cut_draws_a_snapshot_that_later_deformations_do_not_change(grid, te
     organ.deform(FFD(lattice).deform)
     np.testing.assert_array_equal(whole.points, before)
     pl.close()
+
+
+def test_a_lazy_texture_is_cut_viewed_and_deformed_like_a_whole_one(grid):
+    exemplar = volume_from_slices(sliding_crops(skimage.data.immunohistochemistry(), 32, 32, start=(90, 90)))
+    lazy = LazySolidTexture.fit(exemplar, grid.bounds, resolution=256, block=8)
+    organ = TexturedOrgan(grid.copy(), lazy, subdivisions=1)
+    after_surface = lazy.tiles_synthesised
+    # the surface needs a shell of tiles, far fewer than the box holds
+    assert 0 < after_surface < 0.5 * np.prod(lazy.n_blocks)
+    np.testing.assert_array_equal(organ.surface.point_data["RGB"], lazy.sample(organ.surface.point_data["rest"]))
+    viewer = CutViewer(organ, normal=(1, 0, 0), window_size=(300, 200))
+    after_cut = lazy.tiles_synthesised
+    assert after_cut > after_surface  # the cut face reaches inside: its tiles are made now
+    face = viewer.face
+    np.testing.assert_array_equal(face.point_data["RGB"], lazy.sample(face.point_data["rest"]))
+    # deforming and recutting the same tissue makes nothing new: the colours follow the rest frame
+    lattice = Lattice.around(grid.points, shape=(4, 4, 4))
+    lattice.offsets[...] = (5.0, 0.0, 0.0)
+    organ.deform(FFD(lattice).deform)
+    viewer.update(origin=np.array(grid.center) + (5.0, 0.0, 0.0))
+    assert lazy.tiles_synthesised == after_cut
+    np.testing.assert_allclose(viewer.face.point_data["rest"][:, 0], grid.center[0], atol=1e-3)
+    assert viewer.plotter.screenshot(return_img=True).std() > 10
+    viewer.plotter.close()

@@ -1,0 +1,90 @@
+"""Replaying deformations made elsewhere: a given list of deformation files.
+
+Sample ``i`` is file ``i``, read by :func:`ffd_notebook.io.load_deformation`, so every format it
+knows works: ``.ffd`` lattices, ITK transforms (``.tfm``, ``.txt``, ``.h5``, ``.hdf5``) and PyGeM
+``.prm`` files. Each file says its deformation: its basis (``.ffd`` and ITK: B-spline, ``.prm``:
+Bernstein), border rule (a ``.ffd`` file's ``#border#`` section), affine part and whether points
+outside the lattice move, so the model has no basis or border of its own. The reader is imported
+with this module, so it is there in every worker process that unpickles a :class:`LatticeFiles`.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from ..deform import FFD
+from ..io.deformation_files import load_deformation
+from .models import LatticeSample, with_lattice
+
+__all__ = ["LatticeFiles"]
+
+
+@dataclass(frozen=True)
+class LatticeFiles:
+    """A fixed list of deformations read from files; sample ``i`` is ``files[i]``.
+
+    Parameters
+    ----------
+    files : sequence of paths
+        Deformation files in any format :func:`ffd_notebook.io.load_deformation` reads (chosen
+        by extension). Each is read once up front, so a bad file is an error before any work
+        starts.
+
+    Notes
+    -----
+    A given file cannot be drawn again: with a fold check, use ``on_fold="scale"`` or the
+    sample fails with an error naming it. The parameters file of a sample is the given file
+    itself (plus the scale factor in the manifest).
+
+    Examples
+    --------
+    >>> import pathlib, tempfile
+    >>> from ffd_notebook import Lattice, save_ffd, save_prm
+    >>> folder = pathlib.Path(tempfile.mkdtemp())
+    >>> save_ffd(folder / "a.ffd", Lattice((4, 4, 4), 1.0)); save_prm(folder / "b.prm", Lattice((3, 3, 3), 1.0))
+    >>> bound = LatticeFiles([folder / "a.ffd", folder / "b.prm"]).bind(None)
+    >>> [(s.ffd.basis, s.ffd.lattice.shape) for s in (bound.draw(None, 0), bound.draw(None, 1))]
+    [('bspline', (4, 4, 4)), ('bernstein', (3, 3, 3))]
+    """
+
+    files: tuple[str, ...]
+
+    name = "files"
+
+    def __post_init__(self) -> None:
+        if isinstance(self.files, str | os.PathLike) or not isinstance(self.files, Sequence) or not self.files:
+            raise ValueError(f"files must be a non-empty list of paths, got {self.files!r}")
+        object.__setattr__(self, "files", tuple(str(Path(f).resolve()) for f in self.files))
+        for f in self.files:
+            load_deformation(f)  # every file checked before any work starts
+
+    def to_spec(self) -> dict[str, Any]:
+        """The parameters as JSON values, with the model's name under ``"model"``."""
+        return {"model": self.name, "files": list(self.files)}
+
+    def bind(self, points: ArrayLike | None) -> BoundFiles:
+        """The files do not depend on the mesh: read them."""
+        return BoundFiles(self, tuple(load_deformation(f) for f in self.files))
+
+
+@dataclass(frozen=True)
+class BoundFiles:
+    """The loaded deformations of a :class:`LatticeFiles`."""
+
+    model: LatticeFiles
+    deformations: tuple[FFD, ...]
+    can_redraw = False
+
+    def draw(self, rng: np.random.Generator | None, index: int) -> LatticeSample:
+        """File ``index`` (no randomness), on a copy of its lattice."""
+        if not 0 <= index < len(self.deformations):
+            raise IndexError(f"sample {index}: only {len(self.deformations)} files were given")
+        ffd = self.deformations[index]
+        return LatticeSample(with_lattice(ffd, ffd.lattice.copy()))

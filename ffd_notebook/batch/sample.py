@@ -1,0 +1,218 @@
+"""One sample, start to finish: seed, fold-free draw, deformation, files. Runs on a Dask worker.
+
+A :class:`Job` is small (paths, the model's parameters, the seed, the fold rule), so it travels
+with every task; each worker process reads the mesh and binds the model once and keeps them
+(:func:`context`). Sample ``i``'s generator is ``default_rng(SeedSequence(seed, spawn_key=(i,)))``
+(the ``i``-th child of ``SeedSequence(seed).spawn``), so what sample ``i`` is depends neither on
+the number of workers nor on the order they run in.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import threading
+import time
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..blas import one_blas_thread
+from ..io import load_ffd, read_mesh, save_ffd, write_mesh
+from .evaluate import PointEvaluator
+from .files import BoundFiles, LatticeFiles
+from .folding import FoldFree, accept, volume_grid
+from .gp_model import GPSample, RandomGP
+from .models import BoundLattice, LatticeSample, RandomLattice
+from .output import Layout, read_parameters_txt, write_parameters_txt
+from .ply import TrianglePly
+from .seeds import sample_rng
+
+__all__ = ["MODELS", "Context", "Job", "context", "deformed_mesh", "model_from_spec", "run_sample"]
+
+MODELS = {cls.name: cls for cls in (RandomLattice, RandomGP, LatticeFiles)}
+
+
+def model_from_spec(spec: dict[str, Any]):
+    """Rebuild a model from its ``to_spec()`` (validated again).
+
+    Examples
+    --------
+    >>> model_from_spec(RandomLattice(5, 2.0).to_spec()) == RandomLattice(5, 2.0)
+    True
+    """
+    params = dict(spec)
+    name = params.pop("model", None)
+    if name not in MODELS:
+        raise ValueError(f"unknown model {name!r}; known: {sorted(MODELS)}")
+    return MODELS[name](**params)
+
+
+@dataclass(frozen=True)
+class Job:
+    """What every sample of a run shares."""
+
+    mesh: str
+    spec: dict[str, Any]
+    seed: int
+    rule: FoldFree | None
+    out: str
+    format: str
+
+    def settings(self, mesh_sha256: str) -> dict[str, Any]:
+        """The run's identity, stored in ``run.json`` (the sample count is not part of it)."""
+        rule = None if self.rule is None else asdict(self.rule)
+        return {"mesh": self.mesh, "mesh_sha256": mesh_sha256, "model": self.spec, "seed": self.seed,
+                "fold_free": rule, "format": self.format}  # fmt: skip
+
+    @classmethod
+    def from_settings(cls, out: str | os.PathLike[str], settings: dict[str, Any]) -> Job:
+        rule = None if settings["fold_free"] is None else FoldFree(**settings["fold_free"])
+        return cls(settings["mesh"], settings["model"], settings["seed"], rule, str(out), settings["format"])
+
+
+@dataclass(frozen=True)
+class Context:
+    """A job's mesh and bound model in one process, with evaluators for its vertices and check points."""
+
+    mesh: Any
+    points: np.ndarray
+    bound: Any
+    vertices: PointEvaluator
+    check: PointEvaluator  # vertices, then the volume grid
+    ply: TrianglePly | None  # the fast writer, for triangle meshes
+
+    def min_det_j(self, sample: Any) -> float:
+        """Smallest Jacobian determinant over the vertices and the volume grid."""
+        return float(self.check.jacobian_determinant(sample).min())
+
+
+def _template(bound: Any):
+    """An FFD with the placement every sample of ``bound`` shares (for the cached evaluators)."""
+    if isinstance(bound, BoundLattice):
+        return bound.sample_ffd(bound.lattice.offsets)
+    if isinstance(bound, BoundFiles):
+        return bound.deformations[0]
+    return None
+
+
+_CONTEXTS: dict[str, Context] = {}
+_KEEP = 4
+_LOCK = threading.Lock()
+
+
+def context(job: Job) -> Context:
+    """The mesh and bound model of ``job``, built once per process (and per file version)."""
+    stat = os.stat(job.mesh)
+    key = json.dumps([job.mesh, stat.st_mtime_ns, stat.st_size, job.spec, job.rule and job.rule.grid], sort_keys=True)
+    with _LOCK:  # threads of one worker share it; building it twice would only waste time
+        if key not in _CONTEXTS:
+            mesh = read_mesh(job.mesh)
+            points = np.asarray(mesh.points, dtype=np.float64)
+            grid = 12 if job.rule is None else job.rule.grid
+            check = np.vstack([points, volume_grid(points, grid)]) if grid else points
+            bound = model_from_spec(job.spec).bind(points)
+            template = _template(bound)
+            evaluators = PointEvaluator(points, template), PointEvaluator(check, template)
+            while len(_CONTEXTS) >= _KEEP:  # a notebook trying many settings: keep the newest few
+                del _CONTEXTS[next(iter(_CONTEXTS))]
+            _CONTEXTS[key] = Context(mesh, points, bound, *evaluators, TrianglePly.for_mesh(mesh))
+        return _CONTEXTS[key]
+
+
+def deformed_mesh(ctx: Context, sample: Any, points: np.ndarray | None = None):
+    """A copy of the mesh (colours and all) with the sample's deformed vertices (or the given ones)."""
+    mesh = ctx.mesh.copy(deep=True)
+    mesh.points = ctx.vertices.deform(sample) if points is None else points
+    if "Normals" in mesh.point_data:
+        del mesh.point_data["Normals"]  # the rest shape's normals are wrong for the deformed one
+    return mesh
+
+
+def _save_parameters(layout: Layout, index: int, bound: Any, sample: Any) -> str:
+    """Store what replays the sample; returns the path written into the manifest."""
+    if isinstance(bound, BoundFiles):
+        return bound.model.files[index]  # the given file itself, and the scale in the manifest
+    if isinstance(sample, LatticeSample):
+        path = layout.parameters(index, ".ffd")
+        save_ffd(path, sample.ffd.lattice)
+    elif isinstance(sample, GPSample):
+        path = layout.parameters(index, ".txt")
+        write_parameters_txt(path, sample.coefficients)
+    else:
+        raise TypeError(f"no parameter file for {type(sample).__name__}")
+    return path.relative_to(layout.root).as_posix()
+
+
+def load_sample(layout: Layout, row: dict[str, Any], ctx: Context, rule: FoldFree | None):
+    """The sample a manifest row describes, rebuilt from its parameters file."""
+    bound, index = ctx.bound, int(row["id"])
+    if isinstance(bound, BoundFiles):
+        sample = bound.draw(None, index)
+        for _ in range(int(row["scale_downs"])):  # the same products, in the same order, as the run
+            sample = sample.scaled(rule.shrink)  # type: ignore[union-attr]
+        return sample
+    path = layout.root / row["parameters_file"]
+    if isinstance(ctx.bound.model, RandomLattice):
+        loaded = load_ffd(path)
+        if loaded.shape != bound.lattice.shape:
+            raise ValueError(f"{path}: lattice shape {loaded.shape}, the run's is {bound.lattice.shape}")
+        if loaded.border != bound.lattice.border:
+            raise ValueError(f"{path}: border {loaded.border!r}, the run's is {bound.lattice.border!r}")
+        return LatticeSample(bound.sample_ffd(loaded.offsets))
+    return bound.sample_from(read_parameters_txt(path, bound.process.rank))
+
+
+def run_sample(job: Job, index: int) -> dict[str, Any]:
+    """Make sample ``index``: returns ``{"id", "row", "seconds"}``, or ``{"id", "error"}`` naming the sample.
+
+    Errors are returned, not raised, so that one bad sample never stops a Dask computation.
+    """
+    # one BLAS thread: samples run in parallel already, and a sample's numbers must not depend on how
+    # many BLAS threads a worker has (bit-for-bit equal outputs on any cluster, and in replay)
+    with one_blas_thread():
+        return _run_sample(job, index)
+
+
+def _run_sample(job: Job, index: int) -> dict[str, Any]:
+    try:
+        ctx = context(job)
+        layout = Layout(job.out, job.format)
+        got = accept(ctx.bound, index, sample_rng(job.seed, index), ctx.min_det_j, job.rule)
+        seconds = dict(got.seconds)
+        tic = time.perf_counter()
+        points = ctx.vertices.deform(got.sample)
+        seconds["deform"] = time.perf_counter() - tic
+        tic = time.perf_counter()
+        parameters = _save_parameters(layout, index, ctx.bound, got.sample)
+        mesh_path = layout.mesh(index)
+        if job.format == "ply" and ctx.ply is not None:
+            ctx.ply.write(mesh_path, points)
+        else:
+            write_mesh(mesh_path, deformed_mesh(ctx, got.sample, points))
+        row = {
+            "id": index,
+            "seed": job.seed,
+            "source_mesh": job.mesh,
+            "mesh_file": mesh_path.relative_to(layout.root).as_posix(),
+            "parameters_file": parameters,
+            "min_det_j": got.min_det_j,
+            "max_displacement": float(np.linalg.norm(points - ctx.points, axis=1).max()),
+            "redraws": got.redraws,
+            "scale_downs": got.scale_downs,
+            "scale": float(got.sample.scale),
+        }
+        layout.write_record(row)  # last: the sample is done
+        seconds["write"] = time.perf_counter() - tic
+        return {"id": index, "row": row, "seconds": seconds}
+    except Exception as exc:  # reported per sample; the run goes on with the others
+        return {"id": index, "error": f"sample {index}: {type(exc).__name__}: {exc}"}
+
+
+def mesh_sha256(path: str | os.PathLike[str]) -> str:
+    """SHA-256 of a file (ties a run folder to its source mesh)."""
+    import hashlib
+
+    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
