@@ -24,9 +24,6 @@ NAMEDTUPLE_API = {"_replace", "_asdict", "_fields", "_make"}
 # offender not listed here or above its count, and another when an entry is stale.
 KNOWN_CYCLES: set[frozenset[str]] = set()
 KNOWN_PRIVATE: dict[str, int] = {
-    "ffd_notebook/view/solid_cut.py": 1,  # camera._unit: fixed when solid_cut.py moves (another branch edits it)
-    "ffd_notebook/view/gp_model_view.py": 5,  # GPExplorer's new mixin (from main): fixed when gp_view.py moves
-    "ffd_notebook/view/gp_view.py": 8,
 }
 
 

@@ -71,3 +71,16 @@ def test_reading_a_ffd_file_loads_no_vtk():
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.split()
     assert out == ["True"], f"load_ffd imported: {out[0]}"
+
+
+@pytest.mark.parametrize("path", sorted((PACKAGE / "meshing").glob("*.py")) + sorted((PACKAGE / "io").glob("*.py")),
+                         ids=lambda p: f"{p.parent.name}/{p.stem}")  # fmt: skip
+def test_meshing_and_io_import_no_ui_library(path):
+    """Below the views: PyVista (VTK) may be used, trame and ipywidgets never."""
+    modules = []
+    for node in ast.walk(ast.parse(path.read_text(), filename=str(path))):
+        if isinstance(node, ast.Import):
+            modules += [alias.name for alias in node.names]
+        elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
+            modules.append(node.module)
+    assert not [m for m in modules if m.split(".")[0] in ("trame", "ipywidgets")], path.name

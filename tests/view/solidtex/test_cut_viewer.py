@@ -10,10 +10,10 @@ import skimage.data
 import ffd_notebook.view  # noqa: F401  (headless settings before any plotter)
 from ffd_notebook import FFD, Lattice
 from ffd_notebook.datasets import frog_liver
+from ffd_notebook.meshing import organ as organ_module
+from ffd_notebook.meshing.organ import organ_surface, tetrahedralize, texture_surface
 from ffd_notebook.solidtex import LazySolidTexture, SolidTexture, sliding_crops, volume_from_slices
-from ffd_notebook.view import organ as organ_module
-from ffd_notebook.view.organ import organ_surface, tetrahedralize, texture_surface
-from ffd_notebook.view.solid_cut import CutViewer, TexturedOrgan, add_cut
+from ffd_notebook.view.solidtex import CutViewer, TexturedOrgan, add_cut
 
 
 @pytest.fixture(scope="module")

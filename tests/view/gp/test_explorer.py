@@ -7,7 +7,7 @@ import pytest
 import vtk
 
 from ffd_notebook.datasets import frog_liver
-from ffd_notebook.view.gp_view import VARIANCE_ARRAY, VECTORS_ARRAY, GPExplorer
+from ffd_notebook.view.gp.explorer import VARIANCE_ARRAY, VECTORS_ARRAY, GPExplorer
 
 
 @pytest.fixture(scope="module")

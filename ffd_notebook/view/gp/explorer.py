@@ -12,7 +12,7 @@ For a kernel, the model is a :class:`~ffd_notebook.gp.LowRankGP` over the mesh's
 the arrow grid, so arrows and mesh show the same random field. A shape model instead (a
 Statismo ``.h5`` file or a ``LowRankGP`` from examples: ``GPExplorer(model=...)`` or
 :meth:`~GPExplorer.open_model`) shows its mean shape, sliders for its first modes and the log
-density of the shape shown (see :mod:`~ffd_notebook.view.gp_model_view`). Updates write the mesh
+density of the shape shown (see :mod:`~ffd_notebook.view.gp.model_modes`). Updates write the mesh
 points, colours and arrow vectors in place; no actor is re-created.
 """
 
@@ -27,17 +27,17 @@ import pyvista as pv
 import vtk
 from numpy.typing import ArrayLike, NDArray
 
-from ..gp import ExponentialKernel, GaussianKernel, GaussianProcess, Kernel, LowRankGP, grid_points
-from . import configure_rendering
-from .editor_files import as_surface
-from .gp_model_view import (
+from ...gp import ExponentialKernel, GaussianKernel, GaussianProcess, Kernel, LowRankGP, grid_points
+from ...meshing import as_surface
+from ..jupyter import push_to_browser, show_plotter
+from ..rendering import configure_rendering
+from .model_modes import (
     VARIANCE_ARRAY,
     ModelModes,
     landmark_covariance,
     model_mesh,
     resolve_model,
 )
-from .notebook import push_to_browser, show_plotter
 
 __all__ = ["KERNELS", "VARIANCE_ARRAY", "GPExplorer"]
 
@@ -134,11 +134,11 @@ class GPExplorer(ModelModes):
         if model is not None:
             loaded, name = resolve_model(model)
             self.mesh = model_mesh(loaded)
-            self._set_model(loaded, name)
+            self.set_model(loaded, name)
         else:
             self.mesh = as_surface(mesh)
             self.model_name: str | None = None  # None: a kernel model of the mesh
-            self._set_rest_points(self.mesh.points, None)
+            self.set_rest_points(self.mesh.points, None)
             self.sigma: float | None = float(sigma if sigma is not None else 0.25 * self.size)
             self.grid = grid_points(np.asarray(self.mesh.bounds, dtype=np.float64), grid_shape, margin=0.05)
             self.model: LowRankGP = self._build_model()
@@ -146,9 +146,9 @@ class GPExplorer(ModelModes):
         self._add_actors()
         if widgets:
             self._add_widgets()
-        self._refresh()
+        self.refresh()
 
-    def _set_rest_points(self, points: ArrayLike, model_scale: float | None) -> None:
+    def set_rest_points(self, points: ArrayLike, model_scale: float | None) -> None:
         """Rest shape, its size, the colour scale and the default landmark noise."""
         self.rest_points = np.array(points, dtype=np.float64)
         extent = self.rest_points.max(axis=0) - self.rest_points.min(axis=0)
@@ -182,7 +182,7 @@ class GPExplorer(ModelModes):
         return LowRankGP.nystrom(gp, points, n_inducing=self.n_inducing, rank=self.rank, rng=self._seed)
 
     def _condition(self) -> None:
-        self._posterior = self._conditioned(self.landmarks, self.landmark_noise)
+        self._posterior = self.conditioned(self.landmarks, self.landmark_noise)
 
     # ------------------------------------------------------------------ actions (also the widgets' callbacks)
     def set_sigma(self, sigma: float) -> None:
@@ -197,20 +197,20 @@ class GPExplorer(ModelModes):
             self._coefficients = np.random.default_rng(self._seed).standard_normal(self.model.rank)
         self._condition()
         self._variance_stale = True
-        self._refresh()
+        self.refresh()
 
     def sample(self, seed: int | None = None) -> None:
         """Show a random deformation (a posterior sample when there are landmarks)."""
         rng = np.random.default_rng(seed)
         self._coefficients = rng.standard_normal(self.model.rank)
-        self._sync_mode_sliders()
-        self._refresh()
+        self.sync_mode_sliders()
+        self.refresh()
 
     def show_mean(self) -> None:
         """Show the mean deformation (the posterior mean when there are landmarks)."""
         self._coefficients = None
-        self._sync_mode_sliders()
-        self._refresh()
+        self.sync_mode_sliders()
+        self.refresh()
 
     def add_landmark(
         self, point: ArrayLike, displacement: ArrayLike | None = None, noise: ArrayLike | None = None
@@ -229,14 +229,14 @@ class GPExplorer(ModelModes):
             moved = np.asarray(displacement, dtype=np.float64).reshape(3)
         cov = self.noise if noise is None else landmark_covariance(noise)
         landmarks, covs = [*self.landmarks, (where, moved)], [*self.landmark_noise, cov]
-        self._posterior = self._conditioned(landmarks, covs)  # may raise: nothing changed yet
+        self._posterior = self.conditioned(landmarks, covs)  # may raise: nothing changed yet
         self.landmarks[:], self.landmark_noise[:] = landmarks, covs
         self._coefficients = None
-        self._sync_mode_sliders()
+        self.sync_mode_sliders()
         self._variance_stale = True
         if self._widgets_on:
             self._add_landmark_widget(len(self.landmarks) - 1)
-        self._refresh()
+        self.refresh()
         return len(self.landmarks) - 1
 
     def move_landmark(self, index: int, displacement: ArrayLike) -> None:
@@ -244,7 +244,7 @@ class GPExplorer(ModelModes):
         where, _ = self.landmarks[index]
         self.landmarks[index] = (where, np.asarray(displacement, dtype=np.float64).reshape(3))
         self._condition()
-        self._refresh()
+        self.refresh()
 
     def clear_landmarks(self) -> None:
         """Remove every landmark: back to the prior."""
@@ -254,7 +254,7 @@ class GPExplorer(ModelModes):
             self.plotter.clear_sphere_widgets()
         self._condition()
         self._variance_stale = True
-        self._refresh()
+        self.refresh()
 
     def screenshot(self, filename: str | None = None) -> NDArray[np.uint8]:
         """Render and return the image (and write it if ``filename`` is given)."""
@@ -264,7 +264,7 @@ class GPExplorer(ModelModes):
     def show(self, **kwargs: Any) -> Any:
         """Show the explorer: in Jupyter the server-rendered trame view its widgets need.
 
-        See :func:`ffd_notebook.view.notebook.show_plotter`; outside a kernel, ``plotter.show(**kwargs)``.
+        See :func:`ffd_notebook.view.jupyter.show_plotter`; outside a kernel, ``plotter.show(**kwargs)``.
         """
         return show_plotter(self.plotter, **kwargs)
 
@@ -316,7 +316,7 @@ class GPExplorer(ModelModes):
         pl = self.plotter
         if self.model_name is None:
             self.slider = pl.add_slider_widget(
-                lambda value: self._guarded(self._on_width, value),
+                lambda value: self.guarded(self._on_width, value),
                 rng=(0.02 * self.size, self.size),
                 value=self.sigma,
                 title="kernel width sigma",
@@ -326,18 +326,18 @@ class GPExplorer(ModelModes):
                 fmt="%.3g",
             )
         else:
-            self._add_mode_sliders()
+            self.add_mode_sliders()
         # a checkbox used as a push button: every click draws a new sample
-        self.button = pl.add_checkbox_button_widget(lambda _: self._guarded(self.sample), position=(10, 10), size=30)
+        self.button = pl.add_checkbox_button_widget(lambda _: self.guarded(self.sample), position=(10, 10), size=30)
         pl.add_text("sample", position=(48, 14), font_size=10)
         pl.enable_point_picking(
-            callback=lambda point, picker: self._guarded(self._on_pick, picker),
+            callback=lambda point, picker: self.guarded(self._on_pick, picker),
             use_picker=True,
             show_message=False,
             show_point=False,
         )
         self._widgets_on = True
-        self._sync_mode_sliders()
+        self.sync_mode_sliders()
 
     _widgets_on = False
 
@@ -355,7 +355,7 @@ class GPExplorer(ModelModes):
         where, moved = self.landmarks[index]
 
         def dragged(center: Any) -> None:
-            self._guarded(self.move_landmark, index, np.asarray(center) - where)
+            self.guarded(self.move_landmark, index, np.asarray(center) - where)
 
         self.plotter.add_sphere_widget(
             dragged,
@@ -367,7 +367,8 @@ class GPExplorer(ModelModes):
         )
 
     @staticmethod
-    def _guarded(fn: Any, *args: Any) -> None:
+    def guarded(fn: Any, *args: Any) -> None:
+        """Run a widget callback ``fn(*args)``; a failure is logged, not lost in a PyVista warning."""
         # PyVista turns exceptions in callbacks into warnings: log them where they can be read
         try:
             fn(*args)
@@ -375,7 +376,8 @@ class GPExplorer(ModelModes):
             log.exception("GPExplorer callback failed")
             raise
 
-    def _refresh(self) -> None:
+    def refresh(self) -> None:
+        """Show the current deformation: mesh points, arrows and variance, in place."""
         process = self.process
         field = process.mean() if self._coefficients is None else process.instance(self._coefficients)
         n = len(self.rest_points)

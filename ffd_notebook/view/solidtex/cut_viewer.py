@@ -23,11 +23,10 @@ import pyvista as pv
 from numpy.typing import ArrayLike, NDArray
 from vtkmodules.vtkCommonCore import vtkUnsignedCharArray
 
-from ..solidtex.sampling import SolidTexture, TextureSampler  # noqa: F401  (SolidTexture: the doctests)
-from .camera import _unit as camera_unit
-from .camera import frame_camera, view_direction
-from .notebook import push_to_browser, show_plotter
-from .organ import REST, organ_surface, rest_points, texture_surface
+from ...meshing.organ import REST, organ_surface, rest_points, texture_surface
+from ...solidtex.sampling import SolidTexture, TextureSampler  # noqa: F401  (SolidTexture: the doctests)
+from ..camera import frame_camera, unit_vector, view_direction
+from ..jupyter import push_to_browser, show_plotter
 
 __all__ = ["CutViewer", "TexturedOrgan", "add_cut"]
 
@@ -36,7 +35,7 @@ RIM_COLOUR = "#3d1a0c"
 
 
 def _unit(normal: ArrayLike) -> NDArray[np.float64]:
-    return camera_unit(normal, "the plane normal")
+    return unit_vector(normal, "the plane normal")
 
 
 class TexturedOrgan:
@@ -58,7 +57,7 @@ class TexturedOrgan:
 
     Examples
     --------
-    >>> from ffd_notebook.view.organ import tetrahedralize
+    >>> from ffd_notebook.meshing.organ import tetrahedralize
     >>> grid = tetrahedralize(pv.Sphere(theta_resolution=12, phi_resolution=12), method="delaunay")
     >>> tex = SolidTexture.fit(np.random.default_rng(0).integers(0, 255, (8, 8, 8, 3)).astype(np.uint8), grid.bounds)
     >>> organ = TexturedOrgan(grid, tex, subdivisions=1)
@@ -197,7 +196,7 @@ def add_cut(
 
     Examples
     --------
-    >>> from ffd_notebook.view.organ import tetrahedralize
+    >>> from ffd_notebook.meshing.organ import tetrahedralize
     >>> grid = tetrahedralize(pv.Sphere(theta_resolution=10, phi_resolution=10), method="delaunay")
     >>> organ = TexturedOrgan(grid, SolidTexture.fit(np.full((4, 4, 4, 3), 120, np.uint8), grid.bounds), 0)
     >>> pl = pv.Plotter(off_screen=True, window_size=(160, 120))
@@ -360,7 +359,7 @@ class CutViewer:
     def show(self, **kwargs: Any) -> Any:
         """Show the viewer: in Jupyter the server-rendered trame view its plane widget needs.
 
-        See :func:`ffd_notebook.view.notebook.show_plotter`; with the static backend, a picture.
+        See :func:`ffd_notebook.view.jupyter.show_plotter`; with the static backend, a picture.
 
         The picture is of the current cut: PyVista's static backend would otherwise show the
         picture of an earlier ``show``.

@@ -1,4 +1,4 @@
-"""The model-file half of :class:`~ffd_notebook.view.gp_view.GPExplorer`: shape models and their modes.
+"""The model-file half of :class:`~ffd_notebook.view.gp.explorer.GPExplorer`: shape models and their modes.
 
 A shape model (a Statismo/Scalismo ``.h5`` file read by :func:`~ffd_notebook.gp.load_model`, or
 a :class:`~ffd_notebook.gp.LowRankGP` such as one built by ``LowRankGP.from_examples``) is shown
@@ -18,8 +18,8 @@ import numpy as np
 import pyvista as pv
 from numpy.typing import ArrayLike, NDArray
 
-from ..gp import LowRankGP, load_model
-from ..gp.noise import observation_noise
+from ...gp import LowRankGP, load_model
+from ...gp.noise import observation_noise
 
 __all__ = [
     "MODE_RANGE",
@@ -117,7 +117,7 @@ def stacked_noise(covariances: list[NDArray[np.float64]]) -> NDArray[np.float64]
 class ModelModes:
     """Opening shape models, moving along their modes, landmark noise (mixed into ``GPExplorer``).
 
-    Uses ``GPExplorer``'s state and its ``process``, ``_set_rest_points``, ``_refresh`` and ``_guarded``.
+    Uses ``GPExplorer``'s state and its ``process``, ``set_rest_points``, ``refresh`` and ``guarded``.
 
     Examples
     --------
@@ -156,12 +156,12 @@ class ModelModes:
         """Change landmark ``index``'s noise: a variance, three variances or a 3x3 covariance."""
         covs = list(self.landmark_noise)
         covs[index] = landmark_covariance(noise)
-        self._posterior = self._conditioned(self.landmarks, covs)
+        self._posterior = self.conditioned(self.landmarks, covs)
         self.landmark_noise[:] = covs
         self._variance_stale = True
-        self._refresh()
+        self.refresh()
 
-    def _conditioned(
+    def conditioned(
         self, landmarks: list[tuple[NDArray, NDArray]], noise: list[NDArray[np.float64]]
     ) -> LowRankGP | None:
         if not landmarks:
@@ -169,11 +169,11 @@ class ModelModes:
         where, moved = (np.array(v) for v in zip(*landmarks, strict=True))
         return self.model.posterior(where, moved, stacked_noise(noise))
 
-    def _set_model(self, model: LowRankGP, name: str) -> None:
+    def set_model(self, model: LowRankGP, name: str) -> None:
         """Make a shape model the one shown (no drawing)."""
         self.model, self.model_name, self.sigma = model, name, None
         typical = float(np.sqrt(model.variance().mean()))  # a typical displacement standard deviation
-        self._set_rest_points(model.points, typical)
+        self.set_rest_points(model.points, typical)
         self.grid = np.empty((0, 3))  # a shape model lives on its vertices: no arrows
         self.landmarks.clear()
         self.landmark_noise.clear()
@@ -181,7 +181,7 @@ class ModelModes:
 
     def _use_model(self, model: LowRankGP, name: str, mesh: pv.PolyData) -> None:
         """Switch to a loaded shape model: same PolyData and actors, new points, cells and widgets."""
-        self._set_model(model, name)
+        self.set_model(model, name)
         self.mesh.copy_from(mesh, deep=True)
         self.mesh.point_data[VARIANCE_ARRAY] = np.zeros(self.mesh.n_points)
         self.mesh.set_active_scalars(VARIANCE_ARRAY)
@@ -192,9 +192,9 @@ class ModelModes:
             self.plotter.clear_sphere_widgets()
             if self.slider is not None:
                 self.slider.Off()  # the kernel width means nothing for a shape model
-            self._add_mode_sliders()
+            self.add_mode_sliders()
         self.plotter.reset_camera()
-        self._refresh()
+        self.refresh()
 
     @property
     def coefficients(self) -> NDArray[np.float64]:
@@ -212,8 +212,8 @@ class ModelModes:
         if coef.shape != (rank,) or not np.all(np.isfinite(coef)):
             raise ValueError(f"expected {rank} finite coefficients, got shape {coef.shape}")
         self._coefficients = coef.copy()
-        self._sync_mode_sliders()
-        self._refresh()
+        self.sync_mode_sliders()
+        self.refresh()
 
     def set_mode(self, k: int, value: float) -> None:
         """Set the coefficient of mode ``k`` (what mode slider ``k`` does); the others stay."""
@@ -225,13 +225,13 @@ class ModelModes:
         coef[k] = value
         self.set_coefficients(coef)
 
-    def _add_mode_sliders(self) -> None:
+    def add_mode_sliders(self) -> None:
         """Sliders for the first :attr:`n_modes` modes (more are added if a later model has more)."""
         wanted = min(self.n_modes, self.model.rank)
         for k in range(len(self.mode_sliders), wanted):
             x = 0.2 + 0.155 * k  # a row along the bottom, right of the "sample" button
             slider = self.plotter.add_slider_widget(
-                lambda value, k=k: self._guarded(self.set_mode, k, value),
+                lambda value, k=k: self.guarded(self.set_mode, k, value),
                 rng=MODE_RANGE,
                 value=0.0,
                 title=f"mode {k + 1}",
@@ -247,9 +247,9 @@ class ModelModes:
             self.mode_sliders.append(slider)
         for k, slider in enumerate(self.mode_sliders):
             slider.SetEnabled(k < wanted)
-        self._sync_mode_sliders()
+        self.sync_mode_sliders()
 
-    def _sync_mode_sliders(self) -> None:
+    def sync_mode_sliders(self) -> None:
         """Put the sliders where the coefficients are (setting a value does not call back)."""
         coef = self.coefficients
         for k, slider in enumerate(self.mode_sliders):
