@@ -44,10 +44,10 @@ def solid_texture_image(path: str | Path, window_size: tuple[int, int] = (900, 4
 
     import ffd_notebook.view  # noqa: F401  (headless settings before any plotter)
     from ffd_notebook.datasets import frog_liver
+    from ffd_notebook.meshing.organ import tetrahedralize
     from ffd_notebook.solidtex import SolidTexture, sliding_crops, synthesize, volume_from_slices
     from ffd_notebook.view.camera import frame_camera, view_direction
-    from ffd_notebook.view.organ import tetrahedralize
-    from ffd_notebook.view.solid_cut import TexturedOrgan, add_cut
+    from ffd_notebook.view.solidtex import TexturedOrgan, add_cut
 
     slices = sliding_crops(skimage.data.immunohistochemistry(), n_slices=64, size=96, step=(1, 1), start=(84, 84))
     exemplar = volume_from_slices(slices, roi=(16, 80, 16, 80))

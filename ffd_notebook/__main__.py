@@ -24,7 +24,8 @@ import importlib
 import ipaddress
 import os
 import sys
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
+from typing import Any
 
 __all__ = ["build_parser", "main"]
 
@@ -68,8 +69,11 @@ def _is_loopback(host: str) -> bool:
         return False
 
 
-def main(argv: Sequence[str] | None = None) -> int:
-    """Parse ``argv`` (``sys.argv[1:]`` by default), build the editor and serve it until interrupted."""
+def main(argv: Sequence[str] | None = None, *, setup: Callable[[Any], None] | None = None) -> int:
+    """Parse ``argv`` (``sys.argv[1:]`` by default), build the editor and serve it until interrupted.
+
+    ``setup(app)`` (code only, e.g. a test's instrumentation) runs on the app before it serves.
+    """
     argv = sys.argv[1:] if argv is None else list(argv)
     if argv and argv[0] in _SUBCOMMANDS:  # imported on use: the editor needs neither
         module, function = _SUBCOMMANDS[argv[0]]
@@ -91,11 +95,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     os.environ.setdefault("TRAME_ARGS", "")
     print("loading the editor...", flush=True)
     from .errors import FileFormatError
-    from .view.app import run_app
+    from .view.editor.app import run_app
 
     try:
         run_app(args.mesh, ffd=args.ffd, port=args.port, host=args.host, shape=tuple(args.shape), basis=args.basis,
-                root=args.root, max_file_bytes=int(args.max_file_mb * 2**20))  # fmt: skip
+                root=args.root, max_file_bytes=int(args.max_file_mb * 2**20), setup=setup)  # fmt: skip
     except (FileFormatError, ValueError, OSError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 1

@@ -24,6 +24,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 __all__ = [
+    "BASES",
     "BORDERS",
     "BSPLINE_MATRIX",
     "bernstein",
@@ -35,6 +36,9 @@ __all__ = [
     "bspline_support",
     "check_border",
 ]
+
+#: The FFD bases, in the order user interfaces list them.
+BASES = ("bspline", "bernstein")
 
 #: What the B-spline FFD assumes beyond the lattice: ``"zero"`` (control points outside contribute
 #: nothing: the FFD report's formula and SimpleITK's) or ``"clamp"`` (they are copies of the border

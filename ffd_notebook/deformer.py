@@ -13,8 +13,8 @@ from scipy.linalg.blas import dger
 
 from ._oneshot import in_domain
 from .basis import bspline
-from .deform import _bspline_lattice_jacobian, _CellGroups, _det3, _outer
-from .lattice import _as_points
+from .lattice import as_points
+from .weights import CellGroups, bernstein_values, bspline_lattice_jacobian, det3, jacobian_to_world, outer_uv
 
 if TYPE_CHECKING:
     from .deform import FFD
@@ -62,7 +62,7 @@ class Deformer:
 
     def __init__(self, ffd: FFD, points: ArrayLike, dtype: Any = np.float32) -> None:
         self.ffd = ffd
-        self.points = _as_points(points)
+        self.points = as_points(points)
         self.dtype = np.dtype(dtype)
         if self.dtype not in (np.float32, np.float64):
             raise ValueError(f"dtype must be float32 or float64, got {self.dtype}")
@@ -83,9 +83,9 @@ class Deformer:
         # points the lattice may displace (all unless only_inside): the others get zero weights
         movable = in_domain(self.ffd.basis, lat.shape, uvw) if self.ffd.only_inside else None
         if self.ffd.basis == "bspline":
-            cells = _CellGroups(uvw, lat.shape, self.ffd.border)
+            cells = CellGroups(uvw, lat.shape, self.ffd.border)
             bu, bv, bw = (bspline(cells.t[:, a]) for a in range(3))
-            self._buv = _outer(bu, bv).astype(self.dtype)
+            self._buv = outer_uv(bu, bv).astype(self.dtype)
             bw = cells.masked(bw)
             if movable is not None:
                 bw[~movable[cells.order]] = 0.0
@@ -99,7 +99,7 @@ class Deformer:
             # points' order by one gather (np.take) per update
             self._sorted = np.zeros((n, 3))
         else:
-            bx, by, bz = self.ffd._bernstein_values(uvw)
+            bx, by, bz = bernstein_values(lat.shape, uvw)
             nx, ny, _ = lat.shape
             self._bxy = (bx[:, :, None] * by[:, None, :]).reshape(n, nx * ny).astype(self.dtype)
             if movable is not None:
@@ -195,10 +195,10 @@ class Deformer:
         if self._cells is None:  # Bernstein: every control point reaches every point
             return self.ffd.jacobian_determinant(self.points)
         uvw = self.ffd.lattice.to_lattice(self.points)[self._cells.order]
-        d_uvw = _bspline_lattice_jacobian(self._cells, self.ffd.lattice.offsets, uvw - np.floor(uvw))
+        d_uvw = bspline_lattice_jacobian(self._cells, self.ffd.lattice.offsets, uvw - np.floor(uvw))
         if self.ffd.only_inside:
             d_uvw[~in_domain(self.ffd.basis, self.ffd.lattice.shape, uvw)] = 0.0
-        return _det3(self.ffd._chain(d_uvw))[self._inverse]
+        return det3(jacobian_to_world(self.ffd.lattice, self.ffd.affine, d_uvw))[self._inverse]
 
     def _full(self) -> None:
         offsets = self.ffd.lattice.offsets

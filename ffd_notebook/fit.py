@@ -19,7 +19,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .basis import bspline_support
-from .lattice import _as_points
+from .lattice import as_points
+from .weights import bernstein_values
 
 if TYPE_CHECKING:
     from .deform import FFD
@@ -57,12 +58,12 @@ def control_weights(ffd: FFD, points: ArrayLike) -> tuple[NDArray[np.int64], NDA
     >>> index.shape, weight.sum(axis=1).round(12).tolist()    # clamp: the weights sum to one
     ((2, 64), [1.0, 1.0])
     """
-    pts = _as_points(points)
+    pts = as_points(points)
     lat = ffd.lattice
     uvw = lat.to_lattice(pts)
     _, ny, nz = lat.shape
     if ffd.basis == "bernstein":
-        bx, by, bz = ffd._bernstein_values(uvw)
+        bx, by, bz = bernstein_values(ffd.lattice.shape, uvw)
         weight = (bx[:, :, None, None] * by[:, None, :, None] * bz[:, None, None, :]).reshape(len(pts), -1)
         return np.broadcast_to(np.arange(lat.n_points), weight.shape).copy(), weight
     (iu, wu), (iv, wv), (iw, ww) = (bspline_support(uvw[:, a], n, ffd.border) for a, n in enumerate(lat.shape))
@@ -122,11 +123,11 @@ def fit_points(
     >>> moved.round(12).tolist()[0], float(np.abs(moved[1:]).max()) < 1e-12
     ([0.0, 0.0, 0.1], True)
     """
-    pts = _as_points(points)
+    pts = as_points(points)
     goal = np.asarray(targets, dtype=np.float64)
     if goal.shape != pts.shape or not np.isfinite(goal).all():
         raise ValueError(f"targets must be finite and shaped like points {pts.shape}, got {goal.shape}")
-    rows = pts if pinned is None else np.vstack([pts, _as_points(pinned)])
+    rows = pts if pinned is None else np.vstack([pts, as_points(pinned)])
     now = ffd.deform(rows)
     residual = np.vstack([goal, now[len(pts) :]]) - now  # pinned rows: exactly zero
     index, weight = control_weights(ffd, rows)

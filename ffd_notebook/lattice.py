@@ -13,13 +13,23 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .basis import check_border
+from .basis import BASES, check_border
 
-__all__ = ["Lattice"]
+__all__ = ["Lattice", "as_points"]
 
 
-def _as_points(points_or_mesh: Any) -> NDArray[np.float64]:
-    """Return an ``(N, 3)`` float array from an array or any object with a ``points`` attribute."""
+def as_points(points_or_mesh: Any) -> NDArray[np.float64]:
+    """Return an ``(N, 3)`` float array from an array or any object with a ``points`` attribute.
+
+    Examples
+    --------
+    >>> as_points([[0, 1, 2]]).dtype.name
+    'float64'
+    >>> as_points([[0.0, float("nan"), 0.0]])
+    Traceback (most recent call last):
+    ...
+    ValueError: points contain NaN or infinite values
+    """
     pts = getattr(points_or_mesh, "points", points_or_mesh)
     pts = np.asarray(pts, dtype=np.float64)
     if pts.ndim != 2 or pts.shape[1] != 3 or len(pts) == 0:
@@ -171,11 +181,11 @@ class Lattice:
         >>> hug.spacing.tolist(), hug.origin.tolist(), hug.border
         ([0.5, 0.5, 0.5], [0.0, 0.0, 0.0], 'clamp')
         """
-        pts = _as_points(points_or_mesh)
+        pts = as_points(points_or_mesh)
         shape_t = (int(shape),) * 3 if np.isscalar(shape) else tuple(int(s) for s in shape)  # type: ignore[arg-type]
         if len(shape_t) != 3:
             raise ValueError(f"shape must be an int or three ints, got {shape!r}")
-        if basis not in ("bspline", "bernstein"):
+        if basis not in BASES:
             raise ValueError(f"basis must be 'bspline' or 'bernstein', got {basis!r}")
         check_border(border)
         lo, hi = pts.min(axis=0), pts.max(axis=0)

@@ -28,7 +28,7 @@ def widget_centers(editor) -> np.ndarray:
 
 
 def line_points(editor) -> np.ndarray:
-    return np.asarray(editor._lattice_actor.lines.points, dtype=np.float64)
+    return np.asarray(editor.scene.lattice_actor.lines.points, dtype=np.float64)
 
 
 def shown_points(editor) -> np.ndarray:

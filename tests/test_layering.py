@@ -13,7 +13,8 @@ import pytest
 
 PACKAGE = Path(__file__).resolve().parents[1] / "ffd_notebook"
 MODEL_FILES = sorted(
-    [PACKAGE / f"{name}.py" for name in ("__init__", "lattice", "basis", "deform", "deformer", "fit", "errors")]
+    [PACKAGE / f"{name}.py" for name in ("__init__", "lattice", "basis", "deform", "deformer", "weights", "fit")]
+    + [PACKAGE / "errors.py"]
     + list((PACKAGE / "gp").glob("*.py"))
     + list((PACKAGE / "solidtex").glob("*.py"))
     # batch: drawing and deforming (the engine, output and file loading write and read meshes through io)
@@ -56,3 +57,30 @@ def test_model_source_has_no_view_imports(path):
             imported.append((node.lineno, node.module))
     bad = [f"line {line}: {name}" for line, name in imported if name.split(".")[0] in FORBIDDEN]
     assert not bad, f"{path.name} imports view libraries: {bad}"
+
+
+def test_reading_a_ffd_file_loads_no_vtk():
+    """``load_ffd`` reads a text file: ``ffd_notebook.io`` imports the mesh formats (PyVista) only on first use."""
+    code = (
+        "import sys, ffd_notebook, ffd_notebook.io\n"
+        "from ffd_notebook import load_ffd, save_ffd\n"
+        f"bad = sorted(m for m in sys.modules if m.split('.')[0] in {FORBIDDEN!r})\n"
+        "print(','.join(bad))\n"
+        "from ffd_notebook.io import read_obj\n"
+        "print('pyvista' in sys.modules)\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.split()
+    assert out == ["True"], f"load_ffd imported: {out[0]}"
+
+
+@pytest.mark.parametrize("path", sorted((PACKAGE / "meshing").glob("*.py")) + sorted((PACKAGE / "io").glob("*.py")),
+                         ids=lambda p: f"{p.parent.name}/{p.stem}")  # fmt: skip
+def test_meshing_and_io_import_no_ui_library(path):
+    """Below the views: PyVista (VTK) may be used, trame and ipywidgets never."""
+    modules = []
+    for node in ast.walk(ast.parse(path.read_text(), filename=str(path))):
+        if isinstance(node, ast.Import):
+            modules += [alias.name for alias in node.names]
+        elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
+            modules.append(node.module)
+    assert not [m for m in modules if m.split(".")[0] in ("trame", "ipywidgets")], path.name

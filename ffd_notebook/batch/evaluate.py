@@ -20,7 +20,8 @@ from numpy.typing import NDArray
 
 from .._oneshot import in_domain
 from ..basis import bspline, bspline_derivative
-from ..deform import FFD, Deformer, _CellGroups, _det3, _outer
+from ..deform import FFD, Deformer
+from ..weights import CellGroups, det3, jacobian_to_world, outer_uv
 from .models import LatticeSample, with_lattice
 
 __all__ = ["PointEvaluator"]
@@ -40,7 +41,7 @@ class _BsplineJacobian:
 
     def __init__(self, ffd: FFD, points: NDArray[np.float64]) -> None:
         uvw = ffd.lattice.to_lattice(points)
-        self.cells = _CellGroups(uvw, ffd.lattice.shape, ffd.border)
+        self.cells = CellGroups(uvw, ffd.lattice.shape, ffd.border)
         # in sorted order, like the cell sums; None when every point may move
         outside = ~in_domain(ffd.basis, ffd.lattice.shape, uvw) if ffd.only_inside else None
         self.outside = None if outside is None else outside[self.cells.order]
@@ -50,7 +51,7 @@ class _BsplineJacobian:
         self.factors = []
         for axis in range(3):
             bu, bv, bw = (ders[a] if a == axis else vals[a] for a in range(3))
-            self.factors.append((_outer(bu, bv), self.cells.masked(bw.copy())))
+            self.factors.append((outer_uv(bu, bv), self.cells.masked(bw.copy())))
         self.cells.t = None
         self.inverse = np.empty_like(self.cells.order)
         self.inverse[self.cells.order] = np.arange(len(points), dtype=self.cells.order.dtype)
@@ -62,7 +63,7 @@ class _BsplineJacobian:
             d_uvw[:, :, axis] = self.cells.sum(padded, buv, bw)
         if self.outside is not None:
             d_uvw[self.outside] = 0.0
-        return _det3(ffd._chain(d_uvw))[self.inverse]
+        return det3(jacobian_to_world(ffd.lattice, ffd.affine, d_uvw))[self.inverse]
 
 
 class PointEvaluator:

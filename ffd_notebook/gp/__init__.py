@@ -3,7 +3,7 @@
 A Gaussian process over displacement fields ``u: R^3 -> R^3`` with a matrix-valued kernel:
 draw smooth random deformations, see how the kernel width sets their smoothness, and condition
 on a few observed landmark displacements to get the posterior deformation and its uncertainty.
-NumPy/SciPy only (the pictures live in :mod:`ffd_notebook.view.gp_view`).
+NumPy/SciPy only (the pictures live in :mod:`ffd_notebook.view.gp`).
 
 - :mod:`~ffd_notebook.gp.kernels`: Gaussian, exponential and cubic B-spline kernels, anisotropic
   and per-component versions; :mod:`~ffd_notebook.gp.combine`: sums, products, scalings, a

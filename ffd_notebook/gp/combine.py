@@ -18,14 +18,129 @@ True
 
 from __future__ import annotations
 
+from abc import ABC, abstractmethod
+
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .kernels import Kernel, _per_axis, as_points
+from .linalg import cholesky
 
-__all__ = ["DiagonalKernel", "MirroredKernel", "ProductKernel", "ScaledKernel", "SumKernel"]
+__all__ = [
+    "DiagonalKernel",
+    "Kernel",
+    "MirroredKernel",
+    "ProductKernel",
+    "ScaledKernel",
+    "SumKernel",
+    "as_points",
+    "per_axis",
+]
 
 _CHUNK = 1024  # points per block when a diagonal needs cross terms
+
+
+def as_points(points: ArrayLike, name: str = "points") -> NDArray[np.float64]:
+    """Return an ``(N, 3)`` float64 array (one point may be given as a 3-vector)."""
+    arr = np.asarray(points, dtype=np.float64)
+    if arr.ndim == 1 and arr.shape == (3,):
+        arr = arr[None, :]
+    if arr.ndim != 2 or arr.shape[1] != 3:
+        raise ValueError(f"{name} must be an (N, 3) array, got shape {arr.shape}")
+    if not np.all(np.isfinite(arr)):
+        raise ValueError(f"{name} contain NaN or infinite values")
+    return arr
+
+
+def per_axis(value: ArrayLike, name: str) -> NDArray[np.float64]:
+    """A positive scalar or 3-vector as a float array (shape () or (3,))."""
+    arr = np.asarray(value, dtype=np.float64)
+    if arr.shape not in ((), (3,)) or not np.all(np.isfinite(arr)) or np.any(arr <= 0):
+        raise ValueError(f"{name} must be a positive number or three positive numbers, got {value!r}")
+    return arr
+
+
+class Kernel(ABC):
+    """A diagonal matrix-valued positive-definite kernel on R^3.
+
+    Subclasses implement :meth:`components` (and :meth:`diagonal` when it has a cheap form).
+    Kernels add (``k1 + k2``), multiply (``k1 * k2``) and scale by a positive number or a
+    per-component 3-vector (``2.0 * k``, ``[1, 1, 0.1] * k``); see below.
+
+    A few kernels are not diagonal (a posterior after noise with 3x3 covariances): they set
+    :attr:`is_diagonal` to False, override :meth:`__call__` and have no :meth:`components`.
+    """
+
+    #: 1 if the same scalar kernel drives all three output components (``k_s I3``), else 3.
+    n_components: int = 1
+    #: False for kernels whose 3x3 blocks have off-diagonal entries.
+    is_diagonal: bool = True
+
+    @abstractmethod
+    def components(self, x: ArrayLike, y: ArrayLike) -> NDArray[np.float64]:
+        """Scalar kernel matrices of the output components, shape ``(n_components, N, M)``."""
+
+    def diagonal(self, x: ArrayLike) -> NDArray[np.float64]:
+        """``k(x_i, x_i)`` per component, shape ``(n_components, N)`` (the prior variance)."""
+        x = as_points(x)
+        return np.stack([np.diagonal(c) for c in self.components(x, x)])
+
+    def component_matrices(self, x: ArrayLike, y: ArrayLike) -> NDArray[np.float64]:
+        """The three scalar kernel matrices, shape ``(3, N, M)`` (repeated if isotropic)."""
+        comps = self.components(x, y)
+        return np.broadcast_to(comps, (3, *comps.shape[1:]))
+
+    def sample(self, points: NDArray[np.float64], n: int, rng: np.random.Generator) -> NDArray[np.float64]:
+        """``n`` zero-mean fields drawn jointly at the points, ``(n, N, 3)``.
+
+        Cholesky factor of each distinct component's ``N x N`` matrix times standard normals
+        (``rng.standard_normal((N, n, 3))``).
+        """
+        comps = self.components(points, points)
+        z = rng.standard_normal((len(points), n, 3))
+        out = np.empty((n, len(points), 3))
+        if len(comps) == 1:
+            flat = cholesky(comps[0]) @ z.reshape(len(points), 3 * n)
+            out[...] = flat.reshape(len(points), n, 3).transpose(1, 0, 2)
+        else:
+            for a in range(3):
+                out[:, :, a] = (cholesky(comps[a]) @ z[:, :, a]).T
+        return out
+
+    def __call__(self, x: ArrayLike, y: ArrayLike) -> NDArray[np.float64]:
+        """The 3x3 blocks ``k(x_i, y_j)``, shape ``(N, M, 3, 3)``."""
+        comps = self.component_matrices(x, y)
+        out = np.zeros((*comps.shape[1:], 3, 3))
+        for a in range(3):
+            out[:, :, a, a] = comps[a]
+        return out
+
+    def matrix(self, x: ArrayLike, y: ArrayLike | None = None) -> NDArray[np.float64]:
+        """The ``(3N, 3M)`` kernel matrix; row ``3 i + a`` is point ``i``, component ``a``.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from ffd_notebook.gp import GaussianKernel
+        >>> k = GaussianKernel(sigma=1.0)
+        >>> x = np.random.default_rng(0).random((4, 3))
+        >>> K = k.matrix(x)
+        >>> K.shape, bool(np.allclose(K, K.T)), bool(np.linalg.eigvalsh(K).min() > -1e-12)
+        ((12, 12), True, True)
+        """
+        y = x if y is None else y
+        blocks = self(x, y)
+        n, m = blocks.shape[:2]
+        return blocks.transpose(0, 2, 1, 3).reshape(3 * n, 3 * m)
+
+    def __add__(self, other: Kernel) -> Kernel:
+        if not isinstance(other, Kernel):
+            return NotImplemented
+        return SumKernel(self, other)
+
+    def __mul__(self, other: ArrayLike | Kernel) -> Kernel:
+        return ProductKernel(self, other) if isinstance(other, Kernel) else ScaledKernel(self, other)
+
+    __rmul__ = __mul__
 
 
 def _diagonal_only(*kernels: Kernel) -> None:
@@ -87,7 +202,7 @@ class ScaledKernel(Kernel):
     def __init__(self, kernel: Kernel, factor: ArrayLike) -> None:
         _diagonal_only(kernel)
         self.kernel = kernel
-        self.factor = _per_axis(factor, "factor")
+        self.factor = per_axis(factor, "factor")
         self.n_components = 3 if self.factor.ndim == 1 else kernel.n_components
 
     def components(self, x: ArrayLike, y: ArrayLike) -> NDArray[np.float64]:

@@ -23,7 +23,7 @@ array([[3.3109, 0.    , 0.    ],
 
 from __future__ import annotations
 
-from abc import ABC, abstractmethod
+from abc import abstractmethod
 
 import numpy as np
 import scipy.sparse as sp
@@ -32,7 +32,8 @@ from scipy.spatial.distance import cdist
 
 from ..basis import bspline, bspline_cells
 from ..lattice import Lattice
-from .linalg import as_generator, cholesky
+from .combine import Kernel, as_points, per_axis
+from .linalg import as_generator
 
 __all__ = [
     "BSplineKernel",
@@ -44,119 +45,12 @@ __all__ = [
 ]
 
 
-def as_points(points: ArrayLike, name: str = "points") -> NDArray[np.float64]:
-    """Return an ``(N, 3)`` float64 array (one point may be given as a 3-vector)."""
-    arr = np.asarray(points, dtype=np.float64)
-    if arr.ndim == 1 and arr.shape == (3,):
-        arr = arr[None, :]
-    if arr.ndim != 2 or arr.shape[1] != 3:
-        raise ValueError(f"{name} must be an (N, 3) array, got shape {arr.shape}")
-    if not np.all(np.isfinite(arr)):
-        raise ValueError(f"{name} contain NaN or infinite values")
-    return arr
-
-
-def _per_axis(value: ArrayLike, name: str) -> NDArray[np.float64]:
-    """A positive scalar or 3-vector as a float array (shape () or (3,))."""
-    arr = np.asarray(value, dtype=np.float64)
-    if arr.shape not in ((), (3,)) or not np.all(np.isfinite(arr)) or np.any(arr <= 0):
-        raise ValueError(f"{name} must be a positive number or three positive numbers, got {value!r}")
-    return arr
-
-
-class Kernel(ABC):
-    """A diagonal matrix-valued positive-definite kernel on R^3.
-
-    Subclasses implement :meth:`components` (and :meth:`diagonal` when it has a cheap form).
-    Kernels add (``k1 + k2``), multiply (``k1 * k2``) and scale by a positive number or a
-    per-component 3-vector (``2.0 * k``, ``[1, 1, 0.1] * k``); see :mod:`~ffd_notebook.gp.combine`.
-
-    A few kernels are not diagonal (a posterior after noise with 3x3 covariances): they set
-    :attr:`is_diagonal` to False, override :meth:`__call__` and have no :meth:`components`.
-    """
-
-    #: 1 if the same scalar kernel drives all three output components (``k_s I3``), else 3.
-    n_components: int = 1
-    #: False for kernels whose 3x3 blocks have off-diagonal entries.
-    is_diagonal: bool = True
-
-    @abstractmethod
-    def components(self, x: ArrayLike, y: ArrayLike) -> NDArray[np.float64]:
-        """Scalar kernel matrices of the output components, shape ``(n_components, N, M)``."""
-
-    def diagonal(self, x: ArrayLike) -> NDArray[np.float64]:
-        """``k(x_i, x_i)`` per component, shape ``(n_components, N)`` (the prior variance)."""
-        x = as_points(x)
-        return np.stack([np.diagonal(c) for c in self.components(x, x)])
-
-    def component_matrices(self, x: ArrayLike, y: ArrayLike) -> NDArray[np.float64]:
-        """The three scalar kernel matrices, shape ``(3, N, M)`` (repeated if isotropic)."""
-        comps = self.components(x, y)
-        return np.broadcast_to(comps, (3, *comps.shape[1:]))
-
-    def sample(self, points: NDArray[np.float64], n: int, rng: np.random.Generator) -> NDArray[np.float64]:
-        """``n`` zero-mean fields drawn jointly at the points, ``(n, N, 3)``.
-
-        Cholesky factor of each distinct component's ``N x N`` matrix times standard normals
-        (``rng.standard_normal((N, n, 3))``).
-        """
-        comps = self.components(points, points)
-        z = rng.standard_normal((len(points), n, 3))
-        out = np.empty((n, len(points), 3))
-        if len(comps) == 1:
-            flat = cholesky(comps[0]) @ z.reshape(len(points), 3 * n)
-            out[...] = flat.reshape(len(points), n, 3).transpose(1, 0, 2)
-        else:
-            for a in range(3):
-                out[:, :, a] = (cholesky(comps[a]) @ z[:, :, a]).T
-        return out
-
-    def __call__(self, x: ArrayLike, y: ArrayLike) -> NDArray[np.float64]:
-        """The 3x3 blocks ``k(x_i, y_j)``, shape ``(N, M, 3, 3)``."""
-        comps = self.component_matrices(x, y)
-        out = np.zeros((*comps.shape[1:], 3, 3))
-        for a in range(3):
-            out[:, :, a, a] = comps[a]
-        return out
-
-    def matrix(self, x: ArrayLike, y: ArrayLike | None = None) -> NDArray[np.float64]:
-        """The ``(3N, 3M)`` kernel matrix; row ``3 i + a`` is point ``i``, component ``a``.
-
-        Examples
-        --------
-        >>> import numpy as np
-        >>> k = GaussianKernel(sigma=1.0)
-        >>> x = np.random.default_rng(0).random((4, 3))
-        >>> K = k.matrix(x)
-        >>> K.shape, bool(np.allclose(K, K.T)), bool(np.linalg.eigvalsh(K).min() > -1e-12)
-        ((12, 12), True, True)
-        """
-        y = x if y is None else y
-        blocks = self(x, y)
-        n, m = blocks.shape[:2]
-        return blocks.transpose(0, 2, 1, 3).reshape(3 * n, 3 * m)
-
-    def __add__(self, other: Kernel) -> Kernel:
-        from .combine import SumKernel  # combine.py builds on this module
-
-        if not isinstance(other, Kernel):
-            return NotImplemented
-        return SumKernel(self, other)
-
-    def __mul__(self, other: ArrayLike | Kernel) -> Kernel:
-        from .combine import ProductKernel, ScaledKernel
-
-        return ProductKernel(self, other) if isinstance(other, Kernel) else ScaledKernel(self, other)
-
-    __rmul__ = __mul__
-
-
 class _StationaryKernel(Kernel):
     """``scale^2 * profile(distance)`` with per-axis length scales and per-component scales."""
 
     def __init__(self, sigma: ArrayLike = 1.0, scale: ArrayLike = 1.0) -> None:
-        self.sigma = _per_axis(sigma, "sigma")
-        self.scale = _per_axis(scale, "scale")
+        self.sigma = per_axis(sigma, "sigma")
+        self.scale = per_axis(scale, "scale")
         self.n_components = 1 if self.scale.ndim == 0 else 3
 
     @abstractmethod
@@ -281,7 +175,7 @@ class BSplineKernel(Kernel):
         if min(lattice.shape) < 4:
             raise ValueError(f"a cubic B-spline lattice needs at least 4 control points per axis, got {lattice.shape}")
         self.lattice = lattice.copy()
-        self.scale = _per_axis(scale, "scale")
+        self.scale = per_axis(scale, "scale")
         self.n_components = 1 if self.scale.ndim == 0 else 3
 
     def weights(self, points: ArrayLike) -> sp.csr_matrix:

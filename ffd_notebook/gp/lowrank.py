@@ -37,7 +37,7 @@ from . import lowrank_ops as ops
 from .kernels import as_points
 from .linalg import as_generator
 from .lowrank_build import LowRankBuilders
-from .space import Space
+from .space import Space, joined_space
 
 __all__ = ["LowRankGP"]
 
@@ -281,6 +281,36 @@ class LowRankGP(LowRankBuilders):
         residual = obs - self._space.base_mean(lms) - u_l @ self._mean_shift
         factor, step = ops.condition(self._factor, u_l, residual, noise)
         return LowRankGP(self._space, factor, self._mean_shift + step)
+
+    def augment(self, other: LowRankGP) -> LowRankGP:
+        """This model plus an independent one on the same points (Scalismo's ``augmentModel``).
+
+        The sum of the two processes: means add, covariances add. Typically ``self`` is a data
+        model and ``other`` an analytic bias model (``LowRankGP.pivoted_cholesky`` of a kernel
+        on ``self.points``) that adds the flexibility the few examples lack. Exact: the result
+        is put in eigen form over both bases together (rank up to the sum of the ranks).
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from ffd_notebook.gp import GaussianKernel, GaussianProcess, LowRankGP
+        >>> ref = np.random.default_rng(0).random((200, 3))
+        >>> data = LowRankGP.from_examples(ref, [ref, ref + [0.1, 0, 0], ref - [0.1, 0, 0]])
+        >>> bias = LowRankGP.pivoted_cholesky(GaussianProcess(GaussianKernel(0.5, 0.01)), ref, max_rank=10)
+        >>> both = data.augment(bias)
+        >>> both.rank, bool(np.allclose(both.variance(), data.variance() + bias.variance()))
+        (31, True)
+        """
+        if not isinstance(other, LowRankGP):
+            raise TypeError(f"can only augment with a LowRankGP, got {type(other).__name__}")
+        space = joined_space(self._space, other._space)
+        q1, r1 = self._factor.shape[1:]
+        q2, r2 = other._factor.shape[1:]
+        factor = np.zeros((3, q1 + q2, r1 + r2))
+        factor[:, :q1, :r1], factor[:, q1:, r1:] = self._factor, other._factor
+        shift = np.vstack([self._mean_shift, other._mean_shift])
+        basis, eig = ops.eigen_form(factor, space.gram)
+        return type(self)(space, basis, shift, variances=eig)
 
     def __repr__(self) -> str:
         return (

@@ -17,7 +17,7 @@ from .approximation import choose_rank, nystrom_basis, pivoted_cholesky_basis, s
 from .kernels import as_points
 from .linalg import as_generator
 from .process import GaussianProcess
-from .space import example_space, joined_space, kernel_space, matrix_space
+from .space import example_space, kernel_space, matrix_space
 
 if TYPE_CHECKING:
     from .lowrank import LowRankGP
@@ -218,33 +218,3 @@ class LowRankBuilders:
         keep = int(np.count_nonzero(eig > ops.RELATIVE_FLOOR * max(eig[0], 0.0))) if len(eig) else 0
         keep = min(keep, choose_rank(eig[:keep], space.total_variance, rank, variance)) if keep else 0
         return cls(space, np.ascontiguousarray(basis[:, :, :keep]), mean_shift, variances=eig[:keep])
-
-    def augment(self, other: LowRankGP) -> LowRankGP:
-        """This model plus an independent one on the same points (Scalismo's ``augmentModel``).
-
-        The sum of the two processes: means add, covariances add. Typically ``self`` is a data
-        model and ``other`` an analytic bias model (``LowRankGP.pivoted_cholesky`` of a kernel
-        on ``self.points``) that adds the flexibility the few examples lack. Exact: the result
-        is put in eigen form over both bases together (rank up to the sum of the ranks).
-
-        Examples
-        --------
-        >>> import numpy as np
-        >>> from ffd_notebook.gp import GaussianKernel, GaussianProcess, LowRankGP
-        >>> ref = np.random.default_rng(0).random((200, 3))
-        >>> data = LowRankGP.from_examples(ref, [ref, ref + [0.1, 0, 0], ref - [0.1, 0, 0]])
-        >>> bias = LowRankGP.pivoted_cholesky(GaussianProcess(GaussianKernel(0.5, 0.01)), ref, max_rank=10)
-        >>> both = data.augment(bias)
-        >>> both.rank, bool(np.allclose(both.variance(), data.variance() + bias.variance()))
-        (31, True)
-        """
-        if not isinstance(other, LowRankBuilders):
-            raise TypeError(f"can only augment with a LowRankGP, got {type(other).__name__}")
-        space = joined_space(self._space, other._space)
-        q1, r1 = self._factor.shape[1:]
-        q2, r2 = other._factor.shape[1:]
-        factor = np.zeros((3, q1 + q2, r1 + r2))
-        factor[:, :q1, :r1], factor[:, q1:, r1:] = self._factor, other._factor
-        shift = np.vstack([self._mean_shift, other._mean_shift])
-        basis, eig = ops.eigen_form(factor, space.gram)
-        return type(self)(space, basis, shift, variances=eig)

@@ -5,18 +5,30 @@ for why); STL and VTK formats go through VTK's readers in a child process (see :
 Every malformed file raises :class:`~ffd_notebook.errors.FileFormatError` naming the file and line;
 special files and files over :data:`MAX_FILE_BYTES` are refused before reading
 (:func:`check_regular_file`); every write is atomic.
+
+The mesh functions return PyVista meshes, so they are imported on first use (PEP 562): reading a
+.ffd file (:func:`load_ffd`) does not load VTK.
 """
 
 from __future__ import annotations
+
+import importlib
+from typing import Any
 
 from ._safety import MAX_FILE_BYTES, check_regular_file
 from .deformation_files import load_deformation, save_deformation
 from .ffd_file import load_ffd, save_ffd
 from .itk import load_transform, save_transform
-from .mesh import read_mesh, write_mesh
-from .obj import read_obj, write_obj
 from .placement import place_at_mesh_minimum
 from .prm import load_prm, save_prm
+
+# mesh functions (PyVista, hence VTK) -> the module that defines them
+_LAZY = {
+    "read_mesh": "ffd_notebook.io.mesh",
+    "write_mesh": "ffd_notebook.io.mesh",
+    "read_obj": "ffd_notebook.io.obj",
+    "write_obj": "ffd_notebook.io.obj",
+}
 
 __all__ = [
     "MAX_FILE_BYTES",
@@ -35,3 +47,15 @@ __all__ = [
     "write_mesh",
     "write_obj",
 ]
+
+
+def __getattr__(name: str) -> Any:
+    if name in _LAZY:
+        value = getattr(importlib.import_module(_LAZY[name]), name)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module 'ffd_notebook.io' has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted(__all__)

@@ -264,7 +264,7 @@ def _parse_lines(path, text: str) -> _ObjData:
 
 
 # ---------------------------------------------------------------------------------------- to PyVista
-def _padded(sizes: np.ndarray, indices: np.ndarray) -> np.ndarray:
+def padded_cells(sizes: np.ndarray, indices: np.ndarray) -> np.ndarray:
     """VTK's cell layout ``[n0, i0, i1, ..., n1, ...]``."""
     out = np.empty(len(sizes) + len(indices), dtype=np.int64)
     starts = np.cumsum(sizes + 1) - (sizes + 1)
@@ -283,9 +283,9 @@ def _to_uint8(colors: np.ndarray) -> np.ndarray:
 def _to_polydata(data: _ObjData) -> pv.PolyData:
     kwargs = {}
     if len(data.face_sizes):
-        kwargs["faces"] = _padded(data.face_sizes, data.face_indices)
+        kwargs["faces"] = padded_cells(data.face_sizes, data.face_indices)
     if len(data.line_sizes):
-        kwargs["lines"] = _padded(data.line_sizes, data.line_indices)
+        kwargs["lines"] = padded_cells(data.line_sizes, data.line_indices)
     mesh = pv.PolyData(data.points, **kwargs)
     if data.colors is not None:
         mesh.point_data["RGB"] = _to_uint8(data.colors)

@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..lattice import Lattice, _as_points
+from ..lattice import Lattice, as_points
 
 __all__ = ["place_at_mesh_minimum", "quaternion_to_rotation", "rotation_to_quaternion"]
 
@@ -108,7 +108,7 @@ def place_at_mesh_minimum(lattice: Lattice, points_or_mesh: Any) -> Lattice:
     >>> placed.origin.tolist(), placed.spacing.tolist()
     ([1.0, 5.0, -2.0], [2.0, 2.0, 2.0])
     """
-    pts = _as_points(points_or_mesh)
+    pts = as_points(points_or_mesh)
     placed = lattice.copy()
     placed.origin = pts.min(axis=0)
     placed.rotation = np.eye(3)

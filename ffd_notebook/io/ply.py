@@ -27,7 +27,7 @@ import pyvista as pv
 from ..errors import FileFormatError
 from ._safety import MAX_FILE_BYTES, read_bytes
 from ._text import parse_int, split_fields
-from .obj import _padded
+from .obj import padded_cells
 
 __all__ = ["read_ply"]
 
@@ -357,7 +357,7 @@ def _faces(path, face: dict | None, n_points: int, first_line: dict) -> np.ndarr
         row = int(np.searchsorted(np.cumsum(sizes), first, side="right"))
         raise FileFormatError(path, _row_line(first_line, "face", row), f"face {row} has vertex index "
                               f"{flat[first]:.15g}: the file has {n_points} vertices")  # fmt: skip
-    return _padded(sizes, flat.astype(np.int64))
+    return padded_cells(sizes, flat.astype(np.int64))
 
 
 def _point_data(path, mesh: pv.PolyData, vertex: dict, line: int) -> None:

@@ -1,7 +1,7 @@
 """Solid (volume) textures: exemplars from slice stacks or one image, block synthesis (whole or lazy), sampling.
 
 Plain NumPy/SciPy (and tqdm); the meshes, tetrahedra and the cutting-plane viewer are in
-:mod:`ffd_notebook.view.organ`.
+:mod:`ffd_notebook.meshing.organ`.
 """
 
 from __future__ import annotations

@@ -33,7 +33,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from .blending import axis_ramp
 from .blocks import box_mean, choose_block_size, classify_blocks
-from .synthesis import _overlap_voxels
+from .synthesis import overlap_voxels
 
 __all__ = ["LazySolidTexture"]
 
@@ -150,7 +150,7 @@ class LazySolidTexture:
             raise ValueError(f"shape {shape} or block {b} does not fit an exemplar of shape {ex.shape[:3]}")
         self.exemplar, self.block, self.seed = ex, b, int(seed)
         self._flat = ex.reshape(-1, 3).astype(np.float32)
-        self.overlap = _overlap_voxels(b, overlap)
+        self.overlap = overlap_voxels(b, overlap)
         self.step = b - self.overlap
         self.spacing, self.origin = float(spacing), np.asarray(origin, dtype=np.float64).reshape(3)
         self.n_blocks = tuple(max(1, math.ceil(t / self.step)) for t in target)

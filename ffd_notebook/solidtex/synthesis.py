@@ -73,7 +73,14 @@ class Stage:
         return math.prod(self.n_blocks)
 
 
-def _overlap_voxels(block: int, overlap: float) -> int:
+def overlap_voxels(block: int, overlap: float) -> int:
+    """Voxels of overlap between neighbouring blocks of size ``block`` for a fraction ``overlap`` in (0, 0.5].
+
+    Examples
+    --------
+    >>> overlap_voxels(16, 0.25)
+    4
+    """
     if not 0 < overlap <= 0.5:
         raise ValueError(f"overlap is a fraction of the block in (0, 0.5], got {overlap}")
     return int(min(max(1, round(block * overlap)), block // 2))
@@ -87,7 +94,7 @@ def _pool(block: int, overlap: int, wanted: int) -> int:
 
 
 def _stage(region, block, overlap, pool_wanted, source_shape) -> Stage:
-    o = _overlap_voxels(block, overlap)
+    o = overlap_voxels(block, overlap)
     step = block - o
     n = tuple(max(1, math.ceil((r - o) / step)) for r in region)
     return Stage(tuple(int(r) for r in region), block, o, _pool(block, o, pool_wanted), n, tuple(source_shape))

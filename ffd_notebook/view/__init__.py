@@ -15,12 +15,13 @@ configure_rendering()
 
 _LAZY = {
     "Editor": "ffd_notebook.view.editor",
-    "edit": "ffd_notebook.view.notebook",
-    "ControlPanel": "ffd_notebook.view.panel",
-    "GPExplorer": "ffd_notebook.view.gp_view",
-    "TexturedOrgan": "ffd_notebook.view.solid_cut",
-    "CutViewer": "ffd_notebook.view.solid_cut",
-    "add_cut": "ffd_notebook.view.solid_cut",
+    "edit": "ffd_notebook.view.editor",
+    "EditingSession": "ffd_notebook.view.editor",
+    "ControlPanel": "ffd_notebook.view.editor.notebook_panel",
+    "GPExplorer": "ffd_notebook.view.gp",
+    "TexturedOrgan": "ffd_notebook.view.solidtex",
+    "CutViewer": "ffd_notebook.view.solidtex",
+    "add_cut": "ffd_notebook.view.solidtex",
     "frame_camera": "ffd_notebook.view.camera",
     "view_direction": "ffd_notebook.view.camera",
 }

@@ -11,10 +11,17 @@ import numpy as np
 import pyvista as pv
 from numpy.typing import ArrayLike, NDArray
 
-__all__ = ["frame_camera", "view_direction"]
+__all__ = ["frame_camera", "unit_vector", "view_direction"]
 
 
-def _unit(vector: ArrayLike, what: str = "the direction") -> NDArray[np.float64]:
+def unit_vector(vector: ArrayLike, what: str = "the direction") -> NDArray[np.float64]:
+    """``vector`` scaled to length 1; a ValueError naming ``what`` if it is zero.
+
+    Examples
+    --------
+    >>> unit_vector([0, 3, 4]).tolist()
+    [0.0, 0.6, 0.8]
+    """
     v = np.asarray(vector, dtype=np.float64).reshape(3)
     length = float(np.linalg.norm(v))
     if not length > 0:
@@ -35,9 +42,9 @@ def view_direction(normal: ArrayLike, elevation: float = 0.4) -> NDArray[np.floa
     >>> bool(view_direction((1, 0, 0))[2] > 0)
     True
     """
-    n = _unit(normal)
+    n = unit_vector(normal)
     up = np.array([0.0, 0.0, 1.0]) if abs(n[2]) < 0.9 else np.array([0.0, 1.0, 0.0])
-    return _unit(n + elevation * up)
+    return unit_vector(n + elevation * up)
 
 
 def _renderer_aspect(plotter: pv.Plotter) -> float:
@@ -94,7 +101,7 @@ def frame_camera(
     if not 0.0 <= top < 1.0:
         raise ValueError(f"top is a fraction of the picture's height in [0, 1), got {top}")
     pts = np.asarray(points, dtype=np.float64).reshape(-1, 3)
-    d = _unit(direction)
+    d = unit_vector(direction)
     if up is None:
         q = pts - pts.mean(axis=0)
         q -= np.outer(q @ d, d)
@@ -104,7 +111,7 @@ def frame_camera(
         if up @ world_up < 0:
             up = -up
     u = np.asarray(up, dtype=np.float64) - (np.asarray(up, dtype=np.float64) @ d) * d
-    u = _unit(u)
+    u = unit_vector(u)
     right = np.cross(u, d)
     x, y, z = pts @ right, pts @ u, pts @ d
     focal = (x.max() + x.min()) / 2 * right + (y.max() + y.min()) / 2 * u + (z.max() + z.min()) / 2 * d

@@ -20,16 +20,14 @@ talks to Jupyter, which checks its own token and Origin and forwards the request
 and Origin (same-origin with each other); then any Host is accepted, the Origin must still match
 it, and the token is still required.
 
-Test-only hooks (the ``ffd_widget_px`` / ``ffd_state`` triggers that return internal state) are
-registered only when the environment variable ``FFD_NOTEBOOK_TEST_HOOKS=1`` is set (tests set it;
-nobody else should): see :func:`test_hooks_enabled`.
+The product registers no trigger that returns internal state: the tests' instrumentation
+(``tests/editor_instrument.py``) is installed by test code only, never by a setting.
 """
 
 from __future__ import annotations
 
 import hashlib
 import ipaddress
-import os
 import secrets
 import socket
 from collections.abc import Callable, Mapping
@@ -38,17 +36,14 @@ from typing import Any
 from urllib.parse import parse_qsl, urlencode, urlsplit, urlunsplit
 
 __all__ = [
-    "TEST_HOOKS_ENV",
     "TOKEN_PARAM",
     "AccessPolicy",
     "new_token",
     "protect",
-    "test_hooks_enabled",
     "url_with_token",
 ]
 
 TOKEN_PARAM = "secret"  # the URL parameter the trame client reads wslink's secret from
-TEST_HOOKS_ENV = "FFD_NOTEBOOK_TEST_HOOKS"
 _DEFAULT_PORTS = {"http": 80, "https": 443, "ws": 80, "wss": 443}
 
 
@@ -62,18 +57,6 @@ def new_token() -> str:
     True
     """
     return secrets.token_urlsafe(32)
-
-
-def test_hooks_enabled() -> bool:
-    """Whether test-only hooks are on: ``FFD_NOTEBOOK_TEST_HOOKS=1`` in the environment (tests only).
-
-    Examples
-    --------
-    >>> import os
-    >>> test_hooks_enabled() == (os.environ.get("FFD_NOTEBOOK_TEST_HOOKS") == "1")
-    True
-    """
-    return os.environ.get(TEST_HOOKS_ENV) == "1"
 
 
 def url_with_token(url: str, token: str) -> str:

@@ -53,7 +53,7 @@ def drag_samples(editor, events, rng):
 
 def part_samples(editor, events, rng):
     """The callback's parts alone: FFD update, copy into the plotted points, lattice lines."""
-    deformer, actor = editor._deformer, editor._lattice_actor
+    deformer, actor = editor.session.deformer, editor.scene.lattice_actor
     shape = editor.lattice.shape
     parts = {"FFD update (deformer.update(changed))": [], "mesh points in place (+Modified)": [], "lattice lines": []}
     for _ in range(events):
@@ -62,10 +62,10 @@ def part_samples(editor, events, rng):
         t0 = time.perf_counter()
         out = deformer.update([ijk])
         t1 = time.perf_counter()
-        editor._display_points[:] = out
-        editor._display.GetPoints().Modified()
+        editor.scene.display_points[:] = out
+        editor.scene.display.GetPoints().Modified()
         t2 = time.perf_counter()
-        actor.set_line_points(editor._rest_flat + editor.lattice.offsets.reshape(-1, 3))
+        actor.set_line_points(editor.session.control_points())
         t3 = time.perf_counter()
         for name, dt in zip(parts, (t1 - t0, t2 - t1, t3 - t2), strict=True):
             parts[name].append(dt)

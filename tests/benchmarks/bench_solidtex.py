@@ -38,6 +38,7 @@ import skimage.data
 import ffd_notebook.view  # noqa: F401  (headless settings first)
 from ffd_notebook import FFD, Lattice
 from ffd_notebook.datasets import frog_liver
+from ffd_notebook.meshing.organ import organ_surface, tetrahedralize, texture_surface
 from ffd_notebook.solidtex import (
     LazySolidTexture,
     SolidTexture,
@@ -52,8 +53,7 @@ from ffd_notebook.solidtex import (
     synthesize,
     volume_from_slices,
 )
-from ffd_notebook.view.organ import organ_surface, tetrahedralize, texture_surface
-from ffd_notebook.view.solid_cut import CutViewer, TexturedOrgan
+from ffd_notebook.view.solidtex import CutViewer, TexturedOrgan
 
 
 def timed(fn, repeat):

@@ -7,9 +7,9 @@ Facts these helpers rely on (measured on this kind of machine, see the project's
   every drag moves the mouse in steps 40-150 ms apart, never in one jump.
 * A sphere widget moves ~1.26x the cursor distance under perspective: re-read its screen position
   between drags (``ffd_widget_px`` trigger, display y is bottom-up).
-* Effects are checked from the server side: the editor appends one JSON line per widget callback
-  to the file named by ``FFD_NOTEBOOK_TRACE`` and answers the ``ffd_state`` trigger. Both are
-  test-only hooks: :func:`server_env` turns the triggers on (``FFD_NOTEBOOK_TEST_HOOKS=1``).
+* Effects are checked from the server side: the tests' instrumentation (``tests/editor_instrument.py``,
+  installed by test code: ``serve_instrumented_app.py`` for the app, an IPython startup file for
+  JupyterLab) appends one JSON line per drag event to a trace file and answers the ``ffd_state`` trigger.
 """
 
 from __future__ import annotations
@@ -82,12 +82,10 @@ def free_port() -> int:
 
 
 def server_env(**extra: str) -> dict[str, str]:
-    """The environment for a server under test: the repository importable, EGL rendering, the test-only
-    triggers on, ``extra`` on top."""
+    """The environment for a server under test: the repository importable, EGL rendering, ``extra`` on top."""
     env = dict(os.environ)
     env["PYTHONPATH"] = os.pathsep.join(filter(None, [str(REPO), env.get("PYTHONPATH")]))
     env["VTK_DEFAULT_OPENGL_WINDOW"] = "vtkEGLRenderWindow"
-    env["FFD_NOTEBOOK_TEST_HOOKS"] = "1"
     env.pop("TRAME_ARGS", None)
     env.update(extra)
     return env
@@ -154,6 +152,23 @@ def launch_browser(playwright: Any, profile_dir: str | os.PathLike[str], width: 
 def trigger(frame: Any, name: str) -> Any:
     """Call a trame trigger of the page (or iframe) ``frame`` and return its result."""
     return frame.evaluate(f"window.trame.trigger({json.dumps(name)})")
+
+
+def settled_drag_state(
+    frame: Any, trace: str | os.PathLike[str], n_before: int, timeout: float = 60
+) -> tuple[Any, list]:
+    """``(ffd_state answer, trace records)`` once every drag event counted since ``n_before`` is also traced.
+
+    Events of a finished drag may still be arriving (the server handles them one by one): read both
+    until they agree, never at one instant.
+    """
+
+    def agreed() -> tuple[Any, list] | None:
+        state = trigger(frame, "ffd_state")
+        records = callbacks(trace)
+        return (state, records) if state["n_callbacks"] - n_before == len(records) else None
+
+    return wait_for(agreed, timeout, "the trace to record every drag event the editor counted")
 
 
 def image_frames(frame: Any, t_from: float | None = None, t_to: float | None = None) -> list[dict[str, Any]]:

@@ -17,13 +17,13 @@ import pytest
 import pyvista as pv
 from browser.helpers import (
     ARTIFACTS,
-    callbacks,
     drag_and_measure,
     free_port,
     image_frames,
     launch_browser,
     record_metrics,
     server_env,
+    settled_drag_state,
     stop_process,
     trigger,
     wait_for,
@@ -43,16 +43,20 @@ def save_mesh(page, path: Path):
     return pv.read(path)
 
 
+INSTRUMENTED_APP = Path(__file__).resolve().parent / "serve_instrumented_app.py"
+
+
 @pytest.fixture
 def app(tmp_path: Path):
-    """``python -m ffd_notebook`` on a free port, tracing callbacks; yields (url, trace path, log path)."""
+    """``python -m ffd_notebook`` on a free port, instrumented by test code (serve_instrumented_app.py) to trace
+    drag events; yields (url, trace path, log path)."""
     port = free_port()
     trace = tmp_path / "trace.jsonl"
     log_path = tmp_path / "app.log"
     with open(log_path, "w") as log:
         proc = subprocess.Popen(
-            [sys.executable, "-m", "ffd_notebook", "--port", str(port)],
-            cwd=tmp_path, stdout=log, stderr=subprocess.STDOUT, env=server_env(FFD_NOTEBOOK_TRACE=str(trace)),
+            [sys.executable, str(INSTRUMENTED_APP), str(trace), "--port", str(port)],
+            cwd=tmp_path, stdout=log, stderr=subprocess.STDOUT, env=server_env(),
         )  # fmt: skip
         try:
 
@@ -97,10 +101,9 @@ def test_drag_save_and_upload_in_the_app(app, tmp_path: Path):
             page.screenshot(path=ARTIFACTS / "app_after_drag.png")
 
             # the server side saw it: callbacks for the dragged sphere only, and the mesh moved
-            state1 = trigger(page, "ffd_state")
-            records = callbacks(trace)
+            state1, records = settled_drag_state(page, trace, state0["n_callbacks"])  # (asserts the counts agree)
             assert records and {r["index"] for r in records} == {metrics["widget"]}
-            assert state1["n_callbacks"] == len(records) and state1["offsets_abs_sum"] > 0
+            assert state1["offsets_abs_sum"] > 0
             rest, deformed = pv.read(tmp_path / "rest.vtp"), save_mesh(page, tmp_path / "deformed.vtp")
             moved_by = np.linalg.norm(deformed.points - rest.points, axis=1)
             spacing = (np.ptp(rest.points, axis=0) / 2).min()  # a 5x5x5 B-spline lattice: two cells span the mesh

@@ -2,7 +2,7 @@
 
 JupyterLab runs on 127.0.0.1 with a token and private settings; the test opens a copy of
 ``notebooks/01_quickstart.ipynb``, runs all cells, drags a control-point sphere inside the editor's
-trame iframe, checks from the kernel side (``FFD_NOTEBOOK_TRACE`` file, ``ffd_state`` trigger) that
+trame iframe, checks from the kernel side (trace file, ``ffd_state`` trigger of tests/editor_instrument.py) that
 the callbacks ran and the lattice moved, saves the .ffd through the notebook's panel and checks the
 file. Latency and frame rate go to ``test-artifacts/browser_metrics.json``; screenshots to
 ``test-artifacts/``.
@@ -26,13 +26,13 @@ import pytest
 from browser.helpers import (
     ARTIFACTS,
     REPO,
-    callbacks,
     drag_and_measure,
     free_port,
     image_frames,
     launch_browser,
     record_metrics,
     server_env,
+    settled_drag_state,
     stop_process,
     trigger,
     wait_for,
@@ -68,6 +68,20 @@ def _lab_settings(root: Path) -> Path:
     return root / ".lab-settings"
 
 
+def _instrumenting_ipython_dir(tmp_path: Path, trace: Path) -> Path:
+    """An IPython folder whose startup file instruments the notebook's editors (tests/editor_instrument.py):
+    the quickstart notebook runs unmodified, and the product has no setting that installs test hooks."""
+    ipython = tmp_path / "ipython"
+    startup = ipython / "profile_default" / "startup"
+    startup.mkdir(parents=True)
+    tests = Path(__file__).resolve().parents[1]
+    (startup / "00-instrument.py").write_text(
+        f"import sys\nsys.path.insert(0, {str(tests)!r})\n"
+        f"from editor_instrument import instrument_notebook_editors\ninstrument_notebook_editors({str(trace)!r})\n"
+    )
+    return ipython
+
+
 @pytest.fixture
 def lab(tmp_path: Path):
     """JupyterLab serving a copy of the quickstart notebook (outputs cleared); yields (port, work dir, trace)."""
@@ -80,7 +94,9 @@ def lab(tmp_path: Path):
     nbformat.write(nb, work / NOTEBOOK)
     trace = tmp_path / "trace.jsonl"
     port = free_port()
-    env = server_env(FFD_NOTEBOOK_TRACE=str(trace), JUPYTER_RUNTIME_DIR=str(tmp_path / "runtime"))
+    env = server_env(
+        IPYTHONDIR=str(_instrumenting_ipython_dir(tmp_path, trace)), JUPYTER_RUNTIME_DIR=str(tmp_path / "runtime")
+    )
     env.pop("PYVISTA_JUPYTER_BACKEND", None)  # users' default: the trame backend
     cmd = [
         sys.executable, "-m", "jupyter", "lab", "--no-browser", "--ip=127.0.0.1", f"--port={port}",
@@ -222,10 +238,8 @@ def test_quickstart_notebook_drag_and_save(lab, tmp_path: Path):
             page.screenshot(path=ARTIFACTS / "jupyter_after_drag.png")
 
             # the kernel saw the drag: callbacks for that sphere only, and its offset changed
-            records = callbacks(trace)
+            state1, records = settled_drag_state(frame, trace, state0["n_callbacks"])  # (asserts the counts agree)
             assert records and {r["index"] for r in records} == {metrics["widget"]}
-            state1 = trigger(frame, "ffd_state")
-            assert state1["n_callbacks"] - state0["n_callbacks"] == len(records)
             assert state1["offsets_abs_sum"] != state0["offsets_abs_sum"]
             assert metrics["stepped"]["event_to_frame_ms"] is not None, "no new image after the callbacks"
             assert metrics["paced"]["callbacks"] > 0

@@ -300,3 +300,12 @@ def test_http_answers_during_a_slow_load_and_uploads_go_at_exit(tmp_path):
         stop_process(app.proc)
     assert app.proc.returncode is not None
     assert not list((tmp_path / "tmp").glob("ffd_notebook_upload_*")), "the uploads folder outlived the app"
+
+
+def test_no_setting_installs_state_triggers():
+    """The triggers that hand out internal state exist only in tests/editor_instrument.py, installed by code."""
+    package = Path(__file__).resolve().parents[2] / "ffd_notebook"
+    for path in package.rglob("*.py"):
+        text = path.read_text()
+        assert "ffd_state" not in text and "ffd_widget_px" not in text, path
+        assert "TEST_HOOKS" not in text and "FFD_NOTEBOOK_TRACE" not in text, path

@@ -1,6 +1,6 @@
 """Attacks on the trame server the notebook views start (Editor, GPExplorer, CutViewer), direct and proxied.
 
-The server is started the way a kernel starts it (:func:`ffd_notebook.view.notebook._server_rendered`
+The server is started the way a kernel starts it (:func:`ffd_notebook.view.jupyter.serve_plotter`
 inside a running event loop) in a child process, which prints the iframe's ``src`` and can switch
 PyVista's ``server_proxy_enabled`` on request. The proxied case goes through a real Jupyter server
 with jupyter-server-proxy, like ``/proxy/<port>/`` in JupyterLab.
@@ -24,11 +24,11 @@ VIEW_SERVER = r"""
 import asyncio, json, sys
 import pyvista as pv
 from ffd_notebook.view import Editor
-from ffd_notebook.view.notebook import _server_rendered
+from ffd_notebook.view.jupyter import serve_plotter
 
 async def main():
     editor = Editor(pv.Sphere(), shape=(4, 4, 4), window_size=(200, 150))
-    widget = _server_rendered(editor.plotter)
+    widget = serve_plotter(editor.plotter)
     print(json.dumps({"src": widget.src, "port": widget.viewer.server.port}), flush=True)
     loop = asyncio.get_running_loop()
     while True:  # "proxy on" / "proxy off" from the test: PyVista's server_proxy_enabled, as a user sets it

@@ -1,0 +1,223 @@
+"""The standalone FFD editor: an :class:`~ffd_notebook.view.editor.Editor` in a trame web page.
+
+The page is a Vuetify 3 layout: the plotter's :class:`trame_pyvista.PyVistaRemoteView` (server-side
+rendering, which sphere widgets need) and a side panel with the notebook panel's features. The
+panel only calls Editor methods; the editor tells the panel what changed through
+:meth:`Editor.observe`, so edits made anywhere (drag, panel, undo) show up in both.
+
+Safety (see :mod:`.web_security` and :mod:`.file_root`): the page's address carries a fresh random
+token that the server requires, requests from other sites' pages are refused, paths typed into the
+panel are confined to one root folder (``--root``, default: the current folder), and files can be
+uploaded from and downloaded to the browser instead. The app listens on 127.0.0.1 unless told otherwise.
+
+Run it with ``python -m ffd_notebook [MESH] [--ffd FILE] [--port N] [--root DIR]`` (see
+:mod:`ffd_notebook.__main__`).
+"""
+
+from __future__ import annotations
+
+import atexit
+import os
+import socket
+import time
+from collections.abc import Callable
+from typing import Any
+
+from ..file_root import DEFAULT_MAX_FILE_BYTES, FileRoot
+from ..web_security import AccessPolicy, new_token, protect, url_with_token
+from . import controls as panel_controls
+from .app_files import MESH_FORMATS, AppFilesMixin
+from .app_layout import build_layout
+from .changes import Change
+from .controls import by_key, editor_state, run
+from .editor import Editor
+
+__all__ = ["EditorApp", "run_app"]
+
+# while a sphere is dragged, the panel's X/Y/Z follow at most this often (each sync is a websocket message)
+DRAG_SYNC_S = 0.25
+
+
+class EditorApp(AppFilesMixin):
+    """A trame server showing ``editor`` with a control panel.
+
+    Parameters
+    ----------
+    editor : Editor
+        The editor to serve (the app attaches its view so programmatic changes reach the browser).
+    server : trame server, optional
+        A trame server (``client_type="vue3"``); a new one named ``name`` by default.
+    name : str
+        Name of the new trame server.
+    root : path-like, optional
+        The folder typed paths are confined to (default: the current folder).
+    token : str, optional
+        The session token the page must present (default: a fresh random one).
+    max_file_bytes : int
+        Largest file the app reads or accepts as an upload.
+
+    Examples
+    --------
+    >>> from ffd_notebook.view.editor.app import EditorApp
+    >>> import pyvista as pv
+    >>> from ffd_notebook.view import Editor
+    >>> app = EditorApp(Editor(pv.Sphere(), shape=(4, 4, 4), window_size=(200, 150)), name="doctest_app")
+    >>> app.state.nx, app.state.basis, app.state.can_undo
+    (4, 'bspline', False)
+    >>> app.run("apply", [1, 2, 1, 0.0, 0.0, 0.25])
+    True
+    >>> app.editor.lattice.offsets[1, 2, 1].tolist(), app.state.can_undo
+    ([0.0, 0.0, 0.25], True)
+    >>> app.editor.close()
+    """
+
+    def __init__(
+        self,
+        editor: Editor,
+        server: Any = None,
+        name: str = "ffd_notebook_app",
+        root: str | os.PathLike[str] | None = None,
+        token: str | None = None,
+        max_file_bytes: int = DEFAULT_MAX_FILE_BYTES,
+    ) -> None:
+        from trame.app import get_server
+
+        self.editor = editor
+        self.server = server if server is not None else get_server(name, client_type="vue3")
+        self.state = self.server.state
+        self.files = FileRoot(os.getcwd() if root is None else root, max_bytes=max_file_bytes)
+        self.token = new_token() if token is None else token
+        self.url: str | None = None
+        self._last_drag_sync = 0.0
+        self._scratch = None
+        self._tasks: set[Any] = set()
+        self.controls = [c for c in panel_controls.CONTROLS if "app" in c.panels]
+        self.state.update(self._editor_values())
+        self.state.update({c.key: c.default for c in self.controls if c.default is not None})
+        self.state.update({f"{c.key}_items": [{"value": v, "title": t} for v, t in c.choices] for c in self.controls})
+        self.state.update(
+            trame__title="ffd_notebook editor",
+            root_name=str(self.files.path),
+            ffd_upload=None,
+            mesh_upload=None,
+            mesh_format=MESH_FORMATS[0],
+            mesh_format_items=MESH_FORMATS,
+            busy=False,
+            busy_text="",
+        )
+        for name_, method in (
+            ("ffd_load_ffd", self.load_ffd),
+            ("ffd_save_ffd", self.save_ffd),
+            ("ffd_load_mesh", self.load_mesh),
+            ("ffd_save_mesh", self.save_mesh),
+            ("ffd_download_ffd", self.download_ffd),
+            ("ffd_download_mesh", self.download_mesh),
+        ):
+            self.server.controller.trigger(name_)(method)
+        self.layout, self.view = build_layout(self)
+        editor.scene.views.add(self.view)
+        editor.session.subscribe(self._on_editor_change)
+        for control in self.controls:
+            if control.command is not None and control.kind != "button":  # inputs act when their value changes
+                self.state.change(*control.state)(self._input_handler(control))
+        self.state.change("ffd_upload")(self.receive_ffd_upload)
+        self.state.change("mesh_upload")(self.receive_mesh_upload)
+
+    # ------------------------------------------------------------------ editor -> page
+    def _editor_values(self) -> dict[str, Any]:
+        values = editor_state(self.editor)
+        if "sel_i" not in values and "sel_i" not in self.state:
+            values.update(sel_i=0, sel_j=0, sel_k=0, dx=0.0, dy=0.0, dz=0.0)
+        return values
+
+    def sync(self) -> None:
+        """Copy the editor's state (:func:`.controls.editor_state`) to the page."""
+        with self.state:
+            self.state.update(self._editor_values())
+
+    def _on_editor_change(self, change: Change) -> None:
+        if change.kind == "drag":  # every mouse move: keep the page cheap to update
+            now = time.monotonic()
+            if now - self._last_drag_sync < DRAG_SYNC_S:
+                return
+            self._last_drag_sync = now
+        self.sync()
+
+    # ------------------------------------------------------------------ page -> editor
+    def _input_handler(self, control: Any) -> Any:
+        return lambda **values: self.run(control.key, [values[k] for k in control.state])
+
+    def run(self, key: str, values: list[Any] | None = None) -> bool:
+        """Run the panel control ``key`` (see :data:`.controls.CONTROLS`) with the page's ``values``.
+
+        A failure becomes a message on the page instead of a traceback. File actions go through the
+        app's root folder and a worker thread (their named triggers) instead of the editor's own.
+        """
+        control = by_key(key, self.controls)
+        if control.app_trigger is not None:
+            self.server.controller.trigger_fn(control.app_trigger)(*(values or []))
+            return True
+        ok = run(self.editor, control, values or [])
+        self.sync()
+        return ok
+
+    def reset_camera(self) -> None:
+        """Fit the camera to the scene."""
+        self.editor.plotter.reset_camera()
+        self.view.update()
+
+    # ------------------------------------------------------------------ running
+    def start(self, port: int = 8080, host: str = "127.0.0.1", **kwargs: Any) -> Any:
+        """Serve the page (blocks until the server stops); prints the URL, with its token, once listening.
+
+        The server requires the token and refuses other sites' pages (:func:`.web_security.protect`).
+        """
+        protect(self.server, AccessPolicy(self.token, bind_host=host))
+        shown_host = socket.gethostname() if host in ("0.0.0.0", "::", "") else host
+        if ":" in shown_host:
+            shown_host = f"[{shown_host}]"
+
+        def ready(**_: Any) -> None:
+            self.url = url_with_token(f"http://{shown_host}:{self.server.port}/", self.token)
+            print(f"ffd_notebook editor running at {self.url}", flush=True)
+
+        self.server.controller.on_server_ready.add(ready)
+        kwargs.setdefault("open_browser", False)
+        kwargs.setdefault("show_connection_info", False)
+        kwargs.setdefault("timeout", 0)  # wslink would stop an idle server after 5 minutes
+        return self.server.start(port=port, host=host, **kwargs)
+
+    def close(self) -> None:
+        """Remove the uploads folder and close the editor."""
+        self.cleanup_files()
+        self.editor.close()
+
+
+def run_app(
+    mesh: str | os.PathLike[str] | None = None,
+    ffd: str | os.PathLike[str] | None = None,
+    port: int = 8080,
+    host: str = "127.0.0.1",
+    shape: tuple[int, int, int] = (5, 5, 5),
+    basis: str = "bspline",
+    root: str | os.PathLike[str] | None = None,
+    max_file_bytes: int = DEFAULT_MAX_FILE_BYTES,
+    setup: Callable[[EditorApp], None] | None = None,
+) -> EditorApp:
+    """Build the editor (``mesh`` path or the sample mesh, optional ``ffd`` lattice) and serve it (blocking).
+
+    Typed paths are confined to ``root`` (default: the current folder); uploads are removed at exit.
+    ``setup(app)`` runs before the server starts (a hook for code, e.g. tests' instrumentation).
+    """
+    editor = Editor(mesh, shape=tuple(shape), basis=basis)
+    if ffd is not None:
+        editor.load_ffd(ffd)
+    app = EditorApp(editor, root=root, max_file_bytes=max_file_bytes)
+    if setup is not None:
+        setup(app)
+    atexit.register(app.cleanup_files)  # also when the server ends by a signal or an error
+    try:
+        app.start(port=port, host=host)
+    finally:
+        app.cleanup_files()
+    return app

@@ -1,0 +1,246 @@
+"""The standalone app's file actions: paths inside its root folder, browser uploads and downloads, off the event loop.
+
+Every typed path goes through :class:`~ffd_notebook.view.file_root.FileRoot` (inside the root,
+regular files of bounded size, the right extension to write) and every message the page shows goes
+through :func:`~ffd_notebook.view.file_root.client_message` (no file content, the root-relative
+name). A remote user needs no server path at all: .ffd files and meshes can be uploaded from the
+browser and the lattice and the deformed mesh downloaded to it.
+
+Reading and writing files run in a worker thread (:meth:`AppFilesMixin._in_background`) so the
+event loop keeps answering (HTTP, other clients, the page's own messages) and the page shows a
+progress bar; only installing the result in the editor (VTK objects) runs on the loop. Without a
+running event loop (scripts, unit tests) the same work runs synchronously.
+"""
+
+from __future__ import annotations
+
+import asyncio
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+from ..file_root import (
+    FFD_SUFFIXES,
+    MESH_SUFFIXES,
+    FileRoot,
+    PathRefused,
+    ScratchFolder,
+    client_message,
+    refuse_special_or_oversize,
+)
+
+__all__ = ["MESH_FORMATS", "AppFilesMixin", "upload_bytes"]
+
+MESH_FORMATS = ["obj", "ply", "stl", "vtp"]
+
+
+def upload_bytes(upload: Any) -> tuple[str, bytes] | None:
+    """Name and content of a file from a Vuetify file input (a dict, or a list of one dict).
+
+    Examples
+    --------
+    >>> upload_bytes([{"name": "a.ffd", "content": [b"ab", b"c"]}])
+    ('a.ffd', b'abc')
+    >>> upload_bytes(None) is None
+    True
+    """
+    if isinstance(upload, list):
+        upload = upload[0] if upload else None
+    if not isinstance(upload, dict) or upload.get("content") is None:
+        return None
+    content = upload["content"]
+    if isinstance(content, list):  # large files arrive in chunks
+        content = b"".join(bytes(c) for c in content)
+    return str(upload.get("name") or "upload"), bytes(content)
+
+
+class AppFilesMixin:
+    """File actions of :class:`~ffd_notebook.view.editor.app.EditorApp` (see the module docstring).
+
+    Needs ``self.editor``, ``self.state``, ``self.files`` (a FileRoot) and ``self.sync()``.
+    """
+
+    editor: Any
+    state: Any
+    files: FileRoot
+    _scratch: ScratchFolder | None
+    _tasks: set[Any]
+
+    def sync(self) -> None:  # pragma: no cover - EditorApp's
+        raise NotImplementedError
+
+    # ------------------------------------------------------------------ running work
+    def _report(self, exc: BaseException, shown: str, verb: str) -> None:
+        self.editor.messages.append(f"Error: could not {verb}: {client_message(exc, shown)}")
+        self.sync()
+
+    def _set_busy(self, text: str | None) -> None:
+        with self.state:
+            self.state.busy = text is not None
+            self.state.busy_text = text or ""
+
+    def _in_background(self, what: str, work: Callable[[], Any], done: Callable[[Any], None], shown: str,
+                       verb: str) -> None:  # fmt: skip
+        """Run ``work()`` in a worker thread, then ``done(result)`` on the event loop; errors become messages.
+
+        One file action at a time: a second one while the first runs is refused with a message.
+        """
+        if self.state.busy:
+            self.editor.messages.append(f"Error: still busy ({self.state.busy_text}); try again when it is done")
+            self.sync()
+            return
+        try:
+            loop = asyncio.get_running_loop()
+        except RuntimeError:  # no event loop (a script, a unit test): just do it
+            try:
+                result = work()
+            except Exception as exc:
+                self._report(exc, shown, verb)
+                return
+            self._finish(done, result, shown, verb)
+            return
+
+        async def run() -> None:
+            try:
+                result = await asyncio.to_thread(work)
+            except Exception as exc:
+                self._set_busy(None)
+                self._report(exc, shown, verb)
+                return
+            self._set_busy(None)
+            self._finish(done, result, shown, verb)
+
+        self._set_busy(what)
+        task = loop.create_task(run())
+        self._tasks.add(task)  # keep a reference until it is done
+        task.add_done_callback(self._tasks.discard)
+
+    def _finish(self, done: Callable[[Any], None], result: Any, shown: str, verb: str) -> None:
+        try:
+            done(result)
+        except Exception as exc:
+            self._report(exc, shown, verb)
+            return
+        self.sync()
+
+    def _typed(self, typed: Any, resolve: Callable[[str], Path], verb: str) -> Path | None:
+        """``resolve(typed)`` or None after a message (a refused path never reaches the file system)."""
+        try:
+            return resolve(str(typed if typed is not None else ""))
+        except (PathRefused, OSError) as exc:
+            self._report(exc, str(typed), verb)
+            return None
+
+    # ------------------------------------------------------------------ reading
+    def _read_ffd(self, path: Path, shown: str) -> None:
+        self._in_background(f"reading {shown}", lambda: self.editor.read_ffd_file(path),
+                            lambda result: self.editor.use_ffd(*result, shown), shown, "load")  # fmt: skip
+
+    def _read_mesh(self, path: Path, shown: str) -> None:
+        self._in_background(f"reading {shown}", lambda: self.editor.read_mesh_file(path),
+                            lambda result: self.editor.use_mesh(*result, shown), shown, "load")  # fmt: skip
+
+    def load_ffd(self, path: str) -> None:
+        """Load a .ffd file from a path in the app's folder."""
+        target = self._typed(path, self.files.for_reading, "load")
+        if target is not None:
+            self._read_ffd(target, self.files.shown(target))
+
+    def load_mesh(self, path: str) -> None:
+        """Load a mesh (OBJ, PLY, VTP, STL, ...) from a path in the app's folder."""
+        target = self._typed(path, self.files.for_reading, "load")
+        if target is not None:
+            self._read_mesh(target, self.files.shown(target))
+
+    # ------------------------------------------------------------------ writing
+    def save_ffd(self, path: str) -> None:
+        """Save the lattice to a .ffd file in the app's folder (atomically)."""
+        from ...io import save_ffd
+
+        target = self._typed(path, lambda p: self.files.for_writing(p, FFD_SUFFIXES), "save")
+        if target is not None:
+            lattice, shown = self.editor.lattice.copy(), self.files.shown(target)
+            self._in_background(f"writing {shown}", lambda: save_ffd(target, lattice),
+                                lambda _: self.editor.messages.append(f"saved the lattice to {shown}"), shown,
+                                "save")  # fmt: skip
+
+    def save_mesh(self, path: str) -> None:
+        """Save the deformed mesh in the app's folder (format from the extension, atomically)."""
+        from ...io import write_mesh
+
+        target = self._typed(path, lambda p: self.files.for_writing(p, MESH_SUFFIXES), "save")
+        if target is not None:
+            mesh, shown = self.editor.deformed_mesh, self.files.shown(target)
+            self._in_background(f"writing {shown}", lambda: write_mesh(target, mesh),
+                                lambda _: self.editor.messages.append(f"saved the deformed mesh to {shown}"),
+                                shown, "save")  # fmt: skip
+
+    # ------------------------------------------------------------------ the browser's files
+    def _scratch_file(self, name: str) -> Path:
+        if self._scratch is None:
+            self._scratch = ScratchFolder()
+        return self._scratch.file(name)
+
+    def _receive(self, upload: Any, suffixes: tuple[str, ...], key: str) -> tuple[Path, str] | None:
+        """Store an uploaded file in the scratch folder; None (after a message) if refused."""
+        received = upload_bytes(upload)
+        self.state[key] = None
+        if received is None:
+            return None
+        name, content = received
+        shown = f"{Path(name).name} (uploaded)"
+        try:
+            if Path(name).suffix.lower() not in suffixes:
+                raise PathRefused(f"{Path(name).name!r}: expected a file ending with {', '.join(suffixes)}")
+            if len(content) > self.files.max_bytes:
+                raise PathRefused(f"{Path(name).name!r} is bigger than the limit of "
+                                  f"{self.files.max_bytes / 2**20:.0f} MiB")  # fmt: skip
+            target = self._scratch_file(name)
+            target.write_bytes(content)
+            refuse_special_or_oversize(target, self.files.max_bytes)
+        except (PathRefused, OSError) as exc:
+            self._report(exc, shown, "load")
+            return None
+        return target, shown
+
+    def receive_ffd_upload(self, ffd_upload: Any, **_: Any) -> None:
+        """A .ffd file arrived from the browser's file input: load it."""
+        received = self._receive(ffd_upload, FFD_SUFFIXES, "ffd_upload")
+        if received is not None:
+            self._read_ffd(*received)
+
+    def receive_mesh_upload(self, mesh_upload: Any, **_: Any) -> None:
+        """A mesh arrived from the browser's file input: load it."""
+        received = self._receive(mesh_upload, MESH_SUFFIXES, "mesh_upload")
+        if received is not None:
+            self._read_mesh(*received)
+
+    async def _written_bytes(self, name: str, write: Callable[[Path], None]) -> bytes:
+        target = self._scratch_file(name)
+        try:
+            await asyncio.to_thread(write, target)
+            return target.read_bytes()
+        finally:
+            target.unlink(missing_ok=True)
+
+    async def download_ffd(self) -> bytes:
+        """The lattice as the bytes of a .ffd file (the page's download button saves them in the browser)."""
+        from ...io import save_ffd
+
+        lattice = self.editor.lattice.copy()
+        return await self._written_bytes("download.ffd", lambda path: save_ffd(path, lattice))
+
+    async def download_mesh(self, fmt: str = "obj") -> bytes:
+        """The deformed mesh as the bytes of a ``fmt`` file (one of :data:`MESH_FORMATS`)."""
+        from ...io import write_mesh
+
+        if fmt not in MESH_FORMATS:
+            raise ValueError(f"mesh format must be one of {MESH_FORMATS}")
+        mesh = self.editor.deformed_mesh
+        return await self._written_bytes(f"download.{fmt}", lambda path: write_mesh(path, mesh))
+
+    def cleanup_files(self) -> None:
+        """Remove the folder of uploads and downloads (at exit)."""
+        if self._scratch is not None:
+            self._scratch.cleanup()
+            self._scratch = None

@@ -1,0 +1,201 @@
+"""The standalone app's page: a Vuetify 3 side panel built from :data:`.controls.CONTROLS`, next to the remote view.
+
+Every button passes the values it needs as arguments (``click=(app.run, "['apply', [sel_i, ...]]")``),
+so an action never runs with a text field's previous value; file buttons call the app's named
+triggers (root folder, worker thread). Element ids (``ffd-save``, ``ffd-path``, ``ffd-view``, ...) are
+stable: the browser tests use them. The uploads, downloads and the progress bar are the app's own
+(a notebook reads files from the kernel's folder).
+"""
+
+from __future__ import annotations
+
+import re
+from typing import Any
+
+from .controls import Control
+
+__all__ = ["build_layout"]
+
+_FIELD = {"density": "compact", "hide_details": True, "variant": "outlined"}
+_COLS = {"button": 4, "choice": 6, "switch": 6, "slider": 8, "text": 12, "label": 12, "messages": 12}
+_DOWNLOAD_MESH = "utils.download('deformed.' + mesh_format, trigger('ffd_download_mesh', [mesh_format]))"
+_HINTS = {"Control point": "Control point (drag a sphere or type)"}
+
+
+def _section(title: str, first: bool = False) -> None:
+    from trame.widgets import vuetify3 as v
+
+    if not first:
+        v.VDivider(classes="my-2")
+    v.VListSubheader(title, classes="px-0")
+
+
+def _control(app: Any, control: Control) -> None:
+    """The Vuetify widgets of one control (inside a VRow)."""
+    from trame.widgets import vuetify3 as v
+
+    kind, ident = control.kind, control.dom_id
+    if kind in ("ints", "floats"):
+        labels = [k[-1] if control.limits else k for k in control.state]
+        for i, (name, label) in enumerate(zip(control.state, labels, strict=True)):
+            extra: dict[str, Any] = {"min": 2} if kind == "ints" else {}
+            if control.limits:
+                extra = {"min": 0, "max": (control.limits[i],)}
+            with v.VCol(cols=4):
+                v.VTextField(
+                    v_model=(name,),
+                    label=label,
+                    type="number",
+                    step="1" if kind == "ints" else "any",
+                    id=f"ffd-{name}",
+                    **_FIELD,
+                    **extra,
+                )
+        return
+    with v.VCol(cols=_COLS.get(kind, 12)):
+        if kind == "button":
+            args = f"[{', '.join(control.args)}]"
+            click: Any = (app.run, f"['{control.key}', {args}]")
+            if control.app_trigger:
+                click = f"trigger('{control.app_trigger}', {args})"
+            disabled = ("busy",) if control.app_trigger else ((f"!{control.enabled}",) if control.enabled else False)
+            v.VBtn(control.label, click=click, block=True, size="small", id=ident, disabled=disabled)
+        elif kind == "choice":
+            items = (f"{control.key}_items",)
+            v.VSelect(v_model=(control.state[0],), items=items, label=control.label, id=ident, **_FIELD)
+        elif kind == "switch":
+            disabled = (f"!{control.enabled}",) if control.enabled else False
+            v.VSwitch(
+                v_model=(control.state[0],), label=control.label, disabled=disabled, id=ident, color="primary", **_FIELD
+            )
+        elif kind == "text":
+            v.VTextField(v_model=(control.key,), label=control.label, id=ident, classes="mt-1", **_FIELD)
+        elif kind == "slider":
+            v.VSlider(
+                v_model=(control.key,),
+                min=0,
+                max=0.95,
+                step=0.05,
+                label=control.label,
+                thumb_label=True,
+                hide_details=True,
+                density="compact",
+                id=ident,
+            )
+        elif kind == "label":
+            v.VLabel(re.sub(r"\{(\w+)\}", r"{{ \1 }}", control.label), classes="text-caption", id=ident)
+        elif kind == "messages":
+            with v.VContainer(classes="pa-0", id=ident):
+                v.VAlert(
+                    v_for="(m, i) in messages",
+                    key="i",
+                    text=("m.text",),
+                    type=("m.error ? 'error' : 'info'",),
+                    density="compact",
+                    variant="tonal",
+                    classes="mb-1 text-caption",
+                )
+
+
+def _controls(app: Any, controls: list[Control]) -> None:
+    """The drawer: one section per control section, one VRow per (section, row)."""
+    from trame.widgets import html
+    from trame.widgets import vuetify3 as v
+
+    sections: dict[str, dict[int, list[Control]]] = {}
+    for control in controls:
+        sections.setdefault(control.section, {}).setdefault(control.row, []).append(control)
+    for n, (section, rows) in enumerate(sections.items()):
+        _section(_HINTS.get(section, section), first=n == 0)
+        if section == "Files":
+            html.Div("in {{ root_name }} on the server", classes="text-caption", id="ffd-root")
+        for row in rows.values():
+            with v.VRow(dense=True, classes="mt-1", align="center"):
+                for control in row:
+                    _control(app, control)
+        if section == "Files":
+            _browser_files()
+
+
+def _browser_files() -> None:
+    """Upload from and download to the browser: no server path needed."""
+    from trame.widgets import html
+    from trame.widgets import vuetify3 as v
+
+    _section("Your computer's files")
+    v.VFileInput(
+        v_model=("ffd_upload",),
+        label="upload a .ffd",
+        accept=".ffd,.FFD",
+        id="ffd-upload",
+        prepend_icon="",
+        classes="mt-2",
+        disabled=("busy",),
+        **_FIELD,
+    )
+    v.VFileInput(
+        v_model=("mesh_upload",),
+        label="upload a mesh",
+        accept=".obj,.ply,.stl,.vtp,.vtk,.vtu",
+        id="ffd-mesh-upload",
+        prepend_icon="",
+        classes="mt-2",
+        disabled=("busy",),
+        **_FIELD,
+    )
+    with v.VRow(dense=True, classes="mt-1", align="center"):
+        with v.VCol(cols=4):
+            v.VBtn(
+                "lattice",
+                click="utils.download('lattice.ffd', trigger('ffd_download_ffd'), 'text/plain')",
+                block=True,
+                size="small",
+                id="ffd-download",
+                prepend_icon="mdi-download",
+            )
+        with v.VCol(cols=4):
+            v.VBtn(
+                "mesh",
+                block=True,
+                size="small",
+                id="ffd-download-mesh",
+                prepend_icon="mdi-download",
+                click=_DOWNLOAD_MESH,
+            )
+        with v.VCol(cols=4):
+            v.VSelect(v_model=("mesh_format",), items=("mesh_format_items",), id="ffd-mesh-format", **_FIELD)
+    v.VProgressLinear(indeterminate=True, v_show=("busy",), classes="mt-2", id="ffd-busy", color="primary")
+    html.Div("{{ busy_text }}", v_show=("busy",), classes="text-caption")
+
+
+def build_layout(app: Any) -> tuple[Any, Any]:
+    """Build the page for ``app`` (an :class:`~ffd_notebook.view.editor.app.EditorApp`); return (layout, view)."""
+    from trame.ui.vuetify3 import SinglePageWithDrawerLayout
+    from trame.widgets import html
+    from trame.widgets import vuetify3 as v
+    from trame_pyvista import PyVistaRemoteView
+
+    toolbar = [c for c in app.controls if c.section == "toolbar"]
+    with SinglePageWithDrawerLayout(app.server, width=340) as layout:
+        layout.title.set_text("FFD editor")
+        with layout.toolbar:
+            v.VSpacer()
+            for control in toolbar:
+                disabled = (f"!{control.enabled}",) if control.enabled else False
+                v.VBtn(
+                    control.label,
+                    click=(app.run, f"['{control.key}', []]"),
+                    disabled=disabled,
+                    variant="text",
+                    id=control.dom_id,
+                )
+            v.VBtn("Fit view", click=app.reset_camera, variant="text", id="ffd-fit")
+        with layout.drawer:
+            with v.VContainer(classes="pa-3"):
+                _controls(app, [c for c in app.controls if c.section != "toolbar"])
+        with layout.content:
+            with v.VContainer(fluid=True, classes="pa-0 fill-height"):
+                with html.Div(id="ffd-view", style="width: 100%; height: 100%; position: relative;"):
+                    # same ratio still and moving: the image is never re-scaled mid-drag
+                    view = PyVistaRemoteView(app.editor.plotter, interactive_ratio=1, still_ratio=1)
+    return layout, view

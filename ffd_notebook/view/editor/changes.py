@@ -1,0 +1,101 @@
+"""What an editing session tells its views: one :class:`Change` per command, to every subscriber.
+
+This is the editor's single change-notification path from the model outward. The session is the
+only writer of the lattice's offsets inside the editor, and every command knows which control
+points it wrote: it says so in :attr:`Change.points`, so no view ever compares copies of the offsets.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Literal
+
+import numpy as np
+from numpy.typing import NDArray
+
+__all__ = ["KINDS", "Change", "Subscribers"]
+
+Kind = Literal["drag", "offsets", "lattice", "mesh", "select", "display", "message"]
+#: ``"drag"``: offsets changed while a handle is held (the handle is already where the mouse is);
+#: ``"offsets"``: a finished offsets edit; ``"lattice"``: a new lattice (or basis); ``"mesh"``: a new
+#: mesh; ``"select"``: the selected control point; ``"display"``: coloring; ``"message"``: a new message.
+KINDS: tuple[str, ...] = ("drag", "offsets", "lattice", "mesh", "select", "display", "message")
+
+
+@dataclass(frozen=True)
+class Change:
+    """What one session command changed.
+
+    Attributes
+    ----------
+    kind : str
+        One of :data:`KINDS`.
+    points : numpy.ndarray or None
+        For ``"drag"`` and ``"offsets"``: flat C-order indices of the control points whose offsets
+        changed (the row of ``lattice.offsets.reshape(-1, 3)``, the sphere widget's index); ``None``
+        means all of them.
+    label : str
+        The command (``"drag"``, ``"move"``, ``"reset"``, ``"code"``, ``"undo"``, ``"load mesh"``...).
+    started : float
+        :func:`time.perf_counter` when the command began (callback timing).
+
+    Examples
+    --------
+    >>> Change("offsets", points=[3, 1], label="reset").points.tolist()
+    [3, 1]
+    """
+
+    kind: Kind
+    points: NDArray[np.intp] | None = None
+    label: str = ""
+    started: float = field(default_factory=time.perf_counter)
+
+    def __post_init__(self) -> None:
+        if self.kind not in KINDS:
+            raise ValueError(f"kind must be one of {KINDS}, got {self.kind!r}")
+        if self.points is not None:
+            object.__setattr__(self, "points", np.asarray(self.points, dtype=np.intp).reshape(-1))
+
+
+class Subscribers:
+    """Callbacks that follow a session, called in subscription order.
+
+    A callback that raises does not stop the others: ``report(text)`` receives
+    ``"Error: a view failed to follow the editor: ..."`` (the session appends it to its messages
+    without a new notification, so a failing view cannot recurse).
+
+    Examples
+    --------
+    >>> seen, errors = [], []
+    >>> subs = Subscribers(errors.append)
+    >>> stop = subs.add(lambda c: seen.append(c.kind))
+    >>> _ = subs.add(lambda c: 1 / 0)
+    >>> subs.emit(Change("select"))
+    >>> seen, errors[0][:45]
+    (['select'], 'Error: a view failed to follow the editor: Ze')
+    >>> stop(); subs.emit(Change("select")); seen
+    ['select']
+    """
+
+    def __init__(self, report: Callable[[str], None]) -> None:
+        self._callbacks: list[Callable[[Change], None]] = []
+        self._report = report
+
+    def add(self, callback: Callable[[Change], None]) -> Callable[[], None]:
+        """Subscribe ``callback``; returns a function that unsubscribes it."""
+        self._callbacks.append(callback)
+        return lambda: self._callbacks.remove(callback) if callback in self._callbacks else None
+
+    def emit(self, change: Change) -> None:
+        """Tell every subscriber about ``change``."""
+        for callback in list(self._callbacks):
+            try:
+                callback(change)
+            except Exception as exc:
+                self._report(f"Error: a view failed to follow the editor: {exc!r}")
+
+    def clear(self) -> None:
+        """Unsubscribe everybody (the editor is closing)."""
+        self._callbacks.clear()

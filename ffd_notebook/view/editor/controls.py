@@ -1,0 +1,397 @@
+"""The editor's panel controls, described once: both panels (Jupyter and the standalone app) render these.
+
+A new control is one :class:`Control` entry in :data:`CONTROLS` (plus the editor command it calls,
+if that is new): the notebook panel (:mod:`.notebook_panel`) and the app's page (:mod:`.app_layout`)
+build their widgets from it, :func:`editor_state` is the one mapping from the editor to what the
+controls show, and :func:`run` the one way a control acts on the editor.
+
+Values typed in a panel arrive as they are (text fields send strings): each control's ``parse``
+turns them into the command's arguments and names the field in its error (``"displacement x must
+be a number, got 'abc'"``).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from ...basis import BASES
+
+if TYPE_CHECKING:
+    from .editor import Editor
+
+__all__ = [
+    "BASIS_CHOICES",
+    "CONTROLS",
+    "FIELD_CHOICES",
+    "N_MESSAGES",
+    "Control",
+    "by_key",
+    "editor_state",
+    "number",
+    "numbers",
+    "run",
+]
+
+N_MESSAGES = 5  # messages the panels list (newest first)
+BOTH = frozenset({"notebook", "app"})
+
+
+def number(value: Any, what: str, kind: type = float) -> Any:
+    """``value`` from a text field as ``kind``; a ValueError naming the field otherwise.
+
+    Examples
+    --------
+    >>> number("2", "size", int), number(0.5, "reduction")
+    (2, 0.5)
+    >>> number("abc", "displacement x")
+    Traceback (most recent call last):
+    ...
+    ValueError: displacement x must be a number, got 'abc'
+    """
+    try:
+        parsed = float(value)
+        if not np.isfinite(parsed) or (kind is int and parsed != int(parsed)):
+            raise ValueError
+    except (TypeError, ValueError):
+        raise ValueError(f"{what} must be {'a whole number' if kind is int else 'a number'}, got {value!r}") from None
+    return kind(parsed)
+
+
+def numbers(values: Sequence[Any], what: str, kind: type = float) -> tuple[Any, ...]:
+    """Three numbers from three fields (``what`` names them, e.g. ``"lattice size"``: x, y, z).
+
+    Examples
+    --------
+    >>> numbers(["4", "5", "6"], "lattice size", int)
+    (4, 5, 6)
+    """
+    values = list(values) if isinstance(values, (list, tuple)) else [values]
+    if len(values) != 3:
+        raise ValueError(f"{what} needs three values, got {values!r}")
+    return tuple(number(v, f"{what} {axis}", kind) for v, axis in zip(values, "xyz", strict=True))
+
+
+def _as_is(values: Sequence[Any]) -> tuple[Any, ...]:
+    return tuple(values)
+
+
+@dataclass(frozen=True)
+class Control:
+    """One control of the editor's panels.
+
+    Attributes
+    ----------
+    key : str
+        Its name: the notebook panel's attribute (``f"{key}_button"`` for buttons), the app's
+        element id ``f"ffd-{key}"`` with dashes (unless ``element_id``), its css class in Jupyter.
+    kind : str
+        ``"ints"``/``"floats"`` (three fields), ``"choice"``, ``"switch"``, ``"text"``, ``"slider"``,
+        ``"button"``, ``"label"`` (text from the state) or ``"messages"``.
+    label : str
+        What the panels show (a button's text; a label's template with ``{state_key}`` fields).
+    section : str
+        ``"Lattice"``, ``"Control point"``, ``"Files"``, ``"Display"`` or ``"toolbar"``.
+    state : tuple of str
+        Keys of :func:`editor_state` (or panel values) the control shows or edits.
+    command : str, optional
+        The :class:`~.editor.Editor` method it calls: on click for buttons, on change for inputs.
+    args : tuple of str
+        State keys whose values a button passes to ``command`` (through ``parse``).
+    parse : callable
+        Panel values -> the command's arguments; raises ValueError naming the field.
+    choices : tuple of (value, label)
+        A choice's options.
+    enabled : str, optional
+        State key that enables the control.
+    limits : tuple of str
+        State keys of the fields' maxima.
+    default : object
+        A panel value's initial value.
+    row : int
+        Controls of a section with the same row share one line.
+    panels : frozenset of str
+        Where it appears: ``"notebook"``, ``"app"``.
+    element_id : str, optional
+        The app's element id, to keep one the browser tests and users already know.
+    app_trigger : str, optional
+        In the app, a named trigger runs the command instead (file actions: root folder, worker thread).
+    """
+
+    key: str
+    kind: str
+    label: str
+    section: str
+    state: tuple[str, ...] = ()
+    command: str | None = None
+    args: tuple[str, ...] = ()
+    parse: Callable[[Sequence[Any]], tuple[Any, ...]] = _as_is
+    choices: tuple[tuple[str, str], ...] = ()
+    enabled: str | None = None
+    limits: tuple[str, ...] = ()
+    default: Any = None
+    placeholder: str = ""
+    tooltip: str = ""
+    row: int = 0
+    panels: frozenset[str] = BOTH
+    element_id: str | None = None
+    app_trigger: str | None = None
+
+    @property
+    def dom_id(self) -> str:
+        """The app's element id."""
+        return self.element_id or f"ffd-{self.key.replace('_', '-')}"
+
+
+BASIS_CHOICES = tuple((b, b) for b in BASES)
+# ipywidgets shows a ``None`` value as an empty dropdown: the panels use "none" for "no field"
+FIELD_CHOICES = (("none", "mesh colours"), ("displacement", "|displacement|"), ("jacobian", "folding (det J <= 0)"))
+_IJK, _XYZ = ("sel_i", "sel_j", "sel_k"), ("dx", "dy", "dz")
+
+
+def _index_and_vector(values: Sequence[Any]) -> tuple[Any, ...]:
+    return numbers(values[:3], "index", int), numbers(values[3:], "displacement")
+
+
+CONTROLS: tuple[Control, ...] = (
+    Control("undo", "button", "Undo", "toolbar", command="undo", enabled="can_undo", tooltip="Undo the last change"),
+    Control("redo", "button", "Redo", "toolbar", command="redo", enabled="can_redo", tooltip="Redo"),
+    Control("shape", "ints", "points per axis", "Lattice", state=("nx", "ny", "nz")),
+    Control(
+        "rebuild",
+        "button",
+        "Rebuild",
+        "Lattice",
+        command="set_shape",
+        args=("nx", "ny", "nz"),
+        parse=lambda v: (numbers(v, "lattice size", int),),
+        tooltip="Fit a new lattice of this size around the mesh",
+    ),
+    Control("basis", "choice", "basis", "Lattice", state=("basis",), command="set_basis", choices=BASIS_CHOICES, row=1),
+    Control(
+        "ijk",
+        "ints",
+        "i, j, k",
+        "Control point",
+        state=_IJK,
+        command="select",
+        limits=("max_i", "max_j", "max_k"),
+        parse=lambda v: (numbers(v, "index", int),),
+        row=0,
+    ),
+    Control("xyz", "floats", "displacement", "Control point", state=_XYZ, row=1),
+    Control(
+        "apply",
+        "button",
+        "Apply",
+        "Control point",
+        command="move_control_point",
+        args=_IJK + _XYZ,
+        parse=_index_and_vector,
+        row=2,
+        tooltip="Set the displacement of control point (i, j, k)",
+    ),
+    Control(
+        "reset_point",
+        "button",
+        "Reset point",
+        "Control point",
+        command="reset",
+        args=_IJK,
+        parse=lambda v: (numbers(v, "index", int),),
+        row=2,
+        tooltip="Zero this control point's displacement",
+    ),
+    Control(
+        "reset_all", "button", "Reset all", "Control point", command="reset", row=2, tooltip="Zero every displacement"
+    ),
+    Control(
+        "moved_points",
+        "label",
+        "{moved_points} control point(s) moved",
+        "Control point",
+        state=("moved_points",),
+        row=3,
+    ),
+    Control(
+        "ffd_path",
+        "text",
+        ".ffd file",
+        "Files",
+        default="lattice.ffd",
+        placeholder="path/to/lattice.ffd",
+        element_id="ffd-path",
+    ),
+    Control(
+        "load_ffd",
+        "button",
+        "Load .ffd",
+        "Files",
+        command="load_ffd",
+        args=("ffd_path",),
+        element_id="ffd-load",
+        app_trigger="ffd_load_ffd",
+        tooltip="Load a lattice file",
+    ),
+    Control(
+        "save_ffd",
+        "button",
+        "Save .ffd",
+        "Files",
+        command="save_ffd",
+        args=("ffd_path",),
+        element_id="ffd-save",
+        app_trigger="ffd_save_ffd",
+        tooltip="Save the lattice",
+    ),
+    Control(
+        "mesh_path", "text", "mesh to load", "Files", default="", placeholder="mesh.obj / .ply / .vtp / ...", row=1
+    ),
+    Control(
+        "load_mesh",
+        "button",
+        "Load mesh",
+        "Files",
+        command="load_mesh",
+        args=("mesh_path",),
+        row=1,
+        app_trigger="ffd_load_mesh",
+        tooltip="Load a mesh (OBJ with colours, PLY, VTP, STL, anything PyVista reads)",
+    ),
+    Control("mesh_save_path", "text", "save deformed mesh as", "Files", default="deformed.obj", row=2),
+    Control(
+        "save_mesh",
+        "button",
+        "Save mesh",
+        "Files",
+        command="save_mesh",
+        args=("mesh_save_path",),
+        row=2,
+        app_trigger="ffd_save_mesh",
+        tooltip="Save the deformed mesh: OBJ keeps colours; PLY, VTP, STL...",
+    ),
+    Control(
+        "colors",
+        "switch",
+        "vertex colours",
+        "Display",
+        state=("colors",),
+        command="show_colors",
+        enabled="has_colors",
+        parse=lambda v: (bool(v[0]),),
+    ),
+    Control(
+        "field",
+        "choice",
+        "colour by",
+        "Display",
+        state=("field",),
+        command="set_field",
+        choices=FIELD_CHOICES,
+        parse=lambda v: (None if v[0] in (None, "none") else v[0],),
+    ),
+    Control("reduction", "slider", "decimate", "Display", default=0.5, row=1),
+    Control(
+        "decimate",
+        "button",
+        "Decimate",
+        "Display",
+        command="decimate",
+        args=("reduction",),
+        row=1,
+        parse=lambda v: (number(v[0], "the reduction"),),
+        tooltip="Remove this fraction of the faces, keeping colours (0 restores the mesh)",
+    ),
+    Control("mesh_info", "label", "{mesh_info}", "Display", state=("mesh_info",), row=2),
+    Control("message", "messages", "Messages", "Display", state=("messages",), row=3, element_id="ffd-messages"),
+)
+
+
+def by_key(key: str, controls: Sequence[Control] | None = None) -> Control:
+    """The control named ``key``."""
+    for control in CONTROLS if controls is None else controls:
+        if control.key == key:
+            return control
+    raise KeyError(f"no control {key!r}")
+
+
+def editor_state(editor: Editor) -> dict[str, Any]:
+    """What the controls show, from the editor: THE mapping both panels use.
+
+    The selection's index and displacement (``sel_i``..., ``dx``...) are included when a control
+    point is selected. ``field`` is ``"none"`` for no field; ``messages`` lists the newest
+    :data:`N_MESSAGES`, newest first, as ``{"text", "error"}``.
+
+    Examples
+    --------
+    >>> import pyvista as pv
+    >>> from ffd_notebook.view import Editor
+    >>> editor = Editor(pv.Sphere(), shape=(4, 5, 4), window_size=(100, 80))
+    >>> state = editor_state(editor)
+    >>> state["nx"], state["ny"], state["max_j"], state["field"], "sel_i" in state
+    (4, 5, 4, 'none', False)
+    >>> editor.close()
+    """
+    shape = editor.lattice.shape
+    state: dict[str, Any] = {
+        **dict(zip(("nx", "ny", "nz"), shape, strict=True)),
+        **dict(zip(("max_i", "max_j", "max_k"), (n - 1 for n in shape), strict=True)),
+        "basis": editor.basis,
+        "colors": editor.colors_shown,
+        "has_colors": editor.has_colors,
+        "field": editor.field or "none",
+        "can_undo": editor.can_undo,
+        "can_redo": editor.can_redo,
+        "has_selection": editor.selected is not None,
+        "mesh_info": f"{editor.mesh.n_points} vertices, {editor.mesh.n_cells} faces",
+        "moved_points": int(np.any(editor.lattice.offsets != 0, axis=-1).sum()),
+        "messages": [{"text": t, "error": t.startswith("Error")} for t in list(editor.messages)[-N_MESSAGES:][::-1]],
+    }
+    if editor.selected is not None:
+        state.update(zip(_IJK, editor.selected, strict=True))
+        state.update(zip(_XYZ, (float(f"{v:.6g}") for v in editor.lattice.offsets[editor.selected]), strict=True))
+    return state
+
+
+def run(editor: Editor, control: Control, values: Sequence[Any]) -> bool:
+    """Run ``control`` with the panel's ``values`` on ``editor``; False if it failed (then a message says why).
+
+    Inputs bound to state (basis, selection, colors, field) do nothing when the editor already
+    shows the value, and ignore a value that does not parse yet (a half-typed number).
+
+    Examples
+    --------
+    >>> import pyvista as pv
+    >>> from ffd_notebook.view import Editor
+    >>> editor = Editor(pv.Sphere(), shape=(4, 4, 4), window_size=(100, 80))
+    >>> run(editor, by_key("apply"), ["1", "2", "1", "0", "0", "0.25"])
+    True
+    >>> editor.lattice.offsets[1, 2, 1].tolist()
+    [0.0, 0.0, 0.25]
+    >>> run(editor, by_key("apply"), [1, 2, 1, "abc", 0, 0]), editor.messages[-1]
+    (False, "Error: displacement x must be a number, got 'abc'")
+    >>> editor.close()
+    """
+    if control.command is None:
+        return True
+    is_input = control.kind != "button"
+    try:
+        args = control.parse(list(values))
+    except ValueError as exc:
+        if is_input:
+            return False  # half-typed: wait for the rest
+        return editor.attempt(_raise, exc)
+    if is_input and control.state:
+        shown = editor_state(editor)
+        current = [shown.get(k) for k in control.state]
+        wanted = list(args[0]) if control.kind in ("ints", "floats") else [values[0]]
+        if current == wanted or (control.kind == "switch" and current == [bool(values[0])]):
+            return True
+    return editor.attempt(getattr(editor, control.command), *args)
+
+
+def _raise(exc: Exception) -> None:
+    raise exc

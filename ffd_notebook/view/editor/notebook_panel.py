@@ -1,0 +1,190 @@
+"""The editor's control panel for Jupyter (ipywidgets), built from :data:`.controls.CONTROLS`.
+
+Every control calls one :class:`~ffd_notebook.view.editor.Editor` method through
+:func:`.controls.run`; the panel has no logic of its own. It follows the editor's session: dragging a
+sphere selects that control point here and shows its displacement in the X/Y/Z fields, undo/redo
+buttons are enabled when there is something to undo/redo, and the last message (errors in red) is
+shown at the bottom. What each control shows comes from :func:`.controls.editor_state`.
+"""
+
+from __future__ import annotations
+
+import html
+from collections.abc import Sequence
+from typing import TYPE_CHECKING, Any
+
+import ipywidgets as widgets
+
+from . import controls as panel_controls
+from .changes import Change
+from .controls import Control, editor_state, run
+
+if TYPE_CHECKING:
+    from .editor import Editor
+
+__all__ = ["ControlPanel"]
+
+PANEL_WIDTH = "410px"
+SECTION_TITLES = {
+    "toolbar": "",
+    "Lattice": "<b>Lattice</b>",
+    "Control point": "<b>Control point</b> <small>(drag a sphere, or pick one and type)</small>",
+    "Files": "<b>Files</b>",
+    "Display": "<b>Display</b>",
+}
+ICONS = {"undo": "undo", "redo": "repeat"}
+WIDTHS = {"ints": "58px", "floats": "84px", "choice": "170px"}
+
+
+def _stretch() -> widgets.Layout:
+    """A field that takes the room its row leaves."""
+    return widgets.Layout(flex="1 1 auto", width="auto", min_width="90px")
+
+
+def _label(text: str) -> widgets.Label:
+    return widgets.Label(text, layout=widgets.Layout(width="104px", flex="0 0 auto"))
+
+
+class ControlPanel(widgets.VBox):
+    """ipywidgets panel bound to an :class:`Editor`.
+
+    Attributes are named after the controls' keys (``panel.ijk``, ``panel.xyz``, ``panel.basis``,
+    ``panel.ffd_path``...; buttons ``panel.apply_button``, ``panel.undo_button``...).
+
+    Parameters
+    ----------
+    editor : Editor
+        The editor the controls act on.
+    controls : sequence of Control, optional
+        What to show (default: :data:`.controls.CONTROLS`, those meant for the notebook).
+
+    Examples
+    --------
+    >>> import pyvista as pv
+    >>> from ffd_notebook.view import Editor, ControlPanel
+    >>> editor = Editor(pv.Sphere(), shape=(4, 4, 4), window_size=(200, 150))
+    >>> panel = ControlPanel(editor)
+    >>> panel.ijk[0].value, panel.ijk[1].value, panel.ijk[2].value = 1, 2, 1
+    >>> panel.xyz[2].value = 0.25
+    >>> panel.apply_button.click()
+    >>> editor.lattice.offsets[1, 2, 1].tolist()
+    [0.0, 0.0, 0.25]
+    >>> editor.close()
+    """
+
+    def __init__(self, editor: Editor, controls: Sequence[Control] | None = None) -> None:
+        self.editor = editor
+        controls = panel_controls.CONTROLS if controls is None else controls
+        self.controls = [c for c in controls if "notebook" in c.panels]
+        self._syncing = False
+        self._fields: dict[str, Any] = {}  # value key (state key or control key) -> widget
+        self._widgets: dict[str, Any] = {}  # control key -> widget or list of widgets
+        rows: dict[tuple[str, int], list[widgets.Widget]] = {}
+        for control in self.controls:
+            rows.setdefault((control.section, control.row), []).extend(self._build(control))
+        children: list[widgets.Widget] = []
+        for section in dict.fromkeys(section for section, _ in rows):
+            if SECTION_TITLES.get(section, section):
+                children.append(widgets.HTML(SECTION_TITLES.get(section, f"<b>{section}</b>")))
+            children += [widgets.HBox(row) for (s, _), row in rows.items() if s == section]
+        super().__init__(children, layout=widgets.Layout(padding="0 0 0 12px", width=PANEL_WIDTH, flex="0 0 auto"))
+        self.add_class("ffd-panel")
+        editor.session.subscribe(self._follow)
+        self.sync()
+
+    # ------------------------------------------------------------------ building, one kind at a time
+    def _build(self, control: Control) -> list[widgets.Widget]:
+        """The widgets of one control (a row label first for inputs), stored under its key."""
+        kind, css = control.kind, f"ffd-{control.key.replace('_', '-')}"
+        if kind == "button":
+            button = widgets.Button(
+                description=control.label,
+                tooltip=control.tooltip or control.label,
+                icon=ICONS.get(control.key, ""),
+                layout=widgets.Layout(width="auto", flex="0 0 auto"),
+            )
+            button.add_class(css)  # buttons never shrink below their label; css classes let tests and users style them
+            button.on_click(lambda _b: self.act(control, [self._fields[k].value for k in control.args]))
+            setattr(self, f"{control.key}_button", button)
+            self._widgets[control.key] = button
+            return [button]
+        if kind in ("ints", "floats"):
+            cls = widgets.BoundedIntText if kind == "ints" else widgets.FloatText
+            bounds = {"min": 0 if control.limits else 2, "max": 40} if kind == "ints" else {}
+            made: Any = [cls(value=0, layout=widgets.Layout(width=WIDTHS[kind]), **bounds) for _ in control.state]
+            self._fields.update(zip(control.state, made, strict=True))
+        elif kind == "choice":
+            options = [(label, value) for value, label in control.choices]
+            layout = widgets.Layout(width=WIDTHS[kind])
+            made = widgets.Dropdown(options=options, value=control.choices[0][0], layout=layout)
+        elif kind == "switch":
+            made = widgets.Checkbox(value=False, description=control.label, indent=False)
+        elif kind == "text":
+            made = widgets.Text(value=control.default, placeholder=control.placeholder, layout=_stretch())
+        elif kind == "slider":
+            made = widgets.FloatSlider(
+                value=control.default, min=0.0, max=0.95, step=0.05, readout_format=".0%", layout=_stretch()
+            )
+        else:  # "label", "messages"
+            made = widgets.HTML(value="")
+        if not isinstance(made, list):
+            self._fields[control.state[0] if control.state else control.key] = made
+            if kind == "text":
+                made.add_class(css)
+        setattr(self, control.key, made)
+        self._widgets[control.key] = made
+        if control.command is not None:
+            for widget in made if isinstance(made, list) else [made]:
+                widget.observe(lambda _change, c=control: self._on_input(c), names="value")
+        shown = made if isinstance(made, list) else [made]
+        return ([_label(control.label)] if kind in ("ints", "floats", "choice", "slider") else []) + shown
+
+    # ------------------------------------------------------------------ actions (one editor call each)
+    def act(self, control: Control, values: Sequence[Any]) -> None:
+        """Run ``control`` with ``values`` (a failure becomes the editor's last message, shown below)."""
+        run(self.editor, control, values)
+        self.sync()
+
+    def _on_input(self, control: Control) -> None:
+        if self._syncing:
+            return
+        self.act(control, [self._fields[k].value for k in control.state])
+
+    # ------------------------------------------------------------------ following the editor
+    def _follow(self, change: Change) -> None:
+        if not self._syncing:
+            self.sync()
+
+    def sync(self) -> None:
+        """Show the editor's state (:func:`.controls.editor_state`) in every control."""
+        state = editor_state(self.editor)
+        if "sel_i" not in state:  # nothing selected: keep the typed index, show its displacement
+            ijk = tuple(int(self._fields[k].value) for k in ("sel_i", "sel_j", "sel_k") if k in self._fields)
+            if len(ijk) == 3 and all(0 <= i < n for i, n in zip(ijk, self.editor.lattice.shape, strict=True)):
+                state.update(zip(("dx", "dy", "dz"), (float(v) for v in self.editor.lattice.offsets[ijk]), strict=True))
+        self._syncing = True
+        try:
+            for control in self.controls:
+                self._show(control, state)
+        finally:
+            self._syncing = False
+
+    def _show(self, control: Control, state: dict[str, Any]) -> None:
+        widget = self._widgets[control.key]
+        if control.kind == "button":
+            widget.disabled = control.enabled is not None and not state.get(control.enabled, True)
+        elif control.kind == "label":
+            widget.value = html.escape(control.label.format(**state))
+        elif control.kind == "messages":
+            if state["messages"]:
+                text = state["messages"][0]["text"]
+                color = "#c62828" if state["messages"][0]["error"] else "#2e7d32"
+                widget.value = f'<span style="color: {color}">{html.escape(text)}</span>'
+        elif control.kind in ("ints", "floats"):
+            for i, key in enumerate(control.state):
+                if control.limits:
+                    widget[i].max = state[control.limits[i]]
+                if key in state:
+                    widget[i].value = round(float(state[key]), 9) if control.kind == "floats" else state[key]
+        elif control.state and control.state[0] in state:
+            widget.value = state[control.state[0]]

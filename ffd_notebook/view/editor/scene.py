@@ -1,0 +1,195 @@
+"""The editor's VTK scene: a plotter showing the session's mesh inside its lattice of draggable control points.
+
+The scene follows an :class:`~.session.EditingSession` (it subscribes to it) and never computes a
+deformation: on a ``"drag"`` or ``"offsets"`` change it copies the session's deformed points into
+the plotted mesh's points array in place and moves the lattice lines (and, for edits not made by
+dragging, the sphere widgets of the changed control points). No actor is created or removed while
+dragging. Rendering and pushing frames to browser views (:class:`~ffd_notebook.view.jupyter.BrowserViews`)
+happen after every change except drag events and messages: during a drag, trame renders when it
+sends the image.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+import pyvista as pv
+from numpy.typing import NDArray
+
+from ...meshing import color_array_name
+from ..camera import frame_camera
+from ..jupyter import views_of
+from . import coloring
+from .changes import Change
+from .lattice_actor import LatticeActor
+from .session import EditingSession
+
+__all__ = ["EditorScene"]
+
+
+class EditorScene:
+    """Plotter, mesh actor and lattice actor of one editing session.
+
+    Parameters
+    ----------
+    session : EditingSession
+        What to show; the scene subscribes to it.
+    on_start, on_move, on_end : callable
+        Sphere-widget callbacks: ``on_start(index)``, ``on_move(center, index)``, ``on_end(index)``.
+    window_size : tuple of int
+        Render window size in pixels.
+    off_screen : bool
+        Render off-screen.
+    """
+
+    def __init__(
+        self,
+        session: EditingSession,
+        *,
+        on_start: Callable[[int], None],
+        on_move: Callable[[Any, int], None],
+        on_end: Callable[[int], None],
+        window_size: tuple[int, int] = (800, 600),
+        off_screen: bool = True,
+    ) -> None:
+        self.session = session
+        self._callbacks = (on_move, on_start, on_end)
+        self.plotter = pv.Plotter(off_screen=off_screen, window_size=window_size)
+        if off_screen and self.plotter.iren is not None:
+            # Nobody looks at an off-screen window: the interactor need not render inside every
+            # mouse event (trame renders when it sends the image; the scene renders after the
+            # session's changes). Saves a render per drag event and one per widget when widgets are removed.
+            self.plotter.iren.interactor.EnableRenderOff()
+        self.views = views_of(self.plotter)
+        self.views.on_error = lambda text: session.messages.append(f"Error: {text}")
+        self.mesh_actor: Any = None
+        self.lattice_actor: LatticeActor | None = None
+        self._build_mesh()
+        self._build_lattice()
+        self._unsubscribe = session.subscribe(self.follow)
+
+    # ------------------------------------------------------------------ following the session
+    def follow(self, change: Change) -> None:
+        """Bring the scene up to date with one change of the session (see the module docstring)."""
+        kind = change.kind
+        if kind == "message":
+            return
+        if kind in ("drag", "offsets"):
+            self._move_points(change.points, widgets=kind == "offsets")
+        elif kind == "lattice":
+            self._build_lattice()
+        elif kind == "mesh":
+            self._build_mesh()
+            if change.label == "load mesh":
+                self.plotter.reset_camera(render=False)
+        elif kind == "select":
+            selected = self.session.selected
+            self.lattice_actor.highlight(None if selected is None else self.session.flat_index(selected))
+        elif kind == "display":
+            self._write_field()
+            self._recolor()
+        if kind != "drag" and change.label != "drag":
+            self.render()
+
+    def _move_points(self, points: NDArray[np.intp] | None, widgets: bool) -> None:
+        """Session -> view: deformed mesh points, lattice lines, (widget centres), field colors."""
+        self.display_points[:] = self.session.deformed_points
+        self.display.GetPoints().Modified()
+        positions = self.session.control_points()
+        self.lattice_actor.set_line_points(positions)
+        if widgets:
+            self.lattice_actor.set_widget_centers(positions, points)
+        if self.session.field is not None:
+            self._write_field()
+
+    # ------------------------------------------------------------------ building
+    def _build_mesh(self) -> None:
+        """Show the session's mesh (a copy whose points are written in place); replaces any previous actor."""
+        display = self.session.mesh.copy(deep=True)
+        if self.mesh_actor is not None:
+            self.plotter.remove_actor(self.mesh_actor, reset_camera=False, render=False)
+        self.display = display
+        self.display_points = display.points  # NumPy view of the plotted VTK points: written in place
+        self.mesh_actor = self.plotter.add_mesh(display, color="tan", smooth_shading=True, reset_camera=False)
+        self.display_points[:] = self.session.deformed_points
+        self._write_field()
+        self._recolor()
+
+    def _build_lattice(self) -> None:
+        """New widgets and lines for the session's lattice."""
+        if self.lattice_actor is not None:
+            self.lattice_actor.remove()
+        self.lattice_actor = LatticeActor(self.plotter, self.session.lattice, *self._callbacks)
+        self._move_points(None, widgets=True)
+
+    # ------------------------------------------------------------------ coloring
+    def _recolor(self) -> None:
+        field = self.session.field
+        name = color_array_name(self.display)
+        if field is not None:
+            vmax = self.display.point_data[coloring.DISPLACEMENT_ARRAY].max() if field == "displacement" else 1
+            coloring.show_field(self.mesh_actor, field, vmax)
+        elif self.session.colors_shown and name is not None:
+            coloring.show_rgb(self.mesh_actor, name)
+        else:
+            coloring.show_plain(self.mesh_actor)
+
+    def _write_field(self) -> None:
+        """Copy the session's field values into the plotted mesh's point data."""
+        values = self.session.field_values()
+        if values is None:
+            return
+        shown = self.display.point_data
+        if self.session.field == "displacement":
+            shown[coloring.DISPLACEMENT_ARRAY] = values
+            coloring.set_field_range(self.mesh_actor, float(values.max()) if len(values) else 1.0)
+        elif coloring.FOLDING_ARRAY in shown:
+            shown[coloring.FOLDING_ARRAY][...] = values  # a view of the VTK array: updated in place
+            shown.GetArray(coloring.FOLDING_ARRAY).Modified()
+        else:
+            shown[coloring.FOLDING_ARRAY] = values
+
+    # ------------------------------------------------------------------ camera, images
+    def frame(self) -> None:
+        """Point the camera at the mesh: it fills the view, with the lattice's outer ring at the edges.
+
+        The outer ring of a B-spline lattice lies a whole spacing outside the mesh; fitting the
+        camera to all of it leaves the mesh small. This fits the lattice box shrunk by half a
+        spacing on each side instead (rotate or zoom out to reach the corners). The view is from the
+        front right, slightly above, with +y up: the convention of OBJ, PLY and STL meshes.
+        """
+        lat = self.session.lattice
+        inset = 0.5 if min(lat.shape) > 2 else 0.0
+        corners = np.array(np.meshgrid(*[[inset, n - 1 - inset] for n in lat.shape], indexing="ij")).reshape(3, -1).T
+        points = np.vstack([lat.to_world(corners), self.session.rest_points])
+        frame_camera(self.plotter, points, direction=(0.6, 0.45, 1.0), up=(0.0, 1.0, 0.0))
+
+    def render(self) -> None:
+        """Render now and send the new image to the browser views."""
+        self.plotter.render_window.Render()
+        self.views.push()
+
+    def shown_points(self) -> NDArray[np.float64]:
+        """Points of the plotted mesh (what the renderer draws), float64."""
+        return np.asarray(self.display_points, dtype=np.float64)
+
+    def screenshot(self, path: str | os.PathLike[str] | None = None) -> NDArray[np.uint8]:
+        """Render and return the image ``(h, w, 3)`` uint8; also write a PNG if ``path`` is given."""
+        self.plotter.render_window.Render()
+        img = self.plotter.screenshot(return_img=True)
+        if path is not None:
+            from PIL import Image
+
+            Image.fromarray(img).save(os.fspath(path))
+        return img
+
+    def close(self) -> None:
+        """Stop following the session; release the widgets and the plotter."""
+        self._unsubscribe()
+        self.views.clear()
+        if self.lattice_actor is not None and self.plotter.render_window is not None:
+            self.lattice_actor.remove()
+        self.plotter.close()

@@ -1,0 +1,255 @@
+"""Showing a plotter in Jupyter through trame: shared by the editor, the GP explorer and the cut viewer.
+
+The view is PyVista's own trame Jupyter widget (:func:`trame_pyvista.jupyter.show_trame` with
+``mode="server"``): an ``<iframe class="pyvista">`` served by the trame server that runs inside
+the kernel. Server-side rendering is what sphere widgets need: every mouse event reaches VTK in
+the kernel, the widget callback changes the scene and the server streams the new image.
+The iframe's address honours ``pyvista.global_theme.trame.server_proxy_enabled`` /
+``server_proxy_prefix`` (for jupyter-server-proxy), exactly like ``plotter.show()``.
+
+The trame server is the package's own (not PyVista's shared one, which may already run unprotected):
+it requires a fresh random token, which the iframe's ``src`` carries, and refuses WebSockets from
+other sites' pages (:mod:`.web_security`). Behind jupyter-server-proxy the iframe comes from
+Jupyter's origin, which Jupyter has checked; the token is still required.
+
+With the ``"static"`` (or ``"none"``) Jupyter backend, e.g. when notebooks run headless in CI,
+:func:`show_plotter` falls back to ``plotter.show()``. Changes made from code reach the browser
+through the plotter's :class:`BrowserViews` (:func:`views_of`), the one place that pushes frames.
+"""
+
+from __future__ import annotations
+
+import weakref
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+import pyvista as pv
+from numpy.typing import NDArray
+
+__all__ = [
+    "STATIC_BACKENDS",
+    "BrowserViews",
+    "backend",
+    "execution_count",
+    "in_kernel",
+    "jupyter_server",
+    "png_bytes",
+    "push_to_browser",
+    "serve_plotter",
+    "show_plotter",
+    "views_of",
+]
+
+STATIC_BACKENDS = ("static", "none")
+SERVER_NAME = "ffd_notebook_views"  # the package's own trame server for its views (see jupyter_server)
+_tokens: dict[str, str] = {}  # server name -> its session token
+
+
+def execution_count() -> int | None:
+    """The IPython shell's execution count (the cell being run), or None outside IPython."""
+    try:
+        from IPython import get_ipython
+    except ImportError:  # pragma: no cover - IPython comes with Jupyter
+        return None
+    shell = get_ipython()
+    return None if shell is None else shell.execution_count
+
+
+def backend() -> str:
+    """PyVista's Jupyter backend, lower case (``"trame"`` when unset)."""
+    backend = pv.global_theme.jupyter_backend
+    return "trame" if backend is None else str(backend).lower()
+
+
+def jupyter_server() -> Any:
+    """The package's trame server for views in Jupyter, started (and protected) if needed.
+
+    Does what :func:`trame_pyvista.jupyter.launch_server` does, but on a server of its own
+    (:data:`SERVER_NAME`) that :func:`.web_security.protect` guards with a fresh token and Origin
+    checks before it listens, and without initialising trame-vtklocal when it is installed: that
+    module downloads a WebAssembly build of VTK from gitlab.kitware.com when a server starts, which
+    this server-rendered view never uses (and which fails, noisily, without internet).
+    """
+    import asyncio
+    import os
+
+    from trame.widgets import html, vuetify, vuetify3
+    from trame.widgets import vtk as vtk_widgets
+    from trame_pyvista.widgets import get_server
+
+    from .web_security import AccessPolicy, new_token, protect
+
+    server = get_server(SERVER_NAME)
+    if server.running:
+        return server
+    for module in (html, vtk_widgets, vuetify if server.client_type == "vue2" else vuetify3):
+        module.initialize(server)
+    if SERVER_NAME not in _tokens:  # not started yet by this process (a start in progress has its token)
+        backend = "jupyter" if pv.global_theme.trame.jupyter_extension_enabled else "aiohttp"
+        host = os.environ.get("TRAME_DEFAULT_HOST", "127.0.0.1")
+        _tokens[SERVER_NAME] = new_token()
+        proxied = lambda: bool(pv.global_theme.trame.server_proxy_enabled)  # noqa: E731 - asked per request
+        protect(server, AccessPolicy(_tokens[SERVER_NAME], bind_host=host, behind_proxy=proxied))
+
+        async def start() -> None:
+            server.start(
+                exec_mode="task",
+                host=host,
+                port=pv.global_theme.trame.jupyter_server_port,
+                open_browser=False,
+                show_connection_info=False,
+                disable_logging=True,
+                timeout=0,
+                backend=backend,
+            )
+            await server.ready
+
+        import nest_asyncio2  # what PyVista uses to start the server without `await` in a cell
+
+        nest_asyncio2.apply()
+        asyncio.run(start())
+    return server
+
+
+def serve_plotter(plotter: pv.Plotter) -> Any:
+    """PyVista's trame iframe widget for a plotter, with server-side rendering (VTK widgets need it).
+
+    The iframe's address carries the server's session token (the trame client reads it from there).
+    The widget's viewer joins the plotter's :class:`BrowserViews`, so :func:`push_to_browser` reaches it.
+    """
+    from trame_pyvista.jupyter import Widget, show_trame
+
+    from .web_security import url_with_token
+
+    server = jupyter_server()
+    token = _tokens[SERVER_NAME]
+
+    def with_token(viewer: Any, src: str, iframe_attrs: dict[str, Any] | None = None, **kwargs: Any) -> Any:
+        src = url_with_token(src, token)
+        attrs = {**(iframe_attrs or {}), "src": src}
+        return Widget(viewer, src, iframe_attrs=attrs, **kwargs)
+
+    width, height = plotter.window_size
+    widget = show_trame(plotter, mode="server", name=server.name, handler=with_token, collapse_menu=True,
+                        width=f"{width}px", height=f"{height}px")  # fmt: skip
+    views_of(plotter).add(widget.viewer)
+    return widget
+
+
+def in_kernel() -> bool:
+    """Whether this runs in a Jupyter kernel."""
+    try:
+        from IPython import get_ipython
+    except ImportError:  # pragma: no cover - IPython comes with Jupyter
+        return False
+    shell = get_ipython()
+    return shell is not None and "IPKernelApp" in getattr(shell, "config", {})
+
+
+def show_plotter(plotter: pv.Plotter, **kwargs: Any) -> Any:
+    """Show a plotter whose VTK widgets (sliders, spheres, planes) must stay interactive.
+
+    In a Jupyter kernel with an interactive backend this is the editor's own view: PyVista's
+    trame iframe with server-side rendering, on a server started without trame-vtklocal (which
+    downloads VTK's WebAssembly build at start-up). Elsewhere (a script, or the ``static`` backend
+    of a headless notebook run) it is ``plotter.show(**kwargs)``.
+
+    Examples
+    --------
+    >>> import pyvista as pv
+    >>> from ffd_notebook.view.jupyter import show_plotter
+    >>> pl = pv.Plotter(off_screen=True, window_size=(120, 90))
+    >>> _ = pl.add_mesh(pv.Sphere())
+    >>> show_plotter(pl, screenshot=False) is None      # outside a kernel: plotter.show()
+    True
+    """
+    if not in_kernel() or backend() in STATIC_BACKENDS:
+        return plotter.show(**kwargs)
+    return serve_plotter(plotter)
+
+
+def push_to_browser(plotter: pv.Plotter) -> None:
+    """Send a new image to the browser view of ``plotter`` after a change made from code.
+
+    Does nothing for a plotter that :func:`show_plotter` has not served through trame.
+
+    Examples
+    --------
+    >>> import pyvista as pv
+    >>> pl = pv.Plotter(off_screen=True)
+    >>> push_to_browser(pl)   # not shown in a browser: nothing to send
+    >>> pl.close()
+    """
+    views_of(plotter).push()
+
+
+class BrowserViews:
+    """The trame viewers (objects with ``.update()``) showing one plotter in browsers.
+
+    :meth:`push` sends each of them a new image: the single place where frames are pushed after
+    changes made from code, for every product (editor, GP explorer, cut viewer, the app).
+
+    Examples
+    --------
+    >>> class Viewer:
+    ...     n = 0
+    ...     def update(self):
+    ...         self.n += 1
+    >>> views, viewer = BrowserViews(), Viewer()
+    >>> views.add(viewer); views.push(); viewer.n
+    1
+    >>> views.clear(); views.push(); viewer.n
+    1
+    """
+
+    def __init__(self, on_error: Callable[[str], None] | None = None) -> None:
+        self.viewers: list[Any] = []
+        self.on_error = on_error
+
+    def add(self, viewer: Any) -> None:
+        """Let ``viewer`` receive a new image on every :meth:`push`."""
+        self.viewers.append(viewer)
+
+    def push(self) -> None:
+        """Send a new image to every viewer; a failing viewer is reported to ``on_error`` (or raises)."""
+        for viewer in list(self.viewers):
+            try:
+                viewer.update()
+            except Exception as exc:
+                if self.on_error is None:
+                    raise
+                self.on_error(f"could not update a browser view: {exc!r}")
+
+    def clear(self) -> None:
+        """Forget every viewer (the plotter is closing)."""
+        self.viewers.clear()
+
+
+_views: weakref.WeakKeyDictionary[Any, BrowserViews] = weakref.WeakKeyDictionary()
+
+
+def views_of(plotter: pv.Plotter) -> BrowserViews:
+    """The :class:`BrowserViews` of ``plotter`` (made on first use; forgotten with the plotter)."""
+    views = _views.get(plotter)
+    if views is None:
+        views = _views[plotter] = BrowserViews()
+    return views
+
+
+def png_bytes(image: NDArray[np.uint8]) -> bytes:
+    """An ``(h, w, 3)`` uint8 image as PNG bytes.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> png_bytes(np.zeros((2, 3, 3), dtype=np.uint8))[:4]
+    b'\\x89PNG'
+    """
+    import io
+
+    from PIL import Image
+
+    buf = io.BytesIO()
+    Image.fromarray(image).save(buf, format="PNG")
+    return buf.getvalue()

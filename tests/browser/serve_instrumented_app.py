@@ -1,0 +1,27 @@
+"""``python -m ffd_notebook`` with the tests' instrumentation (tests/editor_instrument.py) installed by code.
+
+Usage: ``python tests/browser/serve_instrumented_app.py TRACE_FILE [ffd_notebook arguments...]``. The product
+has no setting that installs test hooks; this script passes ``setup=`` to :func:`ffd_notebook.__main__.main`.
+"""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # tests/: editor_instrument
+
+from editor_instrument import Instrument
+
+from ffd_notebook.__main__ import main
+
+
+def instrument(trace: str):
+    def setup(app) -> None:
+        Instrument(app.editor, trace=trace).register_triggers(app.server)
+
+    return setup
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[2:], setup=instrument(sys.argv[1])))

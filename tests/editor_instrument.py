@@ -1,0 +1,144 @@
+"""Test instrumentation of an Editor: it subscribes to the editor's session; the package never imports it.
+
+What the browser and kernel tests read about an editor they drive from outside:
+
+- :func:`fingerprint` of the shown mesh (changes when any point moves);
+- a trace file, one JSON line per drag event (``{"t", "ev": "cb", "index", "ijk", "center", "ms",
+  "checksum"}``), ``ms`` being the time from the widget callback's start to the end of the scene's update;
+- two trame triggers, ``ffd_widget_px`` (where each control point is on screen) and ``ffd_state``
+  (fingerprint, sum of |offsets|, number of drag events), registered by :meth:`Instrument.register_triggers`.
+
+Nothing here is reachable in normal use: test code installs it (in-process, through
+``tests/browser/serve_instrumented_app.py`` for the app, or an IPython startup file for JupyterLab).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import time
+from typing import Any
+
+import numpy as np
+
+__all__ = ["Instrument", "fingerprint", "instrument_notebook_editors"]
+
+_patterns: dict[int, np.ndarray] = {}
+
+
+def fingerprint(points: Any) -> float:
+    """A cheap fingerprint of a point set: the points projected on a fixed random pattern, summed in float64.
+
+    ``sum |p|`` would hardly change when points move across their position vectors (a drag seen
+    along the view axis); a projection on a random pattern changes with any move.
+    """
+    flat = np.asarray(points, dtype=np.float64).ravel()
+    pattern = _patterns.get(len(flat))
+    if pattern is None:
+        pattern = _patterns[len(flat)] = np.random.default_rng(0).standard_normal(len(flat))
+    return float(flat @ pattern)
+
+
+class Instrument:
+    """Counts and traces one editor's drag events; answers the tests' trame triggers.
+
+    Parameters
+    ----------
+    editor : Editor
+        The editor to follow (through ``editor.session.subscribe``).
+    trace : path-like, optional
+        A JSON-lines file to append one record per drag event to.
+    """
+
+    def __init__(self, editor: Any, *, trace: str | os.PathLike[str] | None = None) -> None:
+        self.editor = editor
+        self.n_drags = 0
+        self._trace = open(trace, "a", buffering=1) if trace else None
+        self._unsubscribe = editor.session.subscribe(self._follow)
+
+    def _follow(self, change: Any) -> None:
+        if change.kind != "drag":
+            return
+        self.n_drags += 1
+        if self._trace is None:
+            return
+        session = self.editor.session
+        index = int(change.points[0])
+        record = {
+            "t": time.time(),
+            "ev": "cb",
+            "index": index,
+            "ijk": [int(v) for v in np.unravel_index(index, session.lattice.shape)],
+            "center": [float(c) for c in session.control_points()[index]],
+            "ms": (time.perf_counter() - change.started) * 1000.0,
+            "checksum": self.fingerprint(),
+        }
+        self._trace.write(json.dumps(record) + "\n")
+
+    def fingerprint(self) -> float:
+        """:func:`fingerprint` of the points the renderer draws."""
+        return fingerprint(self.editor.scene.shown_points())
+
+    def widget_display_positions(self) -> list[dict[str, float]]:
+        """Where each control point is on screen: ``{"index", "u", "v", "z"}``, normalised, origin bottom-left."""
+        plotter = self.editor.plotter
+        ren = plotter.renderer
+        w, h = plotter.render_window.GetSize()
+        out = []
+        for i, center in enumerate(self.editor.session.control_points()):
+            ren.SetWorldPoint(*center, 1.0)
+            ren.WorldToDisplay()
+            x, y, z = ren.GetDisplayPoint()
+            out.append({"index": i, "u": x / w, "v": y / h, "z": z})
+        return out
+
+    def state(self) -> dict[str, Any]:
+        """What the ``ffd_state`` trigger answers."""
+        return {
+            "checksum": self.fingerprint(),
+            "offsets_abs_sum": float(np.abs(self.editor.lattice.offsets).sum()),
+            "n_callbacks": self.n_drags,
+        }
+
+    def register_triggers(self, server: Any) -> None:
+        """Register ``ffd_widget_px`` and ``ffd_state`` on a trame server (the last instrument wins)."""
+        size = lambda: list(self.editor.plotter.render_window.GetSize())  # noqa: E731
+        server.controller.trigger("ffd_widget_px")(lambda: {"size": size(), "widgets": self.widget_display_positions()})
+        server.controller.trigger("ffd_state")(self.state)
+
+    def close(self) -> None:
+        """Stop following the editor; close the trace file."""
+        self._unsubscribe()
+        if self._trace is not None:
+            self._trace.close()
+            self._trace = None
+
+
+def instrument_notebook_editors(trace: str | os.PathLike[str] | None = None) -> None:
+    """In an IPython kernel: instrument every Editor a cell leaves in the user's namespace.
+
+    After each cell, new editors get an :class:`Instrument` (tracing to ``trace``) whose triggers are
+    registered on the trame server that serves the package's notebook views.
+    """
+    import sys
+
+    from IPython import get_ipython
+
+    shell = get_ipython()
+    seen: dict[int, Instrument] = {}
+
+    def after_cell(_result: Any = None) -> None:
+        if "ffd_notebook.view.editor" not in sys.modules:  # no editor yet: import nothing
+            return
+        from ffd_notebook.view.editor import Editor
+
+        for value in list(shell.user_ns.values()):
+            if isinstance(value, Editor) and id(value) not in seen:
+                from trame_pyvista.widgets import get_server
+
+                from ffd_notebook.view.jupyter import SERVER_NAME
+
+                seen[id(value)] = inst = Instrument(value, trace=trace)
+                inst.register_triggers(get_server(SERVER_NAME))
+
+    shell.events.register("post_run_cell", after_cell)
