@@ -18,7 +18,6 @@ points, colours and arrow vectors in place; no actor is re-created.
 
 from __future__ import annotations
 
-import logging
 import os
 from typing import Any
 
@@ -43,7 +42,6 @@ from .model_modes import (
 __all__ = ["KERNELS", "VARIANCE_ARRAY", "GPExplorer"]
 
 configure_rendering()
-log = logging.getLogger(__name__)
 
 #: Kernel families the explorer offers: name -> class taking ``(sigma, scale)``.
 KERNELS = {"gaussian": GaussianKernel, "exponential": ExponentialKernel}
@@ -379,16 +377,6 @@ class GPExplorer(ModelModes):
             interaction_event="always",
         )
 
-    @staticmethod
-    def guarded(fn: Any, *args: Any) -> None:
-        """Run a widget callback ``fn(*args)``; a failure is logged, not lost in a PyVista warning."""
-        # PyVista turns exceptions in callbacks into warnings: log them where they can be read
-        try:
-            fn(*args)
-        except Exception:
-            log.exception("GPExplorer callback failed")
-            raise
-
     def refresh(self) -> None:
         """Show the current deformation: mesh points, arrows and variance, in place."""
         process = self.process
@@ -402,16 +390,6 @@ class GPExplorer(ModelModes):
             self.mesh.point_data[VARIANCE_ARRAY][...] = process.variance()[:n].sum(axis=1)
             self._variance_stale = False
         self.log_density = self.model.logpdf_of(field)  # under the prior: how plausible the shape is
-        what = "mean" if self._coefficients is None else "sample" if self.model_name is None else "instance"
-        shown = f"posterior {what}, {len(self.landmarks)} landmarks" if self.landmarks else f"prior {what}"
-        if self.model_name is None:
-            status = f"{self.kernel_name} kernel, sigma = {self.sigma:.3g}, rank {process.rank}: {shown}"
-        else:
-            status = f"{self.model_name}, rank {process.rank}: {shown}"
-        status += f"\nlog p(shape) = {self.log_density:.1f}"
-        if self._widgets_on:
-            modes = f"sliders: modes 1-{len(self.mode_sliders)}; " if self.model_name is not None else ""
-            status += f"\n{modes}right-click or P over the mesh: add a landmark; drag its sphere to move it"
-        self._status.SetText(2, status)
+        self._status.SetText(2, self.status_text())
         self.plotter.render()
         push_to_browser(self.plotter)  # changes made from code reach an open notebook view

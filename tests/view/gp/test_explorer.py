@@ -53,7 +53,7 @@ def test_kernel_width_sets_smoothness(explorer):
     roughness = []
     for sigma in (0.1 * explorer.size, 0.6 * explorer.size):
         explorer.set_sigma(sigma)
-        explorer.sample(seed=1)
+        explorer.sample(rng=1)
         d = explorer.displacement
         # differences across mesh edges, relative to the displacement's size
         edges = explorer.mesh.extract_all_edges().lines.reshape(-1, 3)[:, 1:]
@@ -352,7 +352,7 @@ def test_failed_load_changes_nothing(kind, liver, tmp_path):
         ex = GPExplorer(model=STATISMO, off_screen=True, window_size=(240, 180))
     try:
         ex.add_landmark(ex.rest_points[3], (0.0, 0.0, 0.1 * ex.scale))
-        ex.sample(seed=2)
+        ex.sample(rng=2)
         before, img = _state(ex), ex.screenshot()
         for path in _corrupt_files(tmp_path):
             with pytest.raises(FileFormatError, match=path.name):
@@ -419,3 +419,30 @@ def test_model_from_examples(liver):
         assert [s.GetEnabled() for s in ex.mode_sliders] == [1, 1, 0, 0, 0]
     finally:
         ex.close()
+
+
+def test_rng_repeats_samples_and_seed_is_a_deprecated_alias(liver):
+    def explorer(**kw):
+        return GPExplorer(liver, off_screen=True, window_size=(120, 90), widgets=False, n_inducing=60, rank=20, **kw)
+
+    a, b = explorer(rng=4), explorer(rng=4)
+    try:
+        a.sample(), b.sample()  # the button's draws: the same sequence for the same rng
+        np.testing.assert_array_equal(a.displacement, b.displacement)
+        a.sample()
+        assert not np.allclose(a.displacement, b.displacement)
+        with pytest.warns(DeprecationWarning, match=r"sample\(seed=\.\.\.\) is deprecated: use rng="):
+            a.sample(seed=9)
+        b.sample(rng=9)
+        np.testing.assert_array_equal(a.displacement, b.displacement)
+    finally:
+        a.close(), b.close()
+    with pytest.warns(DeprecationWarning, match=r"GPExplorer\(seed=\.\.\.\)"):
+        old = explorer(seed=4)
+    new = explorer(rng=4)
+    try:
+        np.testing.assert_array_equal(old.model.basis_matrix(), new.model.basis_matrix())
+    finally:
+        old.close(), new.close()
+    with pytest.raises(TypeError):
+        GPExplorer(liver, 0.3)  # keyword-only after the mesh
