@@ -18,7 +18,6 @@ points, colours and arrow vectors in place; no actor is re-created.
 
 from __future__ import annotations
 
-import logging
 import os
 from typing import Any
 
@@ -27,6 +26,7 @@ import pyvista as pv
 import vtk
 from numpy.typing import ArrayLike, NDArray
 
+from ...deprecation import renamed_keyword
 from ...gp import ExponentialKernel, GaussianKernel, GaussianProcess, Kernel, LowRankGP, grid_points
 from ...meshing import as_surface
 from ..jupyter import push_to_browser, show_plotter
@@ -42,7 +42,6 @@ from .model_modes import (
 __all__ = ["KERNELS", "VARIANCE_ARRAY", "GPExplorer"]
 
 configure_rendering()
-log = logging.getLogger(__name__)
 
 #: Kernel families the explorer offers: name -> class taking ``(sigma, scale)``.
 KERNELS = {"gaussian": GaussianKernel, "exponential": ExponentialKernel}
@@ -70,8 +69,9 @@ class GPExplorer(ModelModes):
     noise : float, (3,) or (3, 3) array_like, optional
         Default observation noise of a landmark: variance, per-axis variances or covariance;
         default ``(0.01 * scale)^2``. Kept as :attr:`noise`, a 3x3 covariance.
-    seed : int
-        Seeds the inducing points and the first sample.
+    rng : int or numpy.random.Generator
+        Random source of the inducing points and of :meth:`sample` without an argument (the
+        button): the same ``rng`` gives the same sequence of samples. ``seed=`` is a deprecated alias.
     plotter : pyvista.Plotter, optional
         Draw into this plotter instead of a new one.
     widgets : bool
@@ -87,7 +87,7 @@ class GPExplorer(ModelModes):
     --------
     >>> import pyvista as pv
     >>> explorer = GPExplorer(pv.Sphere(), off_screen=True, window_size=(300, 200))
-    >>> explorer.sample(seed=1)
+    >>> explorer.sample(rng=1)
     >>> bool(abs(explorer.mesh.points - explorer.rest_points).max() > 0)
     True
     >>> explorer.add_landmark(explorer.rest_points[0], (0.0, 0.0, 0.2))   # landmark 0
@@ -103,6 +103,7 @@ class GPExplorer(ModelModes):
     def __init__(
         self,
         mesh: Any = None,
+        *,
         sigma: float | None = None,
         scale: float | None = None,
         kernel: str = "gaussian",
@@ -110,7 +111,7 @@ class GPExplorer(ModelModes):
         n_inducing: int = 300,
         rank: int = 150,
         noise: ArrayLike | None = None,
-        seed: int = 0,
+        rng: int | np.random.Generator = 0,
         plotter: pv.Plotter | None = None,
         widgets: bool = True,
         model: LowRankGP | str | os.PathLike[str] | None = None,
@@ -122,7 +123,11 @@ class GPExplorer(ModelModes):
         if (mesh is None) == (model is None):
             raise ValueError("give either a mesh (for a kernel model) or a shape model, not both")
         self.kernel_name = kernel
-        self.n_inducing, self.rank, self._seed, self.n_modes = n_inducing, rank, seed, int(n_modes)
+        rng = renamed_keyword(plotter_kwargs, "seed", "rng", rng, "GPExplorer")
+        self.n_inducing, self.rank, self.n_modes = n_inducing, rank, int(n_modes)
+        self.rng = np.random.default_rng(rng)
+        # the inducing points stay the same when sigma changes: a fixed seed (the int itself, as before)
+        self._seed = rng if isinstance(rng, int | np.integer) else int(self.rng.integers(2**63))
         self._scale_arg, self._noise_arg = scale, noise
         self.landmarks: list[tuple[NDArray[np.float64], NDArray[np.float64]]] = []
         self.landmark_noise: list[NDArray[np.float64]] = []  # a 3x3 covariance per landmark
@@ -199,10 +204,16 @@ class GPExplorer(ModelModes):
         self._variance_stale = True
         self.refresh()
 
-    def sample(self, seed: int | None = None) -> None:
-        """Show a random deformation (a posterior sample when there are landmarks)."""
-        rng = np.random.default_rng(seed)
-        self._coefficients = rng.standard_normal(self.model.rank)
+    def sample(self, rng: int | np.random.Generator | None = None, *, seed: int | None = None) -> None:
+        """Show a random deformation (a posterior sample when there are landmarks).
+
+        ``rng`` (an int or a Generator; ``seed=`` is a deprecated alias) fixes the sample; without
+        it the next draw of the explorer's own :attr:`rng`, as the "sample" button does.
+        """
+        if seed is not None:
+            rng = renamed_keyword({"seed": seed}, "seed", "rng", rng, "GPExplorer.sample")
+        draw = self.rng if rng is None else np.random.default_rng(rng)
+        self._coefficients = draw.standard_normal(self.model.rank)
         self.sync_mode_sliders()
         self.refresh()
 
@@ -347,8 +358,8 @@ class GPExplorer(ModelModes):
 
     def _on_pick(self, picker: Any) -> None:
         vertex = int(picker.GetPointId())
-        if picker.GetDataSet() is None or vertex < 0 or vertex >= self.mesh.n_points:
-            return
+        if picker.GetActor() is not self.mesh_actor or not 0 <= vertex < self.mesh.n_points:
+            return  # not the mesh: a landmark's sphere, the arrows or nothing
         self.add_landmark(self.rest_points[vertex])
 
     def _add_landmark_widget(self, index: int) -> None:
@@ -366,16 +377,6 @@ class GPExplorer(ModelModes):
             interaction_event="always",
         )
 
-    @staticmethod
-    def guarded(fn: Any, *args: Any) -> None:
-        """Run a widget callback ``fn(*args)``; a failure is logged, not lost in a PyVista warning."""
-        # PyVista turns exceptions in callbacks into warnings: log them where they can be read
-        try:
-            fn(*args)
-        except Exception:
-            log.exception("GPExplorer callback failed")
-            raise
-
     def refresh(self) -> None:
         """Show the current deformation: mesh points, arrows and variance, in place."""
         process = self.process
@@ -389,16 +390,6 @@ class GPExplorer(ModelModes):
             self.mesh.point_data[VARIANCE_ARRAY][...] = process.variance()[:n].sum(axis=1)
             self._variance_stale = False
         self.log_density = self.model.logpdf_of(field)  # under the prior: how plausible the shape is
-        what = "mean" if self._coefficients is None else "sample" if self.model_name is None else "instance"
-        shown = f"posterior {what}, {len(self.landmarks)} landmarks" if self.landmarks else f"prior {what}"
-        if self.model_name is None:
-            status = f"{self.kernel_name} kernel, sigma = {self.sigma:.3g}, rank {process.rank}: {shown}"
-        else:
-            status = f"{self.model_name}, rank {process.rank}: {shown}"
-        status += f"\nlog p(shape) = {self.log_density:.1f}"
-        if self._widgets_on:
-            modes = f"sliders: modes 1-{len(self.mode_sliders)}; " if self.model_name is not None else ""
-            status += f"\n{modes}right-click or P over the mesh: add a landmark; drag its sphere to move it"
-        self._status.SetText(2, status)
+        self._status.SetText(2, self.status_text())
         self.plotter.render()
         push_to_browser(self.plotter)  # changes made from code reach an open notebook view

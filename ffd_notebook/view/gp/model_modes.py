@@ -10,6 +10,7 @@ The functions here turn a model into a mesh and per-landmark noise into 3x3 cova
 
 from __future__ import annotations
 
+import logging
 import os
 from pathlib import Path
 from typing import Any
@@ -35,6 +36,9 @@ __all__ = [
 VARIANCE_ARRAY = "gp_variance"
 #: Slider range of a mode's coefficient (standard deviations).
 MODE_RANGE = (-3.0, 3.0)
+
+
+log = logging.getLogger(__name__)
 
 
 def resolve_model(source: LowRankGP | str | os.PathLike[str]) -> tuple[LowRankGP, str]:
@@ -117,7 +121,7 @@ def stacked_noise(covariances: list[NDArray[np.float64]]) -> NDArray[np.float64]
 class ModelModes:
     """Opening shape models, moving along their modes, landmark noise (mixed into ``GPExplorer``).
 
-    Uses ``GPExplorer``'s state and its ``process``, ``set_rest_points``, ``refresh`` and ``guarded``.
+    Uses ``GPExplorer``'s state and its ``process``, ``set_rest_points`` and ``refresh``.
 
     Examples
     --------
@@ -141,6 +145,19 @@ class ModelModes:
     mode_sliders: list[Any]
     _coefficients: NDArray[np.float64] | None
     _widgets_on: bool
+    kernel_name: str
+    sigma: float | None
+    log_density: float
+
+    @staticmethod
+    def guarded(fn: Any, *args: Any) -> None:
+        """Run a widget callback ``fn(*args)``; a failure is logged, not lost in a PyVista warning."""
+        # PyVista turns exceptions in callbacks into warnings: log them where they can be read
+        try:
+            fn(*args)
+        except Exception:
+            log.exception("GPExplorer callback failed")
+            raise
 
     def open_model(self, source: LowRankGP | str | os.PathLike[str]) -> None:
         """Show a shape model: a Statismo ``.h5`` file or a :class:`~ffd_notebook.gp.LowRankGP`.
@@ -248,6 +265,20 @@ class ModelModes:
         for k, slider in enumerate(self.mode_sliders):
             slider.SetEnabled(k < wanted)
         self.sync_mode_sliders()
+
+    def status_text(self) -> str:
+        """The text in the corner: the model, what is shown, its log density and how to add landmarks."""
+        what = "mean" if self._coefficients is None else "sample" if self.model_name is None else "instance"
+        shown = f"posterior {what}, {len(self.landmarks)} landmarks" if self.landmarks else f"prior {what}"
+        if self.model_name is None:
+            status = f"{self.kernel_name} kernel, sigma = {self.sigma:.3g}, rank {self.process.rank}: {shown}"
+        else:
+            status = f"{self.model_name}, rank {self.process.rank}: {shown}"
+        status += f"\nlog p(shape) = {self.log_density:.1f}"
+        if self._widgets_on:
+            modes = f"sliders: modes 1-{len(self.mode_sliders)}; " if self.model_name is not None else ""
+            status += f"\n{modes}right-click or P over the mesh: add a landmark; drag its sphere to move it"
+        return status
 
     def sync_mode_sliders(self) -> None:
         """Put the sliders where the coefficients are (setting a value does not call back)."""
