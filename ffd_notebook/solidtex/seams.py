@@ -69,7 +69,7 @@ def graph_cut_side(
     new: NDArray[np.floating],
     covered: NDArray[np.bool_],
     pool: int = 1,
-    band: int = 2,
+    band: int = 0,
 ) -> NDArray[np.bool_]:
     """Which voxels of a block take the new colours: a minimum cut through the overlap (Kwatra et al. 2003).
 
@@ -81,10 +81,11 @@ def graph_cut_side(
     :func:`scipy.sparse.csgraph.maximum_flow` (BSD; Dinic's algorithm).
 
     With ``pool > 1`` (a power of two) the cut is first found on ``pool``-cubes (summed errors;
-    cubes not wholly in the overlap are new), then refined, halving the cubes each time, in a
-    band of ``band`` cubes each side of the coarser seam (``band=0``: no refinement, the coarse
-    cut). A refined cut never costs more than the coarse one; it is much cheaper to find than a
-    cut of the whole overlap. Pooling wants an overlap at least two ``pool``-cubes thick.
+    cubes not wholly in the overlap are new), then refined, halving the cubes each time: the
+    voxels on either side of the coarser seam, and ``band`` more each side, are cut again with
+    the others fixed (twice, following the seam; ``band=-1``: no refinement, the coarse cut). A
+    refined cut never costs more than the coarse one, and is much cheaper to find than a cut of
+    the whole overlap. Pooling wants an overlap at least two ``pool``-cubes thick.
 
     Examples
     --------
