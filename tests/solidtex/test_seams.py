@@ -10,7 +10,7 @@ from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
 from ffd_notebook.solidtex import histogram_distance, sliding_crops, synthesize, volume_from_slices
-from ffd_notebook.solidtex.seams import graph_cut_side
+from ffd_notebook.solidtex.seams import cut_cost, graph_cut_side, seam_errors
 
 
 def _cut_cost(new_side, err, covered):
@@ -57,6 +57,46 @@ def test_cut_follows_agreement_in_one_piece():
     assert side[:, 2:].all() and not side[:, :2].any()  # the seam runs between the agreeing layers
     pooled = graph_cut_side(old, new, np.ones((8, 8, 8), bool) & covered, pool=2)
     assert pooled.shape == side.shape and pooled[:, 3:].all()
+
+
+def _shell(shape, thickness, axes):
+    """An overlap: the first ``thickness`` layers along each axis that has a previous block."""
+    covered = np.zeros(shape, bool)
+    for ax in axes:
+        index = [slice(None)] * 3
+        index[ax] = slice(0, thickness)
+        covered[tuple(index)] = True
+    return covered
+
+
+@settings(max_examples=25, deadline=None)
+@given(
+    st.integers(0, 2**32 - 1),
+    st.sampled_from([(0,), (1, 2), (0, 1, 2)]),
+    st.sampled_from([(2, 4), (4, 8)]),
+    st.floats(0.5, 4.0),
+)
+def test_refined_cut_costs_no_more_than_the_coarse_cut(seed, axes, pool_thickness, contrast):
+    pool, thickness = pool_thickness
+    rng = np.random.default_rng(seed)
+    shape = (2 * thickness + 4,) * 3
+    # smooth-ish random blocks, so the cheapest seam has somewhere to go
+    old = rng.uniform(0, 255, (*shape, 3))
+    new = old + contrast * rng.normal(0, 20, (*shape, 3)) * rng.uniform(0, 1, shape)[..., None]
+    covered = _shell(shape, thickness, axes)
+    err = seam_errors(old, new, covered)
+    coarse = graph_cut_side(old, new, covered, pool=pool, band=-1)
+    refined = graph_cut_side(old, new, covered, pool=pool, band=0)
+    widened = graph_cut_side(old, new, covered, pool=pool, band=1)
+    best = graph_cut_side(old, new, covered)
+    for side in (coarse, refined, widened, best):
+        assert side[~covered].all()  # outside the overlap: the new block
+        for ax in axes:  # the layer bordering the old texture stays old
+            assert not np.take(side, 0, axis=ax).any()
+    costs = [cut_cost(s, err, covered) for s in (coarse, refined, widened, best)]
+    assert costs[1] <= costs[0] and costs[2] <= costs[0]  # refining never costs more than the coarse cut
+    assert costs[3] <= min(costs[1], costs[2])  # ... nor less than the cut of the whole overlap
+    assert costs[3] == pytest.approx(_cut_cost(best, err, covered))  # the module's cost is the brute force's
 
 
 @pytest.fixture(scope="module")
