@@ -52,7 +52,7 @@ def solid_texture_image(path: str | Path, window_size: tuple[int, int] = (900, 4
     slices = sliding_crops(skimage.data.immunohistochemistry(), n_slices=64, size=96, step=(1, 1), start=(84, 84))
     exemplar = volume_from_slices(slices, roi=(16, 80, 16, 80))
     grid = tetrahedralize(frog_liver(2500))
-    organ = TexturedOrgan(grid, SolidTexture.fit(synthesize(exemplar, 128, seed=0, progress=False), grid.bounds))
+    organ = TexturedOrgan(grid, SolidTexture.fit(synthesize(exemplar, 128, rng=0, progress=False), grid.bounds))
 
     normal = np.array([0.3, 1.0, 0.0])
     pl = pv.Plotter(off_screen=True, window_size=window_size)

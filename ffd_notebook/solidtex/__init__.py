@@ -11,7 +11,7 @@ from .blocks import box_mean, choose_block_size, classify_blocks, feature_inclus
 from .kopf import exemplar_from_image
 from .lazy import LazySolidTexture
 from .neighbourhoods import neighbourhood_distance, seam_error
-from .quality import colour_histogram, gradient_energy, histogram_distance, seam_energy
+from .quality import color_histogram, colour_histogram, gradient_energy, histogram_distance, seam_energy
 from .sampling import SolidTexture, TextureSampler
 from .slices import as_rgb8, sliding_crops, volume_from_slices
 from .synthesis import Stage, plan_stages, synthesize
@@ -29,6 +29,7 @@ __all__ = [
     "box_mean",
     "choose_block_size",
     "classify_blocks",
+    "color_histogram",
     "colour_histogram",
     "exemplar_from_image",
     "feature_inclusiveness",

@@ -19,7 +19,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.cluster.vq import kmeans2, vq
 
-from .quality import colour_histogram
+from .quality import color_histogram
+from .seeding import RNGLike
 
 __all__ = [
     "DEFAULT_BLOCK_SIZES",
@@ -93,7 +94,7 @@ def cell_starts(block: int, overlap: int, pool: int) -> tuple[NDArray[np.int64],
 
 
 def classify_blocks(
-    means: ArrayLike, n_classes: int = 3, seed: int = 0, sample: int = 4096
+    means: ArrayLike, n_classes: int = 3, *, rng: RNGLike = 0, sample: int = 4096
 ) -> tuple[NDArray[np.int64], NDArray[np.float64]]:
     """Cluster block mean colours into ``n_classes`` classes (k-means), ordered dark to bright.
 
@@ -103,8 +104,8 @@ def classify_blocks(
         ``(N, 3)`` mean colour of each candidate block.
     n_classes : int
         Number of classes (the paper uses three).
-    seed : int
-        Seeds k-means++ (the result is deterministic for a seed).
+    rng : int or numpy.random.Generator
+        Seeds k-means++ (the result is deterministic for an int).
     sample : int
         k-means runs on at most this many means; all are then assigned to the nearest centre.
 
@@ -123,7 +124,7 @@ def classify_blocks(
     ([0, 0, 2, 1, 1], [0.4, 0.4, 0.2])
     """
     m = np.asarray(means, dtype=np.float64).reshape(-1, 3)
-    rng = np.random.default_rng(seed)
+    rng = np.random.default_rng(rng)
     train = m if len(m) <= sample else m[rng.choice(len(m), sample, replace=False)]
     k = min(n_classes, len(np.unique(train, axis=0)))
     with warnings.catch_warnings():
@@ -135,11 +136,14 @@ def classify_blocks(
     return labels.astype(np.int64), probabilities
 
 
-def feature_inclusiveness(exemplar: ArrayLike, size: int, n_blocks: int = 64, bins: int = 4, seed: int = 0) -> float:
+def feature_inclusiveness(
+    exemplar: ArrayLike, size: int, *, n_blocks: int = 64, bins: int = 4, rng: RNGLike = 0
+) -> float:
     """Mean L2 distance between the colour histograms of random ``size``-blocks and of the exemplar.
 
     Small values mean a block of this size already contains the exemplar's features (its colour
-    statistics); the distance falls as blocks grow.
+    statistics); the distance falls as blocks grow. ``rng`` (an int or a Generator) places the
+    blocks.
 
     Examples
     --------
@@ -150,19 +154,19 @@ def feature_inclusiveness(exemplar: ArrayLike, size: int, n_blocks: int = 64, bi
     ex = np.asarray(exemplar)
     if size > min(ex.shape[:3]):
         raise ValueError(f"block size {size} is larger than the exemplar {ex.shape[:3]}")
-    rng = np.random.default_rng(seed)
-    whole = colour_histogram(ex, bins)
+    rng = np.random.default_rng(rng)
+    whole = color_histogram(ex, bins=bins)
     hi = np.array(ex.shape[:3]) - size + 1
     corners = rng.integers(0, hi, size=(n_blocks, 3))
     d = [
-        np.linalg.norm(colour_histogram(ex[z : z + size, y : y + size, x : x + size], bins) - whole)
+        np.linalg.norm(color_histogram(ex[z : z + size, y : y + size, x : x + size], bins=bins) - whole)
         for z, y, x in corners
     ]
     return float(np.mean(d))
 
 
 def choose_block_size(
-    exemplar: ArrayLike, sizes: Sequence[int] | None = None, tolerance: float = 0.2, seed: int = 0
+    exemplar: ArrayLike, *, sizes: Sequence[int] | None = None, tolerance: float = 0.2, rng: RNGLike = 0
 ) -> int:
     """The smallest block size whose feature inclusiveness is within ``tolerance``.
 
@@ -176,6 +180,8 @@ def choose_block_size(
     tolerance : float
         Largest acceptable mean histogram distance (:func:`feature_inclusiveness`, 4 bins per
         channel). If no size reaches it, the largest candidate is used.
+    rng : int or numpy.random.Generator
+        Places the random blocks measured (an int: the same blocks for every size).
 
     Examples
     --------
@@ -189,6 +195,6 @@ def choose_block_size(
     if not candidates:
         raise ValueError(f"no even block size fits an exemplar of shape {ex.shape[:3]}")
     for s in candidates:
-        if feature_inclusiveness(ex, s, seed=seed) <= tolerance:
+        if feature_inclusiveness(ex, s, rng=rng) <= tolerance:
             return s
     return candidates[-1]

@@ -40,7 +40,9 @@ from scipy.spatial import cKDTree
 from scipy.stats import special_ortho_group
 from tqdm.auto import tqdm
 
+from ..deprecation import renamed_keyword
 from .neighbourhoods import image_windows
+from .seeding import RNGLike, integer_seed
 from .slices import as_rgb8
 
 __all__ = ["exemplar_from_image"]
@@ -172,8 +174,9 @@ def exemplar_from_image(
     neighbourhood: int = 5,
     iterations: tuple[int, ...] = (4, 3, 3),
     pca_dims: int = 16,
-    seed: int = 0,
+    rng: RNGLike = 0,
     progress: bool = False,
+    seed: int | None = None,
 ) -> NDArray[np.uint8]:
     """A cubic colour volume whose axis-aligned slices look like ``image`` (Kopf et al. 2007).
 
@@ -192,10 +195,14 @@ def exemplar_from_image(
         Search/optimise steps per level, coarsest first (the last value repeats if short).
     pca_dims : int
         Dimensions the neighbourhoods are reduced to for the nearest-neighbour search.
-    seed : int
-        The result is the same for the same seed.
+    rng : int or numpy.random.Generator
+        The result is the same for the same int. The optimisation needs an integer root seed (its
+        colour transfers are seeded ``seed + iteration``): a Generator gives one 63-bit draw
+        (:func:`~ffd_notebook.solidtex.seeding.integer_seed`).
     progress : bool
         Show a tqdm bar (one tick per step).
+    seed : int, optional
+        Deprecated alias of ``rng`` (a :class:`DeprecationWarning`).
 
     Returns
     -------
@@ -218,6 +225,9 @@ def exemplar_from_image(
         raise ValueError(f"size {size} must be a multiple of {scale} and at least {neighbourhood * scale}")
     if min(img.shape[:2]) // scale < neighbourhood + 1:
         raise ValueError(f"the image ({img.shape[0]}x{img.shape[1]}) is too small for {levels} levels")
+    if seed is not None:
+        rng = renamed_keyword({"seed": seed}, "seed", "rng", rng, "exemplar_from_image")
+    seed = integer_seed(rng)
     rng = np.random.default_rng(seed)
     iters = [iterations[min(k, len(iterations) - 1)] for k in range(levels)]
     volume = None

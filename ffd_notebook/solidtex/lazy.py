@@ -31,8 +31,10 @@ import math
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from ..deprecation import renamed_keyword
 from .blending import axis_ramp
 from .blocks import box_mean, choose_block_size, classify_blocks
+from .seeding import RNGLike, integer_seed
 from .synthesis import overlap_voxels
 
 __all__ = ["LazySolidTexture"]
@@ -93,12 +95,15 @@ class LazySolidTexture:
         Block edge (chosen by :func:`~ffd_notebook.solidtex.choose_block_size` if omitted).
     overlap : float
         Overlap of neighbouring blocks as a fraction of the block.
-    seed : int
-        Same seed, same colours, whatever is sampled first.
+    rng : int or numpy.random.Generator
+        Same int, same colours, whatever is sampled first. Each block's draws are a hash of one
+        integer root seed and the block's index, and a Generator's state cannot be hashed
+        reproducibly: a Generator gives one 63-bit draw as the root seed
+        (:func:`~ffd_notebook.solidtex.seeding.integer_seed`), kept as :attr:`seed`.
     candidates : int
         Pool blocks compared per block.
     pool : int
-        Number of exemplar blocks to choose from (random positions, fixed by the seed).
+        Number of exemplar blocks to choose from (random positions, fixed by the root seed).
     cells : int
         Overlap slabs are compared as ``cells x cells`` mean colours.
     match_statistics : bool
@@ -109,6 +114,8 @@ class LazySolidTexture:
 
     Attributes
     ----------
+    seed : int
+        The integer root seed.
     tiles_synthesised, blocks_chosen : int
         How much has been synthesised so far.
 
@@ -130,12 +137,12 @@ class LazySolidTexture:
         self,
         exemplar: ArrayLike,
         shape: int | tuple[int, int, int],
+        *,
         spacing: float = 1.0,
         origin: ArrayLike = (0.0, 0.0, 0.0),
-        *,
         block: int | None = None,
         overlap: float = 1 / 6,
-        seed: int = 0,
+        rng: RNGLike = 0,
         candidates: int = 64,
         pool: int = 4096,
         cells: int = 4,
@@ -145,10 +152,11 @@ class LazySolidTexture:
         if ex.ndim != 4 or ex.shape[3] != 3 or ex.dtype != np.uint8:
             raise ValueError(f"exemplar must be a (Z, Y, X, 3) uint8 volume, got {ex.dtype} {ex.shape}")
         target = (int(shape),) * 3 if np.isscalar(shape) else tuple(int(s) for s in shape)
-        b = int(block) if block is not None else choose_block_size(ex, seed=seed)
+        seed = integer_seed(rng)
+        b = int(block) if block is not None else choose_block_size(ex, rng=seed)
         if len(target) != 3 or min(target) < 1 or not 4 <= b <= min(ex.shape[:3]):
             raise ValueError(f"shape {shape} or block {b} does not fit an exemplar of shape {ex.shape[:3]}")
-        self.exemplar, self.block, self.seed = ex, b, int(seed)
+        self.exemplar, self.block, self.seed = ex, b, seed
         self._flat = ex.reshape(-1, 3).astype(np.float32)
         self.overlap = overlap_voxels(b, overlap)
         self.step = b - self.overlap
@@ -159,7 +167,7 @@ class LazySolidTexture:
         rng = np.random.default_rng(seed)
         self._pool = rng.integers(0, np.array(ex.shape[:3]) - b + 1, size=(int(pool), 3))
         means = box_mean(ex, b)[tuple(self._pool.T)]
-        labels, self._probabilities = classify_blocks(means, 3, seed=seed)
+        labels, self._probabilities = classify_blocks(means, 3, rng=seed)
         members = [np.flatnonzero(labels == c) for c in range(3)]
         self._counts = np.array([max(len(m), 1) for m in members])
         self._members = np.zeros((3, self._counts.max()), dtype=np.int64)
@@ -189,9 +197,12 @@ class LazySolidTexture:
 
     @classmethod
     def fit(
-        cls, exemplar: ArrayLike, bounds: ArrayLike, resolution: int = 256, margin: float = 0.02, **kwargs
+        cls, exemplar: ArrayLike, bounds: ArrayLike, *, resolution: int = 256, margin: float = 0.02, **kwargs
     ) -> LazySolidTexture:
         """A lazy texture over a box, ``resolution`` voxels along its longest side.
+
+        ``kwargs`` go to the constructor (``block``, ``rng``, ...); ``seed=`` is a deprecated alias
+        of ``rng`` (a :class:`DeprecationWarning`).
 
         Examples
         --------
@@ -200,12 +211,14 @@ class LazySolidTexture:
         >>> tex.n_blocks, round(tex.spacing, 4)
         ((15, 37, 74), 0.0199)
         """
+        if "seed" in kwargs:
+            kwargs["rng"] = renamed_keyword(kwargs, "seed", "rng", kwargs.get("rng", 0), "LazySolidTexture.fit")
         b = np.asarray(bounds, dtype=np.float64).reshape(3, 2)
         extent = (b[:, 1] - b[:, 0]) * (1.0 + margin)
         spacing = float(extent.max() / resolution)
         shape_xyz = np.maximum(np.ceil(extent / spacing).astype(int), 1)
         origin = b.mean(axis=1) - spacing * (shape_xyz - 1) / 2.0
-        return cls(exemplar, tuple(shape_xyz[::-1]), spacing, origin, **kwargs)
+        return cls(exemplar, tuple(shape_xyz[::-1]), spacing=spacing, origin=origin, **kwargs)
 
     @property
     def blocks_chosen(self) -> int:

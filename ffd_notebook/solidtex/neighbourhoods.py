@@ -15,6 +15,8 @@ import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
 from numpy.typing import ArrayLike, NDArray
 
+from .seeding import RNGLike
+
 __all__ = ["image_windows", "neighbourhood_distance", "reference_windows", "seam_error", "slice_windows"]
 
 
@@ -55,12 +57,12 @@ def slice_windows(volume: ArrayLike, axis: int, centres: ArrayLike, size: int) -
     return v[idx[0], idx[1], idx[2]].astype(np.float32).reshape(len(c), -1)
 
 
-def reference_windows(reference: ArrayLike, size: int, limit: int = 40000, seed: int = 0) -> NDArray[np.float32]:
+def reference_windows(reference: ArrayLike, size: int, *, limit: int = 40000, rng: RNGLike = 0) -> NDArray[np.float32]:
     """The exemplar neighbourhoods to compare with: all windows of a 2D image, or of a volume's slices.
 
     A volume's slices along all three axes give windows; at most ``limit`` of them are kept (a
-    random subset, the same for a seed), so two volumes compared with the same reference are
-    measured alike.
+    random subset drawn with ``rng``, an int or a Generator: the same for an int), so two volumes
+    compared with the same reference are measured alike.
 
     Examples
     --------
@@ -74,10 +76,10 @@ def reference_windows(reference: ArrayLike, size: int, limit: int = 40000, seed:
         windows = image_windows(ref, size)
         if len(windows) <= limit:
             return windows
-        return windows[np.random.default_rng(seed).choice(len(windows), limit, replace=False)]
+        return windows[np.random.default_rng(rng).choice(len(windows), limit, replace=False)]
     if ref.ndim != 4 or ref.shape[-1] != 3:
         raise ValueError(f"reference must be an (H, W, 3) image or a (Z, Y, X, 3) volume, got shape {ref.shape}")
-    rng = np.random.default_rng(seed)
+    rng = np.random.default_rng(rng)
     n_voxels = int(np.prod(ref.shape[:3]))
     if 3 * n_voxels <= limit:  # small: every window of every slice
         axes = np.repeat(np.arange(3), n_voxels)
@@ -111,10 +113,11 @@ def _nearest_distances(queries: NDArray[np.float32], reference: NDArray[np.float
 def neighbourhood_distance(
     volume: ArrayLike,
     reference: ArrayLike,
+    *,
     size: int = 5,
     n_queries: int = 3000,
     mask: ArrayLike | None = None,
-    seed: int = 0,
+    rng: RNGLike = 0,
 ) -> float:
     """Mean distance from neighbourhoods on random axis-aligned slices to their nearest exemplar neighbourhood.
 
@@ -130,8 +133,9 @@ def neighbourhood_distance(
         Number of random (voxel, slice axis) pairs.
     mask : array_like, optional
         ``(Z, Y, X)`` bool: draw query voxels only where it is True.
-    seed : int
-        Chooses the queries (and the reference subset of a volume reference).
+    rng : int or numpy.random.Generator
+        Chooses the queries (and the reference subset of a volume reference); an int gives the
+        same queries every time.
 
     Returns
     -------
@@ -155,7 +159,7 @@ def neighbourhood_distance(
         raise ValueError(f"expected a (Z, Y, X, 3) volume, got shape {v.shape}")
     if size % 2 != 1 or size > min(v.shape[:3]):
         raise ValueError(f"window size {size} must be odd and fit in the volume {v.shape[:3]}")
-    rng = np.random.default_rng(seed)
+    given, rng = rng, np.random.default_rng(rng)  # a Generator stays itself; an int seeds the reference too
     if mask is None:
         centres = rng.integers(0, v.shape[:3], size=(n_queries, 3))
     else:
@@ -165,19 +169,26 @@ def neighbourhood_distance(
         centres = np.stack(np.unravel_index(rng.choice(where, n_queries), v.shape[:3]), axis=1)
     axes = rng.integers(0, 3, n_queries)
     queries = np.concatenate([slice_windows(v, a, centres[axes == a], size) for a in range(3)])
-    ref = reference_windows(reference, size, seed=seed)
+    ref = reference_windows(reference, size, rng=given)
     d = _nearest_distances(queries, ref)
     return float(np.mean(d) / np.sqrt(queries.shape[1]))
 
 
 def seam_error(
-    volume: ArrayLike, exemplar: ArrayLike, step: int, overlap: int, size: int = 5, n_queries: int = 3000, seed: int = 0
+    volume: ArrayLike,
+    exemplar: ArrayLike,
+    *,
+    step: int,
+    overlap: int,
+    size: int = 5,
+    n_queries: int = 3000,
+    rng: RNGLike = 0,
 ) -> float:
     """:func:`neighbourhood_distance` of the voxels in block-overlap bands: how unlike the exemplar the seams are.
 
     A feathered overlap is a mix of two blocks, which the exemplar does not contain; a
     minimum-error cut keeps one block or the other, switching where they agree. Lower is better;
-    compare with :func:`neighbourhood_distance` of the whole volume.
+    compare with :func:`neighbourhood_distance` of the whole volume (``rng`` as there).
 
     Examples
     --------
@@ -192,4 +203,4 @@ def seam_error(
     # voxel k is shared by two blocks when a block starts at or before it, less than `overlap` voxels back
     masks = [(np.arange(n) >= step) & (np.arange(n) % step < overlap) for n in v.shape[:3]]
     band = masks[0][:, None, None] | masks[1][None, :, None] | masks[2][None, None, :]
-    return neighbourhood_distance(v, exemplar, size, n_queries, mask=band, seed=seed)
+    return neighbourhood_distance(v, exemplar, size=size, n_queries=n_queries, mask=band, rng=rng)

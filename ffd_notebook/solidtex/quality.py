@@ -10,13 +10,15 @@
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-__all__ = ["band_mask", "colour_histogram", "gradient_energy", "histogram_distance", "seam_energy"]
+__all__ = ["band_mask", "color_histogram", "colour_histogram", "gradient_energy", "histogram_distance", "seam_energy"]
 
 
-def colour_histogram(voxels: ArrayLike, bins: int = 8) -> NDArray[np.float64]:
+def color_histogram(voxels: ArrayLike, *, bins: int = 8) -> NDArray[np.float64]:
     """Normalised joint RGB histogram of uint8 colours, ``bins**3`` values that sum to 1.
 
     Parameters
@@ -28,7 +30,7 @@ def colour_histogram(voxels: ArrayLike, bins: int = 8) -> NDArray[np.float64]:
 
     Examples
     --------
-    >>> h = colour_histogram(np.array([[0, 0, 0], [255, 255, 255]], dtype=np.uint8), bins=2)
+    >>> h = color_histogram(np.array([[0, 0, 0], [255, 255, 255]], dtype=np.uint8), bins=2)
     >>> h.tolist()
     [0.5, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.5]
     """
@@ -40,6 +42,23 @@ def colour_histogram(voxels: ArrayLike, bins: int = 8) -> NDArray[np.float64]:
     codes = (q[:, 0] * bins + q[:, 1]) * bins + q[:, 2]
     h = np.bincount(codes, minlength=bins**3).astype(np.float64)
     return h / h.sum()
+
+
+def colour_histogram(voxels: ArrayLike, bins: int = 8) -> NDArray[np.float64]:
+    """Deprecated spelling of :func:`color_histogram` (the package spells ``color``, as PyVista does).
+
+    Examples
+    --------
+    >>> import warnings
+    >>> with warnings.catch_warnings(record=True) as caught:
+    ...     warnings.simplefilter("always")
+    ...     colour_histogram(np.zeros((2, 3), np.uint8), 2).tolist()
+    [1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]
+    >>> print(caught[0].message)
+    colour_histogram is deprecated: use color_histogram
+    """
+    warnings.warn("colour_histogram is deprecated: use color_histogram", DeprecationWarning, stacklevel=2)
+    return color_histogram(voxels, bins=bins)
 
 
 def histogram_distance(a: ArrayLike, b: ArrayLike, bins: int = 8) -> float:
@@ -54,7 +73,7 @@ def histogram_distance(a: ArrayLike, b: ArrayLike, bins: int = 8) -> float:
     >>> round(histogram_distance(red, blue), 4), histogram_distance(red, red[:2])
     (1.4142, 0.0)
     """
-    return float(np.linalg.norm(colour_histogram(a, bins) - colour_histogram(b, bins)))
+    return float(np.linalg.norm(color_histogram(a, bins=bins) - color_histogram(b, bins=bins)))
 
 
 def gradient_energy(volume: ArrayLike) -> float:

@@ -32,9 +32,11 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from tqdm.auto import tqdm
 
+from ..deprecation import renamed_keyword
 from .blending import block_weights
 from .blocks import box_mean, cell_starts, choose_block_size, classify_blocks
 from .seams import graph_cut_side
+from .seeding import RNGLike
 
 __all__ = ["Stage", "plan_stages", "synthesize"]
 
@@ -145,7 +147,7 @@ class _Matcher:
         self.flat = self.pooled.reshape(-1, 3)
         means = box_mean(source, b)
         self.grid = means.shape[:3]
-        labels, self.probabilities = classify_blocks(means.reshape(-1, 3), 3, seed=seed)
+        labels, self.probabilities = classify_blocks(means.reshape(-1, 3), 3, rng=seed)
         members = [np.flatnonzero(labels == c) for c in range(3)]
         self.positions = [np.stack(np.unravel_index(m, self.grid), axis=1) for m in members]
         self.linear = [q @ self.pstrides for q in self.positions]
@@ -291,16 +293,17 @@ def _match_statistics(volume: NDArray[np.float32], mean: np.ndarray, std: np.nda
 def synthesize(
     exemplar: ArrayLike,
     shape: int | tuple[int, int, int],
+    *,
     block: int | None = None,
     overlap: float | None = None,
-    seed: int = 0,
+    rng: RNGLike = 0,
     reuse: bool = True,
-    *,
     candidates: int = 200,
     match_statistics: bool = True,
     progress: bool = True,
     seams: str = "feather",
     stats: dict | None = None,
+    seed: int | None = None,
 ) -> NDArray[np.uint8]:
     """Grow a solid texture of ``shape`` from a colour exemplar by block synthesis.
 
@@ -316,8 +319,8 @@ def synthesize(
         Overlap between neighbouring blocks as a fraction of the block. Default: 1/6 (the paper's)
         when feathering, 1/4 with cuts: a minimum-error boundary needs room to find agreement
         (seam energy 0.76x feathering's at 1/6, 0.64x at 1/4 at 128^3 with reuse).
-    seed : int
-        The result is the same for the same seed.
+    rng : int or numpy.random.Generator
+        The result is the same for the same int (a Generator is drawn from, so it moves on).
     reuse : bool
         ``True``: region-doubling growth (fast); ``False``: fixed blocks over the whole target.
     candidates : int
@@ -341,6 +344,8 @@ def synthesize(
         a cut pays it at the seam, feathering across the whole overlap), relative to that of two
         unrelated voxels of the stage's source (twice its colour variance): 1 is as bad as
         joining blocks at random, 0 a perfect fit.
+    seed : int, optional
+        Deprecated alias of ``rng`` (a :class:`DeprecationWarning`).
 
     Returns
     -------
@@ -357,6 +362,8 @@ def synthesize(
     >>> bool(np.array_equal(out, synthesize(ex, (24, 20, 40), block=8, progress=False)))
     True
     """
+    if seed is not None:
+        rng = renamed_keyword({"seed": seed}, "seed", "rng", rng, "synthesize")
     ex = np.asarray(exemplar)
     if seams not in ("feather", "cut"):
         raise ValueError(f"seams must be 'feather' or 'cut', got {seams!r}")
@@ -364,11 +371,11 @@ def synthesize(
         raise ValueError(f"exemplar must be a (Z, Y, X, 3) colour volume, got shape {ex.shape}")
     target = (int(shape),) * 3 if np.isscalar(shape) else tuple(int(s) for s in shape)
     if block is None:
-        block = choose_block_size(ex, seed=seed)
+        block = choose_block_size(ex, rng=rng)
     if overlap is None:
         overlap = 1 / 4 if seams == "cut" else 1 / 6
     stages = plan_stages(ex.shape, target, int(block), overlap, reuse)
-    rng = np.random.default_rng(seed)
+    rng = np.random.default_rng(rng)
     source = ex.astype(np.float32)
     mean, std = (
         source.reshape(-1, 3).mean(axis=0, dtype=np.float64),

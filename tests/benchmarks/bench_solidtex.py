@@ -203,7 +203,7 @@ def seams(ex, quick):
                 stats = {}
                 t, vol = timed(
                     lambda m=method, st=stats, n=size, r=reuse, sd=seed: synthesize(
-                        ex, n, reuse=r, seed=sd, progress=False, seams=m, stats=st
+                        ex, n, reuse=r, rng=sd, progress=False, seams=m, stats=st
                     ),
                     1,
                 )

@@ -39,10 +39,10 @@ def test_classes_are_ordered_by_brightness_and_probabilities_are_fractions():
     centres = np.array([[20, 20, 20], [120, 100, 90], [240, 230, 220]], float)
     counts = [50, 300, 150]
     means = np.concatenate([c + rng.normal(0, 3, (n, 3)) for c, n in zip(centres, counts, strict=True)])
-    labels, p = classify_blocks(means, seed=1)
+    labels, p = classify_blocks(means, rng=1)
     np.testing.assert_allclose(p, np.array(counts) / 500)
     assert labels[:50].tolist() == [0] * 50 and set(labels[350:]) == {2}
-    again, _ = classify_blocks(means, seed=1)
+    again, _ = classify_blocks(means, rng=1)
     np.testing.assert_array_equal(labels, again)
 
 

@@ -2,22 +2,13 @@
 
 import numpy as np
 import pytest
-import skimage.data
 
 from ffd_notebook.solidtex import (
     LazySolidTexture,
     SolidTexture,
     histogram_distance,
     seam_energy,
-    sliding_crops,
-    volume_from_slices,
 )
-
-
-@pytest.fixture(scope="module")
-def exemplar():
-    img = skimage.data.immunohistochemistry()
-    return volume_from_slices(sliding_crops(img, 32, 32, step=(1, 1), start=(100, 100)))
 
 
 def _plane_points(rng, axis, value, extent, n=3000):
@@ -35,8 +26,8 @@ def _plane_grid(axis, value, extent, spacing=2.0):
 def test_same_colours_whatever_is_sampled_first(exemplar):
     rng = np.random.default_rng(3)
     sets = [_plane_points(rng, a, v, 300) for a, v in ((0, 40.0), (2, 210.5), (1, 123.0))]
-    first = LazySolidTexture(exemplar, 300, block=8, seed=5)
-    second = LazySolidTexture(exemplar, 300, block=8, seed=5)
+    first = LazySolidTexture(exemplar, 300, block=8, rng=5)
+    second = LazySolidTexture(exemplar, 300, block=8, rng=5)
     colours_first = [first.sample(p) for p in sets]
     colours_second = [second.sample(p) for p in reversed(sets)][::-1]
     for a, b in zip(colours_first, colours_second, strict=True):
@@ -45,7 +36,7 @@ def test_same_colours_whatever_is_sampled_first(exemplar):
     both = (first._choice >= 0) & (second._choice >= 0)
     assert both.sum() > 100
     np.testing.assert_array_equal(first._choice[both], second._choice[both])
-    other_seed = LazySolidTexture(exemplar, 300, block=8, seed=6)
+    other_seed = LazySolidTexture(exemplar, 300, block=8, rng=6)
     assert not np.array_equal(other_seed.sample(sets[0]), colours_first[0])
 
 
@@ -102,8 +93,8 @@ def _overlap_mismatch(tex):
 
 
 def test_matching_lowers_seams_and_keeps_colours(exemplar):
-    matched = LazySolidTexture(exemplar, 64, block=12, seed=2, candidates=64)
-    random = LazySolidTexture(exemplar, 64, block=12, seed=2, candidates=1)  # first candidate: no matching
+    matched = LazySolidTexture(exemplar, 64, block=12, rng=2, candidates=64)
+    random = LazySolidTexture(exemplar, 64, block=12, rng=2, candidates=1)  # first candidate: no matching
     a, b = matched.volume(), random.volume()
     assert histogram_distance(a, exemplar) < 0.06
     assert seam_energy(a, matched.step, matched.overlap) < seam_energy(b, random.step, random.overlap)

@@ -2,7 +2,7 @@ import numpy as np
 import pytest
 import skimage.data
 
-from ffd_notebook.solidtex import colour_histogram, gradient_energy, histogram_distance, seam_energy
+from ffd_notebook.solidtex import color_histogram, gradient_energy, histogram_distance, seam_energy
 from ffd_notebook.solidtex.quality import band_mask
 
 
@@ -13,9 +13,9 @@ def test_histogram_distance_is_a_metric_on_real_colours():
     assert histogram_distance(a, a) == 0
     assert histogram_distance(a, b) == pytest.approx(histogram_distance(b, a))
     assert histogram_distance(a, c) <= histogram_distance(a, b) + histogram_distance(b, c) + 1e-12
-    assert colour_histogram(a).sum() == pytest.approx(1)
+    assert color_histogram(a).sum() == pytest.approx(1)
     with pytest.raises(ValueError, match="RGB"):
-        colour_histogram(np.zeros((4, 4)))
+        color_histogram(np.zeros((4, 4)))
 
 
 def test_seam_energy_sees_tiles_and_not_smooth_volumes():

@@ -4,12 +4,11 @@ import itertools
 
 import numpy as np
 import pytest
-import skimage.data
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
-from ffd_notebook.solidtex import histogram_distance, sliding_crops, synthesize, volume_from_slices
+from ffd_notebook.solidtex import histogram_distance, synthesize
 from ffd_notebook.solidtex.seams import cut_cost, graph_cut_side, seam_errors
 
 
@@ -97,12 +96,6 @@ def test_refined_cut_costs_no_more_than_the_coarse_cut(seed, axes, pool_thicknes
     assert costs[1] <= costs[0] and costs[2] <= costs[0]  # refining never costs more than the coarse cut
     assert costs[3] <= min(costs[1], costs[2])  # ... nor less than the cut of the whole overlap
     assert costs[3] == pytest.approx(_cut_cost(best, err, covered))  # the module's cost is the brute force's
-
-
-@pytest.fixture(scope="module")
-def exemplar():
-    img = skimage.data.immunohistochemistry()
-    return volume_from_slices(sliding_crops(img, 32, 32, step=(1, 1), start=(100, 100)))
 
 
 def test_cut_seams_mismatch_less_than_feathering(exemplar):

@@ -70,6 +70,7 @@ class TexturedOrgan:
         self,
         grid: pv.UnstructuredGrid,
         texture: TextureSampler,
+        *,
         subdivisions: int | str = "auto",
         face_subdivisions: int = 2,
     ) -> None:
@@ -198,7 +199,8 @@ def add_cut(
     --------
     >>> from ffd_notebook.meshing.organ import tetrahedralize
     >>> grid = tetrahedralize(pv.Sphere(theta_resolution=10, phi_resolution=10), method="delaunay")
-    >>> organ = TexturedOrgan(grid, SolidTexture.fit(np.full((4, 4, 4, 3), 120, np.uint8), grid.bounds), 0)
+    >>> texture = SolidTexture.fit(np.full((4, 4, 4, 3), 120, np.uint8), grid.bounds)
+    >>> organ = TexturedOrgan(grid, texture, subdivisions=0)
     >>> pl = pv.Plotter(off_screen=True, window_size=(160, 120))
     >>> outside, face = add_cut(pl, organ, normal=(0, 0, 1))
     >>> sorted(pl.actors), face.n_cells > 0
@@ -256,6 +258,7 @@ class CutViewer:
         self,
         organ: TexturedOrgan,
         plotter: pv.Plotter | None = None,
+        *,
         origin: ArrayLike | None = None,
         normal: ArrayLike = (1.0, 0.0, 0.0),
         interaction_event: str = "always",
