@@ -249,7 +249,7 @@ def test_quickstart_notebook_drag_and_save(lab, tmp_path: Path):
             path_field = page.locator('input[placeholder="path/to/lattice.ffd"]').first
             path_field.scroll_into_view_if_needed()
             path_field.fill(str(saved))
-            page.locator("button.jupyter-button", has_text="Save .ffd").first.click()
+            page.locator("button.jupyter-button", has_text="Save lattice").first.click()
             wait_for(saved.exists, 30, "the .ffd file saved from the panel")
             lattice = load_ffd(saved)
             ijk = tuple(records[-1]["ijk"])
