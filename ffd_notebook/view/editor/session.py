@@ -42,8 +42,13 @@ FIELDS = (None, "displacement", "jacobian")
 
 
 def fitted_lattice(mesh: Any, shape: tuple[int, int, int], basis: str) -> Lattice:
-    """The lattice the editor fits around ``mesh`` (initial fit, new size, new basis, new mesh)."""
-    return Lattice.around(mesh, shape, basis=basis)
+    """The lattice the editor fits around ``mesh`` (initial fit, new size, new basis, new mesh).
+
+    For the B-spline basis it uses the "clamp" border: the lattice's box is the mesh's own, at most
+    2% larger, so every control point, the outer ring included, visibly moves the mesh (with
+    "zero" the outer ring lies a whole spacing outside the mesh). Bernstein lattices span their box.
+    """
+    return Lattice.around(mesh, shape, basis=basis, border="clamp" if basis == "bspline" else "zero")
 
 
 def copy_ffd(ffd: FFD, lattice: Lattice | None = None) -> FFD:

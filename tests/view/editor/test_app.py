@@ -62,7 +62,7 @@ def test_bad_input_becomes_a_message_and_changes_nothing(app):
     app.run("apply", [1, 2, 1, "abc", 0, 0])
     app.run("apply", [9, 0, 0, 1, 0, 0])  # outside the lattice: the editor's own error
     app.run("rebuild", [4, "", 4])
-    app.run("rebuild", [3, 3, 3])  # too small for the B-spline basis
+    app.run("rebuild", [1, 3, 3])  # too small for any lattice
     assert app.editor.lattice == before
     texts = [m["text"] for m in app.state.messages]
     assert len(texts) == 4 and all(t.startswith("Error") for t in texts)
