@@ -222,7 +222,7 @@ CONTROLS: tuple[Control, ...] = (
         "lattice file (.ffd, .tfm, .h5, .prm)",
         "Files",
         default="lattice.ffd",
-        placeholder="path/to/lattice.ffd / .tfm / .txt / .h5 / .prm",
+        placeholder="path/to/lattice.ffd",
         element_id="ffd-path",
     ),
     Control(
