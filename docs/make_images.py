@@ -65,7 +65,7 @@ def solid_texture_image(path: str | Path, window_size: tuple[int, int] = (900, 4
 
 
 def editor_image(path: str | Path, window_size: tuple[int, int] = (900, 560)) -> Path:
-    """The editor on its bundled sample mesh: top layers sheared from code, one point dragged out."""
+    """The editor on its bundled sample face (its own colours): top layers sheared from code, one point dragged out."""
     import ffd_notebook.view  # noqa: F401  (headless settings before any plotter)
     from ffd_notebook.view.editor import Editor
 
@@ -74,7 +74,6 @@ def editor_image(path: str | Path, window_size: tuple[int, int] = (900, 560)) ->
     editor.lattice.offsets[:, 3:, :] += (0.6 * spacing[0], 0.0, 0.0)  # shear the top (+y is up), from code
     editor.update()
     editor.move_control_point((1, 2, 2), (-1.0 * spacing[0], 0.0, 0.0))  # as a drag or the panel would
-    editor.set_field("displacement")
     editor.select((1, 2, 2))
     pixels = editor.screenshot()
     editor.close()

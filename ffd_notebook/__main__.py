@@ -47,7 +47,7 @@ def build_parser() -> argparse.ArgumentParser:
         description="Deform a mesh by dragging the control points of a free-form deformation lattice, in the browser.",
     )
     parser.add_argument("mesh", nargs="?", help="mesh file (OBJ with colours, PLY, VTP, STL, ...); default: sample")
-    parser.add_argument("--ffd", metavar="FILE", help="a .ffd lattice file to start from")
+    parser.add_argument("--ffd", metavar="FILE", help="a lattice file to start from (.ffd, ITK .tfm/.h5, PyGeM .prm)")
     parser.add_argument("--port", type=int, default=8080, help="port to listen on (0: any free port; default 8080)")
     parser.add_argument("--host", default="127.0.0.1", help="address to listen on (default 127.0.0.1: this machine)")
     parser.add_argument("--shape", type=int, nargs=3, default=[5, 5, 5], metavar=("NX", "NY", "NZ"),
@@ -80,7 +80,7 @@ def main(argv: Sequence[str] | None = None, *, setup: Callable[[Any], None] | No
         return getattr(importlib.import_module(module), function)(argv[1:])
     parser = build_parser()
     args = parser.parse_args(argv)
-    for path, what in ((args.mesh, "mesh"), (args.ffd, ".ffd file")):
+    for path, what in ((args.mesh, "mesh"), (args.ffd, "lattice file")):
         if path is not None and not os.path.isfile(path):
             parser.error(f"no such {what}: {path}")
     if not os.path.isdir(args.root):

@@ -1,4 +1,5 @@
-"""Sample meshes that work offline: a face scan bundled with the package, organs built from PyVista's data."""
+"""Sample meshes that work offline: a face scan bundled with the package (the editor's default), organs built
+from PyVista's data."""
 
 from __future__ import annotations
 
@@ -73,36 +74,22 @@ def face() -> pv.PolyData:
 
 
 def sample_mesh() -> pv.PolyData:
-    """The editor's default mesh: a frog's liver with per-vertex colours (offline, about 12k vertices).
+    """The editor's default mesh: the bundled coloured face scan, :func:`face` (offline).
 
-    :func:`frog_liver` (label 10 of :func:`pyvista.examples.load_frog_tissues`, bundled with
-    PyVista: smoothed and closed) with liver-coloured bands across its long axis as per-vertex
-    ``"RGB"`` (uint8) point data, so that deformations and colour-keeping decimation are easy to see.
+    Organ tools and notebooks that want the frog's liver call :func:`frog_liver` explicitly.
 
     Returns
     -------
     pyvista.PolyData
-        Triangles, point data ``"RGB"`` (uint8, ``(N, 3)``).
+        Triangles, point data ``"RGB"`` (uint8, ``(N, 3)``); +y up, the face looking along +z.
 
     Examples
     --------
     >>> mesh = sample_mesh()
-    >>> mesh.n_points > 10000, mesh.point_data["RGB"].dtype.name, mesh.n_open_edges
-    (True, 'uint8', 0)
+    >>> mesh.n_points, mesh.point_data["RGB"].dtype.name
+    (6393, 'uint8')
     """
-    mesh = frog_liver(12000)
-    pts = np.asarray(mesh.points, dtype=np.float64)
-    centred = pts - pts.mean(axis=0)
-    # bands across the principal axis: a shear or bend of the lattice shows as bent bands
-    axis = np.linalg.svd(centred, full_matrices=False)[2][0]
-    t = centred @ axis
-    t = (t - t.min()) / max(float(np.ptp(t)), 1e-12)
-    bands = 0.5 + 0.5 * np.cos(2 * np.pi * 6 * t)
-    dark, light = np.array([150.0, 45.0, 35.0]), np.array([235.0, 160.0, 120.0])
-    rgb = dark + (light - dark) * bands[:, None]
-    mesh.point_data["RGB"] = np.clip(np.rint(rgb), 0, 255).astype(np.uint8)
-    mesh.point_data.active_scalars_name = "RGB"
-    return mesh
+    return face()
 
 
 @lru_cache(maxsize=4)

@@ -70,10 +70,11 @@ def _refuse(path: str | os.PathLike[str], what: str, why: str) -> ValueError:
 def save_deformation(path: str | os.PathLike[str], ffd: FFD) -> None:
     """Write an FFD in the format its extension names, atomically, or refuse if it would not be exact.
 
-    ``.ffd`` holds a B-spline lattice with the "zero" border, no affine part, moving every point it
-    reaches; ``.prm`` a Bernstein lattice without affine part that moves only the points inside its
-    box (``only_inside=True``) and whose rotation is not a reflection; ITK files a B-spline lattice
-    with the "zero" border and any invertible affine part (:func:`save_transform`).
+    ``.ffd`` holds a B-spline lattice with either border (a "clamp" one is recorded), no affine
+    part, moving every point it reaches; ``.prm`` a Bernstein lattice without affine part that
+    moves only the points inside its box (``only_inside=True``) and whose rotation is not a
+    reflection; ITK files a B-spline lattice with the "zero" border and any invertible affine
+    part (:func:`save_transform`).
 
     Raises
     ------
@@ -101,15 +102,18 @@ def save_deformation(path: str | os.PathLike[str], ffd: FFD) -> None:
     border = ffd.border
     affine = not np.array_equal(ffd.affine, np.eye(4))
     if suffix == ".ffd":
-        if ffd.basis != "bspline" or border != "zero":
-            raise _refuse(path, ".ffd", f"it has the {ffd.basis!r} basis with border={border!r}; .ffd lattices are "
-                          "cubic B-splines with the 'zero' border")  # fmt: skip
+        if ffd.basis != "bspline":
+            raise _refuse(path, ".ffd", f"it has the {ffd.basis!r} basis; .ffd lattices are cubic B-splines")
         if affine:
             raise _refuse(path, ".ffd", "it has an affine part, which .ffd files do not store")
         if ffd.only_inside:
             raise _refuse(path, ".ffd", "it moves only the points inside its domain (only_inside=True, as an ITK "
                           "transform does), a .ffd lattice moves every point its control points reach")  # fmt: skip
-        save_ffd(path, ffd.lattice)
+        lattice = ffd.lattice
+        if lattice.border != border:  # the file records the border the FFD uses (a #border# section)
+            lattice = lattice.copy()
+            lattice.border = border
+        save_ffd(path, lattice)
         return
     if ffd.basis != "bernstein":
         raise _refuse(path, "PyGeM .prm", f"it has the {ffd.basis!r} basis; PyGeM's FFD is a Bernstein one")

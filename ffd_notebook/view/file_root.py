@@ -6,7 +6,8 @@ A path typed into the app's page comes from whoever holds the page, possibly ove
   with one message that does not depend on whether the target exists;
 * a file to read must be a regular file (not a FIFO, which would block the server, nor a device
   such as ``/dev/zero``, nor a folder) no bigger than a limit, checked before anything opens it;
-* a file to write must have the extension of what is written (``.ffd`` or a mesh format), so no
+* a file to write must have the extension of what is written (a lattice file: ``.ffd``, ITK
+  ``.tfm``/``.txt``/``.h5``/``.hdf5``, PyGeM ``.prm``; or a mesh format), so no
   panel action can create a ``.pth``, ``.py`` or ``.bashrc``;
 * an error shown on the page names the file by its path inside the root and never quotes the
   file's content (a reader's ``got '...'`` detail stays in the server's log).
@@ -22,6 +23,7 @@ from pathlib import Path
 
 from ..errors import FileFormatError
 from ..io import check_regular_file
+from ..io.deformation_files import DEFORMATION_SUFFIXES
 
 __all__ = [
     "DEFAULT_MAX_FILE_BYTES",
@@ -35,7 +37,8 @@ __all__ = [
 
 DEFAULT_MAX_FILE_BYTES = 512 * 1024 * 1024
 MESH_SUFFIXES = (".obj", ".ply", ".stl", ".vtp", ".vtk", ".vtu")
-FFD_SUFFIXES = (".ffd",)
+#: lattice files the app reads and writes: every deformation format of :mod:`ffd_notebook.io`
+FFD_SUFFIXES = tuple(DEFORMATION_SUFFIXES)
 
 
 class PathRefused(ValueError):
@@ -86,10 +89,10 @@ class FileRoot:
     Traceback (most recent call last):
     ...
     ffd_notebook.view.file_root.PathRefused: '../lattice.ffd' is outside the app's folder
-    >>> root.for_writing("evil.pth", FFD_SUFFIXES)
+    >>> root.for_writing("evil.pth", (".ffd", ".tfm"))
     Traceback (most recent call last):
     ...
-    ffd_notebook.view.file_root.PathRefused: 'evil.pth': the file name must end with .ffd
+    ffd_notebook.view.file_root.PathRefused: 'evil.pth': the file name must end with .ffd or .tfm
     """
 
     def __init__(self, root: str | os.PathLike[str], max_bytes: int = DEFAULT_MAX_FILE_BYTES) -> None:

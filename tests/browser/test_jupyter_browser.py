@@ -179,14 +179,14 @@ def _settled_kernel(port: int, page) -> str:
 
 
 def _notebook_done(port: int, work: Path, page, kernel: str) -> bool:
-    """True once the kernel is idle after the last cell (it writes liver_deformed.obj); fails on an error."""
+    """True once the kernel is idle after the last cell (it writes face_deformed.obj); fails on an error."""
     errors = page.locator(".jp-OutputArea-output[data-mime-type='application/vnd.jupyter.stderr']")
     tracebacks = [t for t in errors.all_inner_texts() if "Traceback" in t or "Error" in t]
     assert not tracebacks, f"a notebook cell failed:\n{tracebacks[0][-2000:]}"
     kernels = _kernels(port)
     if [k["id"] for k in kernels] != [kernel]:
         raise KernelReplaced(f"kernel {kernel} was replaced by {[k['id'] for k in kernels]}")
-    return (work / "liver_deformed.obj").exists() and kernels[0]["execution_state"] == "idle"
+    return (work / "face_deformed.obj").exists() and kernels[0]["execution_state"] == "idle"
 
 
 def test_quickstart_notebook_drag_and_save(lab, tmp_path: Path):
@@ -249,7 +249,7 @@ def test_quickstart_notebook_drag_and_save(lab, tmp_path: Path):
             path_field = page.locator('input[placeholder="path/to/lattice.ffd"]').first
             path_field.scroll_into_view_if_needed()
             path_field.fill(str(saved))
-            page.locator("button.jupyter-button", has_text="Save .ffd").first.click()
+            page.locator("button.jupyter-button", has_text="Save lattice").first.click()
             wait_for(saved.exists, 30, "the .ffd file saved from the panel")
             lattice = load_ffd(saved)
             ijk = tuple(records[-1]["ijk"])

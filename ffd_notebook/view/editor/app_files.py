@@ -3,7 +3,8 @@
 Every typed path goes through :class:`~ffd_notebook.view.file_root.FileRoot` (inside the root,
 regular files of bounded size, the right extension to write) and every message the page shows goes
 through :func:`~ffd_notebook.view.file_root.client_message` (no file content, the root-relative
-name). A remote user needs no server path at all: .ffd files and meshes can be uploaded from the
+name). A remote user needs no server path at all: lattice files (.ffd, ITK .tfm/.txt/.h5/.hdf5,
+PyGeM .prm) and meshes can be uploaded from the
 browser and the lattice and the deformed mesh downloaded to it.
 
 Reading and writing files run in a worker thread (:meth:`AppFilesMixin._in_background`) so the
@@ -15,6 +16,7 @@ running event loop (scripts, unit tests) the same work runs synchronously.
 from __future__ import annotations
 
 import asyncio
+import os
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -28,8 +30,21 @@ from ..file_root import (
     client_message,
     refuse_special_or_oversize,
 )
+from .session import copy_ffd
 
 __all__ = ["MESH_FORMATS", "AppFilesMixin", "upload_bytes"]
+
+
+def _write_deformation(target: Path, ffd: Any, shown: str) -> None:
+    """``save_deformation(target, ffd)``; a refusal (the format cannot hold ``ffd``) becomes a
+    :class:`PathRefused` whose whole reason the page may show, naming the file as the page does."""
+    from ...io import save_deformation
+
+    try:
+        save_deformation(target, ffd)
+    except ValueError as exc:  # the reason is made from the FFD, never from a file's content
+        raise PathRefused(str(exc).replace(os.fspath(target), shown)) from None
+
 
 MESH_FORMATS = ["obj", "ply", "stl", "vtp"]
 
@@ -141,7 +156,7 @@ class AppFilesMixin:
                             lambda result: self.editor.use_mesh(*result, shown), shown, "load")  # fmt: skip
 
     def load_ffd(self, path: str) -> None:
-        """Load a .ffd file from a path in the app's folder."""
+        """Load a lattice file (.ffd, ITK, PyGeM .prm) from a path in the app's folder."""
         target = self._typed(path, self.files.for_reading, "load")
         if target is not None:
             self._read_ffd(target, self.files.shown(target))
@@ -154,13 +169,14 @@ class AppFilesMixin:
 
     # ------------------------------------------------------------------ writing
     def save_ffd(self, path: str) -> None:
-        """Save the lattice to a .ffd file in the app's folder (atomically)."""
-        from ...io import save_ffd
+        """Save the FFD to a lattice file in the app's folder (format by extension, atomically).
 
+        A format that cannot hold the FFD exactly is refused with the reason, and writes nothing.
+        """
         target = self._typed(path, lambda p: self.files.for_writing(p, FFD_SUFFIXES), "save")
         if target is not None:
-            lattice, shown = self.editor.lattice.copy(), self.files.shown(target)
-            self._in_background(f"writing {shown}", lambda: save_ffd(target, lattice),
+            ffd, shown = copy_ffd(self.editor.ffd), self.files.shown(target)
+            self._in_background(f"writing {shown}", lambda: _write_deformation(target, ffd, shown),
                                 lambda _: self.editor.messages.append(f"saved the lattice to {shown}"), shown,
                                 "save")  # fmt: skip
 
@@ -224,11 +240,9 @@ class AppFilesMixin:
             target.unlink(missing_ok=True)
 
     async def download_ffd(self) -> bytes:
-        """The lattice as the bytes of a .ffd file (the page's download button saves them in the browser)."""
-        from ...io import save_ffd
-
-        lattice = self.editor.lattice.copy()
-        return await self._written_bytes("download.ffd", lambda path: save_ffd(path, lattice))
+        """The FFD as the bytes of a .ffd file (the page's download button saves them in the browser)."""
+        ffd = copy_ffd(self.editor.ffd)
+        return await self._written_bytes("download.ffd", lambda path: _write_deformation(path, ffd, "lattice.ffd"))
 
     async def download_mesh(self, fmt: str = "obj") -> bytes:
         """The deformed mesh as the bytes of a ``fmt`` file (one of :data:`MESH_FORMATS`)."""

@@ -12,12 +12,15 @@ from __future__ import annotations
 import re
 from typing import Any
 
+from ..file_root import FFD_SUFFIXES
 from .controls import Control
 
 __all__ = ["build_layout"]
 
 _FIELD = {"density": "compact", "hide_details": True, "variant": "outlined"}
 _COLS = {"button": 4, "choice": 6, "switch": 6, "slider": 8, "text": 12, "label": 12, "messages": 12}
+#: the upload's file filter: every lattice file suffix the app reads, in both cases
+_LATTICE_ACCEPT = ",".join(s for suffix in FFD_SUFFIXES for s in (suffix, suffix.upper()))
 _DOWNLOAD_MESH = "utils.download('deformed.' + mesh_format, trigger('ffd_download_mesh', [mesh_format]))"
 _HINTS = {"Control point": "Control point (drag a sphere or type)"}
 
@@ -125,8 +128,8 @@ def _browser_files() -> None:
     _section("Your computer's files")
     v.VFileInput(
         v_model=("ffd_upload",),
-        label="upload a .ffd",
-        accept=".ffd,.FFD",
+        label="upload a lattice (.ffd, .tfm, .h5, .prm)",
+        accept=_LATTICE_ACCEPT,
         id="ffd-upload",
         prepend_icon="",
         classes="mt-2",

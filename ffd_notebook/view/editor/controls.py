@@ -219,7 +219,7 @@ CONTROLS: tuple[Control, ...] = (
     Control(
         "ffd_path",
         "text",
-        ".ffd file",
+        "lattice file (.ffd, .tfm, .h5, .prm)",
         "Files",
         default="lattice.ffd",
         placeholder="path/to/lattice.ffd",
@@ -228,24 +228,24 @@ CONTROLS: tuple[Control, ...] = (
     Control(
         "load_ffd",
         "button",
-        "Load .ffd",
+        "Load lattice",
         "Files",
         command="load_ffd",
         args=("ffd_path",),
         element_id="ffd-load",
         app_trigger="ffd_load_ffd",
-        tooltip="Load a lattice file",
+        tooltip="Load a lattice file: .ffd, ITK .tfm/.txt/.h5/.hdf5, PyGeM .prm (by extension)",
     ),
     Control(
         "save_ffd",
         "button",
-        "Save .ffd",
+        "Save lattice",
         "Files",
         command="save_ffd",
         args=("ffd_path",),
         element_id="ffd-save",
         app_trigger="ffd_save_ffd",
-        tooltip="Save the lattice",
+        tooltip="Save the lattice: .ffd, ITK .tfm/.txt/.h5/.hdf5, PyGeM .prm (by extension)",
     ),
     Control(
         "mesh_path", "text", "mesh to load", "Files", default="", placeholder="mesh.obj / .ply / .vtp / ...", row=1

@@ -155,7 +155,7 @@ class Editor:
 
     @property
     def ffd(self) -> FFD:
-        """The :class:`~ffd_notebook.deform.FFD` (lattice + basis) applied to the mesh."""
+        """The :class:`~ffd_notebook.deform.FFD` applied to the mesh (lattice, basis, border, affine part)."""
         return self.session.ffd
 
     @property
@@ -288,20 +288,20 @@ class Editor:
         self.session.subscribe(lambda change: callback(change.kind))
 
     # ------------------------------------------------------------------ files (session_files)
-    def read_ffd_file(self, path: Path) -> tuple[Lattice, bool]:
-        """Read a .ffd file without changing anything: :func:`.session_files.read_ffd_file`."""
+    def read_ffd_file(self, path: Path) -> tuple[FFD, str]:
+        """Read a lattice file without changing anything: :func:`.session_files.read_ffd_file`."""
         return session_files.read_ffd_file(self.session, path)
 
-    def use_ffd(self, lattice: Lattice, placed: bool, name: str) -> None:
-        """Install a lattice read by :meth:`read_ffd_file`: :func:`.session_files.use_ffd`."""
-        session_files.use_ffd(self.session, lattice, placed, name)
+    def use_ffd(self, ffd: FFD, source: str, name: str) -> None:
+        """Install an FFD read by :meth:`read_ffd_file`: :func:`.session_files.use_ffd`."""
+        session_files.use_ffd(self.session, ffd, source, name)
 
     def load_ffd(self, path: Path) -> Lattice:
-        """Load a lattice from a .ffd file: :func:`.session_files.load_ffd`."""
+        """Load a lattice file (.ffd, ITK .tfm/.txt/.h5/.hdf5, PyGeM .prm): :func:`.session_files.load_ffd`."""
         return session_files.load_ffd(self.session, path)
 
     def save_ffd(self, path: Path) -> None:
-        """Save the lattice to a .ffd file: :func:`.session_files.save_ffd`."""
+        """Save the FFD to a lattice file (format by extension): :func:`.session_files.save_ffd`."""
         session_files.save_ffd(self.session, path)
 
     def read_mesh_file(self, path: Path) -> tuple[pv.PolyData, Any]:

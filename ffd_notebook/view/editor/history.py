@@ -39,7 +39,7 @@ class OffsetEdit:
 
 @dataclass
 class LatticeSwap:
-    """The lattice and basis were replaced: ``before = (lattice, basis, ...)`` and ``after`` likewise.
+    """The lattice was replaced: ``before = (ffd, ...)`` (the whole FFD) and ``after`` likewise.
 
     The tuples are the caller's (the editor adds how the lattice was made); the history only keeps them.
     """
@@ -119,7 +119,7 @@ class History:
         self._open_key = key
 
     def record_lattice(self, before: tuple[Any, ...], after: tuple[Any, ...], label: str = "lattice") -> None:
-        """Record a whole-lattice replacement (``(lattice, basis, ...)`` tuples; pass copies)."""
+        """Record a whole-lattice replacement (``(ffd, ...)`` tuples; pass copies)."""
         self._undone.clear()
         self._push(LatticeSwap(before, after, label))
         self._open_key = None

@@ -29,6 +29,9 @@ from .session import EditingSession
 
 __all__ = ["EditorScene"]
 
+#: where the camera looks from (towards the mesh): the front (+z), a little right and above
+FRONT = (0.3, 0.2, 1.0)
+
 
 class EditorScene:
     """Plotter, mesh actor and lattice actor of one editing session.
@@ -156,16 +159,20 @@ class EditorScene:
     def frame(self) -> None:
         """Point the camera at the mesh: it fills the view, with the lattice's outer ring at the edges.
 
-        The outer ring of a B-spline lattice lies a whole spacing outside the mesh; fitting the
-        camera to all of it leaves the mesh small. This fits the lattice box shrunk by half a
-        spacing on each side instead (rotate or zoom out to reach the corners). The view is from the
-        front right, slightly above, with +y up: the convention of OBJ, PLY and STL meshes.
+        The outer ring of a "zero"-border B-spline lattice (a loaded file's) lies a whole spacing
+        outside the mesh; fitting the camera to all of it leaves the mesh small. This fits the
+        lattice box shrunk by half a spacing on each side, and the mesh, instead (rotate or zoom out
+        to reach the corners; a fitted lattice hugs the mesh and is all in view). The view is from
+        the front, a little to the right and above so the lattice's depth shows, with +y up: the
+        convention of OBJ, PLY and STL meshes and of the default face, which looks along +z.
         """
         lat = self.session.lattice
-        inset = 0.5 if min(lat.shape) > 2 else 0.0
+        ffd = self.session.ffd
+        outer_ring_outside = ffd.basis == "bspline" and ffd.border == "zero" and min(lat.shape) > 2
+        inset = 0.5 if outer_ring_outside else 0.0
         corners = np.array(np.meshgrid(*[[inset, n - 1 - inset] for n in lat.shape], indexing="ij")).reshape(3, -1).T
         points = np.vstack([lat.to_world(corners), self.session.rest_points])
-        frame_camera(self.plotter, points, direction=(0.6, 0.45, 1.0), up=(0.0, 1.0, 0.0))
+        frame_camera(self.plotter, points, direction=FRONT, up=(0.0, 1.0, 0.0))
 
     def render(self) -> None:
         """Render now and send the new image to the browser views."""

@@ -35,10 +35,27 @@ from .changes import Change, Subscribers
 from .history import History, LatticeSwap, OffsetEdit
 from .message_log import MessageLog
 
-__all__ = ["FIELDS", "EditingSession", "MeshIO"]
+__all__ = ["FIELDS", "EditingSession", "MeshIO", "copy_ffd", "fitted_lattice"]
 
 #: what the mesh can be colored by: nothing (its own colors), |displacement|, folding (det J <= 0)
 FIELDS = (None, "displacement", "jacobian")
+
+
+def fitted_lattice(mesh: Any, shape: tuple[int, int, int], basis: str) -> Lattice:
+    """The lattice the editor fits around ``mesh`` (initial fit, new size, new basis, new mesh).
+
+    For the B-spline basis it uses the "clamp" border: the lattice's box is the mesh's own, at most
+    2% larger, so every control point, the outer ring included, visibly moves the mesh (with
+    "zero" the outer ring lies a whole spacing outside the mesh). Bernstein lattices span their box.
+    """
+    return Lattice.around(mesh, shape, basis=basis, border="clamp" if basis == "bspline" else "zero")
+
+
+def copy_ffd(ffd: FFD, lattice: Lattice | None = None) -> FFD:
+    """A new FFD with ``ffd``'s basis, border, affine part and ``only_inside`` on a copy of its
+    lattice (or on ``lattice``)."""
+    lattice = ffd.lattice.copy() if lattice is None else lattice
+    return FFD(lattice, ffd.basis, ffd.border, ffd.affine.copy(), ffd.only_inside)
 
 
 @dataclass(frozen=True)
@@ -100,7 +117,7 @@ class EditingSession:
         self._subscribers = Subscribers(self.messages.append)
         self._dragged: int | None = None
         if lattice is None:
-            lattice, self.lattice_source = Lattice.around(mesh, shape, basis=basis), "fit"
+            lattice, self.lattice_source = fitted_lattice(mesh, shape, basis), "fit"
         else:
             self.lattice_source = "given"
         self._bind_mesh(mesh, FFD(lattice, basis).bind(mesh.points))
@@ -113,7 +130,8 @@ class EditingSession:
 
     @property
     def ffd(self) -> FFD:
-        """The :class:`~ffd_notebook.deform.FFD` (lattice + basis) applied to the mesh."""
+        """The :class:`~ffd_notebook.deform.FFD` applied to the mesh: lattice, basis, border, affine
+        part and ``only_inside`` (a loaded deformation file brings all of them)."""
         return self.deformer.ffd
 
     @property
@@ -323,8 +341,8 @@ class EditingSession:
             return False
         label = "redo" if forward else "undo"
         if isinstance(step, LatticeSwap):
-            lattice, basis, self.lattice_source = step.after if forward else step.before
-            self._bind_lattice(FFD(lattice.copy(), basis).bind(self.mesh.points), label)
+            ffd, self.lattice_source = step.after if forward else step.before
+            self._bind_lattice(copy_ffd(ffd).bind(self.mesh.points), label)
         else:
             idx = tuple(step.ijk.T)
             self.lattice.offsets[idx] = step.after if forward else step.before
@@ -340,22 +358,30 @@ class EditingSession:
         self.swap_lattice(lattice, basis, label=label, source="given")
 
     def swap_lattice(self, lattice: Lattice, basis: str | None, *, label: str, source: str) -> None:
-        """Install ``lattice`` as one undo step; ``source`` (how it was made: ``"fit"``, ``"given"``,
-        ``"ffd-placed"``, ``"ffd-min"``) decides what loading a mesh does with it, and is undone with it."""
-        basis = self.basis if basis is None else basis
+        """Install ``FFD(lattice, basis)`` as one undo step (see :meth:`swap_ffd`)."""
         if not isinstance(lattice, Lattice):
             raise TypeError(f"lattice must be a Lattice, got {type(lattice).__name__}")
-        ffd = FFD(lattice, basis)  # validates (e.g. a B-spline lattice needs 4 points per axis) before any change
+        # validates (e.g. a B-spline lattice needs 4 points per axis) before any change
+        self.swap_ffd(FFD(lattice, self.basis if basis is None else basis), label=label, source=source)
+
+    def swap_ffd(self, ffd: FFD, *, label: str, source: str) -> None:
+        """Install ``ffd`` (its lattice, basis, border, affine part, ``only_inside``) as one undo step.
+
+        ``source`` (how the lattice was made: ``"fit"``, ``"given"``, ``"ffd-placed"``, ``"ffd-min"``,
+        ``"file"``) decides what loading a mesh does with it, and is undone with it.
+        """
+        if not isinstance(ffd, FFD):
+            raise TypeError(f"ffd must be an FFD, got {type(ffd).__name__}")
         self.history.close()
-        before = (self.lattice.copy(), self.basis, self.lattice_source)
+        before = (copy_ffd(self.ffd), self.lattice_source)
         self.lattice_source = source
-        self.history.record_lattice(before, (lattice.copy(), basis, source), label=label)
+        self.history.record_lattice(before, (copy_ffd(ffd), source), label=label)
         self._bind_lattice(ffd.bind(self.mesh.points), label)
 
     def set_shape(self, shape: ArrayLike) -> None:
         """Fit a new lattice with ``shape`` control points per axis around the mesh (undoable)."""
         try:
-            lattice = Lattice.around(self.mesh, tuple(int(s) for s in np.ravel(shape)), basis=self.basis)
+            lattice = fitted_lattice(self.mesh, tuple(int(s) for s in np.ravel(shape)), self.basis)
         except (ValueError, TypeError) as exc:
             self.error(f"cannot build a {shape!r} lattice: {exc}")
             raise
@@ -367,7 +393,7 @@ class EditingSession:
         if basis == self.basis:
             return
         try:
-            lattice = Lattice.around(self.mesh, self.lattice.shape, basis=basis)
+            lattice = fitted_lattice(self.mesh, self.lattice.shape, basis)
         except ValueError as exc:
             self.error(f"cannot switch to the {basis!r} basis: {exc}")
             raise

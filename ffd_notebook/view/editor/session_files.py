@@ -1,4 +1,9 @@
-"""File commands of an :class:`~.session.EditingSession`: .ffd lattices, meshes, decimation.
+"""File commands of an :class:`~.session.EditingSession`: lattice files, meshes, decimation.
+
+Lattice files are any deformation file :func:`ffd_notebook.io.load_deformation` reads, by
+extension: ``.ffd``, ITK transforms (``.tfm``, ``.txt``, ``.h5``, ``.hdf5``) and PyGeM ``.prm``.
+A loaded file brings its whole FFD (basis, border, affine part, ``only_inside``); saving writes the
+session's FFD, or refuses (a message, no file) where the format cannot hold it exactly.
 
 Functions of a session, using only its public interface. Each load reads and checks everything
 first (``read_*`` may run in a worker thread: it touches nothing of the session's) and changes the
@@ -6,27 +11,29 @@ session only once nothing can fail any more (``use_*``, on the session's thread)
 mesh, lattice and undo history exactly as they were, adds a message and raises.
 
 Where a loaded lattice goes
-    A .ffd file with a ``#quaternion ...#`` placement is used as is. Without one, the lattice is
-    put where the FFD platform put it: control point (0, 0, 0) at the minimum corner of the
-    mesh's bounding box (:func:`ffd_notebook.io.place_at_mesh_minimum`).
+    ITK and PyGeM files place their lattice by their own numbers. A .ffd file with a
+    ``#quaternion ...#`` placement is used as is. Without one, the lattice is put where the FFD
+    platform put it: control point (0, 0, 0) at the minimum corner of the mesh's bounding box
+    (:func:`ffd_notebook.io.place_at_mesh_minimum`).
 What happens to the lattice when a mesh is loaded
-    A lattice placed by a file's quaternion (or passed to the editor, or assigned with
-    ``editor.lattice = ...``) stays where it is; a .ffd lattice without placement is placed again
-    at the new mesh's minimum corner (offsets kept); a lattice fitted by the editor is fitted again
-    around the new mesh (same size, offsets zero). Undo brings back a lattice together with this rule.
+    A lattice placed by a file (a .ffd quaternion, ITK, PyGeM), passed to the editor or assigned
+    with ``editor.lattice = ...`` stays where it is; a .ffd lattice without placement is placed
+    again at the new mesh's minimum corner (offsets kept); a lattice fitted by the editor is fitted
+    again around the new mesh (same size, offsets zero). Undo brings back a lattice together with
+    this rule.
 """
 
 from __future__ import annotations
 
 import os
+from pathlib import Path as _PathType
 from typing import TYPE_CHECKING, Any
 
 from ...deform import FFD
 from ...deformer import Deformer
-from ...io import load_ffd as _read_ffd_lattice
-from ...io import place_at_mesh_minimum
-from ...io import save_ffd as _write_ffd
+from ...io import load_deformation, place_at_mesh_minimum, save_deformation
 from ...lattice import Lattice
+from .session import copy_ffd, fitted_lattice
 
 if TYPE_CHECKING:
     from .session import EditingSession
@@ -46,42 +53,55 @@ __all__ = [
 Path = str | os.PathLike[str]
 
 
-def read_ffd_file(session: EditingSession, path: Path) -> tuple[Lattice, bool]:
-    """Read and check a .ffd file for ``session`` without changing anything: ``(lattice, placed)``.
+def read_ffd_file(session: EditingSession, path: Path) -> tuple[FFD, str]:
+    """Read and check a lattice file for ``session`` without changing anything: ``(ffd, source)``.
 
-    ``placed`` says whether the file carried its own placement; otherwise the lattice is put at
-    the current mesh's minimum corner. Safe to run in a worker thread.
+    ``source`` is how the lattice is placed: ``"ffd-placed"`` (a .ffd with its own placement),
+    ``"ffd-min"`` (a .ffd without one, put at the current mesh's minimum corner) or ``"file"``
+    (ITK, PyGeM: by the file's own numbers). Safe to run in a worker thread.
     """
-    lattice = _read_ffd_lattice(path)
-    placed = isinstance(lattice.metadata.get("placement"), dict)
-    if not placed:
-        lattice = place_at_mesh_minimum(lattice, session.mesh)
-    FFD(lattice, session.basis)  # e.g. a 3x3x3 file cannot drive the B-spline basis
-    return lattice, placed
+    ffd = load_deformation(path)
+    if _PathType(path).suffix.lower() != ".ffd":
+        return ffd, "file"
+    if isinstance(ffd.lattice.metadata.get("placement"), dict):
+        return ffd, "ffd-placed"
+    return copy_ffd(ffd, place_at_mesh_minimum(ffd.lattice, session.mesh)), "ffd-min"
 
 
-def use_ffd(session: EditingSession, lattice: Lattice, placed: bool, name: str) -> None:
-    """Install a lattice from :func:`read_ffd_file` (one undo step); ``name`` is what messages call the file."""
-    session.swap_lattice(lattice, None, label="load .ffd", source="ffd-placed" if placed else "ffd-min")
-    where = "its quaternion placement" if placed else "the mesh's minimum corner"
-    session.info(f"loaded a {'x'.join(map(str, lattice.shape))} lattice from {name} (at {where})")
+_PLACES = {
+    "ffd-placed": "its quaternion placement",
+    "ffd-min": "the mesh's minimum corner",
+    "file": "the file's own placement",
+}
+
+
+def use_ffd(session: EditingSession, ffd: FFD, source: str, name: str) -> None:
+    """Install an FFD from :func:`read_ffd_file` (one undo step); ``name`` is what messages call the file."""
+    session.swap_ffd(ffd, label="load lattice", source=source)
+    session.info(f"loaded a {'x'.join(map(str, ffd.lattice.shape))} lattice from {name} "
+                 f"({ffd.basis}, at {_PLACES[source]})")  # fmt: skip
 
 
 def load_ffd(session: EditingSession, path: Path) -> Lattice:
-    """Load a lattice from a .ffd file (undoable). A bad file raises and changes nothing."""
+    """Load a lattice file (.ffd, ITK, PyGeM .prm; undoable) and return its lattice (the session's
+    :attr:`~.session.EditingSession.ffd` holds the rest). A bad file raises and changes nothing."""
     try:
-        lattice, placed = read_ffd_file(session, path)
+        ffd, source = read_ffd_file(session, path)
     except (OSError, ValueError) as exc:
         session.error(f"could not load the lattice {os.fspath(path)!r}: {exc}")
         raise
-    use_ffd(session, lattice, placed, os.fspath(path))
-    return lattice
+    use_ffd(session, ffd, source, os.fspath(path))
+    return ffd.lattice
 
 
 def save_ffd(session: EditingSession, path: Path) -> None:
-    """Save the lattice (offsets and placement) to a .ffd file, atomically."""
+    """Save the session's FFD to a lattice file (format by extension), atomically.
+
+    A format that cannot hold the FFD exactly (e.g. a Bernstein lattice in an ITK file) raises,
+    with a message, and writes nothing.
+    """
     try:
-        _write_ffd(path, session.lattice)
+        save_deformation(path, session.ffd)
     except (OSError, ValueError) as exc:
         session.error(f"could not save the lattice to {os.fspath(path)!r}: {exc}")
         raise
@@ -95,13 +115,13 @@ def read_mesh_file(session: EditingSession, path: Path) -> tuple[Any, Deformer]:
     installing it (the deformer's weights) is done here too.
     """
     mesh = session.mesh_io.read(path)
-    if session.lattice_source in ("ffd-placed", "given"):
-        lattice = session.lattice.copy()
+    if session.lattice_source in ("ffd-placed", "given", "file"):
+        ffd = copy_ffd(session.ffd)
     elif session.lattice_source == "ffd-min":
-        lattice = place_at_mesh_minimum(session.lattice, mesh)
+        ffd = copy_ffd(session.ffd, place_at_mesh_minimum(session.lattice, mesh))
     else:
-        lattice = Lattice.around(mesh, session.lattice.shape, basis=session.basis)
-    return mesh, FFD(lattice, session.basis).bind(mesh.points)
+        ffd = FFD(fitted_lattice(mesh, session.lattice.shape, session.basis), session.basis)
+    return mesh, ffd.bind(mesh.points)
 
 
 def use_mesh(session: EditingSession, mesh: Any, deformer: Deformer, name: str) -> None:

@@ -62,7 +62,7 @@ def test_bad_input_becomes_a_message_and_changes_nothing(app):
     app.run("apply", [1, 2, 1, "abc", 0, 0])
     app.run("apply", [9, 0, 0, 1, 0, 0])  # outside the lattice: the editor's own error
     app.run("rebuild", [4, "", 4])
-    app.run("rebuild", [3, 3, 3])  # too small for the B-spline basis
+    app.run("rebuild", [1, 3, 3])  # too small for any lattice
     assert app.editor.lattice == before
     texts = [m["text"] for m in app.state.messages]
     assert len(texts) == 4 and all(t.startswith("Error") for t in texts)
@@ -153,3 +153,50 @@ def test_command_line():
     run = subprocess.run([sys.executable, "-m", "ffd_notebook", "--help"], capture_output=True, text=True, env=env,
                          timeout=60)  # fmt: skip
     assert run.returncode == 0 and "--ffd FILE" in run.stdout and "--shape NX NY NZ" in run.stdout
+
+
+def test_itk_and_pygem_files_by_path_inside_the_root_only(app, tmp_path):
+    from ffd_notebook import FFD, load_transform, save_transform
+
+    lattice = Lattice.around(app.editor.mesh, (4, 5, 4), border="zero")
+    lattice.offsets[1, 2, 1] = (0.0, 0.2, 0.0)
+    affine = np.diag([1.2, 1.0, 0.9, 1.0])
+    save_transform(tmp_path / "in.tfm", FFD(lattice, affine=affine))
+    app.load_ffd("in.tfm")
+    assert np.allclose(app.editor.ffd.affine, affine)
+    expected = load_transform(tmp_path / "in.tfm").deform(app.editor.mesh.points)
+    assert np.allclose(app.editor.deformed_mesh.points, expected, atol=1e-5)
+    app.save_ffd("sub/../out.h5")  # inside the root: written, affine part included
+    assert np.allclose(load_transform(tmp_path / "out.h5").affine, affine)
+    assert "saved the lattice to out.h5" in app.state.messages[0]["text"]
+
+    outside = tmp_path.parent / f"outside_{uuid.uuid4().hex}.tfm"
+    app.save_ffd(str(outside))
+    assert app.state.messages[0]["error"] and "outside the app's folder" in app.state.messages[0]["text"]
+    assert not outside.exists()
+    save_transform(outside, FFD(lattice))
+    try:
+        app.load_ffd(str(outside))
+        assert app.state.messages[0]["error"] and "outside the app's folder" in app.state.messages[0]["text"]
+        assert np.allclose(app.editor.ffd.affine, affine)  # a refused load changes nothing
+    finally:
+        outside.unlink()
+
+    app.save_ffd("out.prm")  # a B-spline FFD with an affine part: PyGeM cannot hold it
+    text = app.state.messages[0]["text"]
+    assert app.state.messages[0]["error"] and "out.prm" in text and "cannot hold this FFD" in text
+    assert str(tmp_path) not in text and not (tmp_path / "out.prm").exists()
+
+
+def test_upload_of_an_itk_file(app, tmp_path):
+    from ffd_notebook import FFD, save_transform
+
+    lattice = Lattice.around(app.editor.mesh, (4, 4, 4), border="zero")
+    lattice.offsets[2, 1, 2] = (0.3, 0.0, 0.0)
+    save_transform(tmp_path / "up.h5", FFD(lattice))
+    content = (tmp_path / "up.h5").read_bytes()
+    app.receive_ffd_upload({"name": "up.h5", "content": content})
+    assert "up.h5 (uploaded)" in app.state.messages[0]["text"] and not app.state.messages[0]["error"]
+    assert np.abs(app.editor.deformed_mesh.points - app.editor.mesh.points).max() > 0.01
+    app.receive_ffd_upload({"name": "evil.pth", "content": b"import os"})
+    assert app.state.messages[0]["error"] and "expected a file ending with" in app.state.messages[0]["text"]

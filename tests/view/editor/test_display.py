@@ -83,7 +83,7 @@ def test_folding_view_follows_drags(editor):
     spacing = float(editor.lattice.spacing[0])
     folds = []
     # a single control point must move ~5 spacings to fold a cubic B-spline; then it comes back
-    for ijk, delta in [((2, 3, 3), (-6 * spacing, 0, 0)), ((5, 4, 4), (0, 0, 0.3)), ((2, 3, 3), (5.5 * spacing, 0, 0))]:
+    for ijk, delta in [((1, 3, 3), (-6 * spacing, 0, 0)), ((5, 4, 4), (0, 0, 0.3)), ((1, 3, 3), (5.5 * spacing, 0, 0))]:
         index = int(np.ravel_multi_index(ijk, editor.lattice.shape))
         center = np.array(widgets[index].GetCenter()) + delta
         editor.on_widget_moved(center, index)

@@ -26,17 +26,17 @@ def drag(editor, ijk, delta):
 def test_widget_callback_updates_mesh_lines_and_history(editor):
     inst = Instrument(editor)
     rest = editor.mesh.points.copy()
-    drag(editor, (2, 2, 3), (0.0, 0.0, 0.4))
-    np.testing.assert_allclose(editor.lattice.offsets[2, 2, 3], (0, 0, 0.4), atol=1e-12)
+    drag(editor, (2, 2, 4), (0.0, 0.0, 0.4))  # the sphere on top of the mesh
+    np.testing.assert_allclose(editor.lattice.offsets[2, 2, 4], (0, 0, 0.4), atol=1e-12)
     assert np.count_nonzero(editor.lattice.offsets) == 1
     assert_view_matches_model(editor)
     assert np.abs(shown_points(editor) - rest).max() > 0.05  # the mesh really moved
     np.testing.assert_array_equal(editor.mesh.points, rest)  # the rest mesh did not
-    assert editor.selected == (2, 2, 3)
+    assert editor.selected == (2, 2, 4)
     assert inst.n_drags == 1 and editor.last_callback_ms > 0
     assert len(editor.history) == 1 and editor.can_undo
     # the same drag continues: still one undo step
-    drag(editor, (2, 2, 3), (0.1, 0.0, 0.0))
+    drag(editor, (2, 2, 4), (0.1, 0.0, 0.0))
     assert len(editor.history) == 1
     assert_view_matches_model(editor)
     assert editor.undo()
@@ -44,7 +44,7 @@ def test_widget_callback_updates_mesh_lines_and_history(editor):
     np.testing.assert_allclose(shown_points(editor), rest, atol=1e-5)
     assert_view_matches_model(editor)
     assert editor.redo()
-    np.testing.assert_allclose(editor.lattice.offsets[2, 2, 3], (0.1, 0, 0.4), atol=1e-12)
+    np.testing.assert_allclose(editor.lattice.offsets[2, 2, 4], (0.1, 0, 0.4), atol=1e-12)
     assert_view_matches_model(editor)
 
 
@@ -157,14 +157,14 @@ def test_invalid_lattice_requests_change_nothing(editor):
     editor.move_control_point((2, 2, 2), (0.0, 0.3, 0.0))
     before = (editor.lattice.copy(), len(editor.history), len(editor.messages))
     with pytest.raises(ValueError):
-        editor.set_shape((3, 3, 3))  # too small for cubic B-splines
+        editor.set_shape((1, 3, 3))  # too small for any lattice
     with pytest.raises(ValueError):
         editor.set_basis("nurbs")
     with pytest.raises(TypeError):
         editor.set_lattice("not a lattice")
     assert editor.lattice == before[0] and len(editor.history) == before[1]
     assert len(editor.messages) == before[2] + 2
-    assert editor.messages[-2].startswith("Error: cannot build a (3, 3, 3) lattice")
+    assert editor.messages[-2].startswith("Error: cannot build a (1, 3, 3) lattice")
     assert_view_matches_model(editor)
 
 

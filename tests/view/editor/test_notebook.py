@@ -34,6 +34,8 @@ def test_static_view_follows_the_panel(static_backend):
         assert editor.widget is box  # one widget per editor
         view, panel = box.children
         before = bytes(view.value)
+        for w, v in zip(panel.ijk, (1, 1, 3), strict=True):
+            w.value = v  # a control point next to the sphere's top (the corners are far from it)
         panel.xyz[2].value = 0.5
         panel.apply_button.click()
         assert bytes(view.value) != before  # the picture follows the edit

@@ -106,6 +106,11 @@ def test_lattice_shape_basis_and_files(shared_data, tmp_path):
     session.undo()  # back to the Bernstein lattice with its moved point
     assert session.basis == "bernstein" and session.lattice.offsets[2, 1, 1, 2] == pytest.approx(0.3)
     saved = tmp_path / "saved.ffd"
+    with pytest.raises(ValueError, match="cannot hold this FFD exactly"):  # .ffd lattices are B-splines
+        session_files.save_ffd(session, saved)
+    assert not saved.exists()
+    assert session.messages[-1].startswith(f"Error: could not save the lattice to {str(saved)!r}")
+    session.redo()  # the loaded B-spline .ffd lattice
     session_files.save_ffd(session, saved)
     assert session.messages[-1] == f"saved the lattice to {saved}"
 
