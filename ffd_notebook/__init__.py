@@ -18,13 +18,11 @@ True
 
 from __future__ import annotations
 
-import importlib
-from typing import Any
-
 from .deform import FFD
 from .deformer import Deformer
 from .errors import FileFormatError
 from .lattice import Lattice
+from .lazy import lazy_getattr
 
 __version__ = "0.1.0"
 
@@ -50,12 +48,7 @@ _LAZY = {
 __all__ = ["FFD", "Deformer", "FileFormatError", "Lattice", "__version__", *sorted(_LAZY)]
 
 
-def __getattr__(name: str) -> Any:
-    if name in _LAZY:
-        value = getattr(importlib.import_module(_LAZY[name]), name)
-        globals()[name] = value
-        return value
-    raise AttributeError(f"module 'ffd_notebook' has no attribute {name!r}")
+__getattr__ = lazy_getattr(__name__, _LAZY)
 
 
 def __dir__() -> list[str]:

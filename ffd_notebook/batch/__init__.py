@@ -22,9 +22,7 @@ True
 
 from __future__ import annotations
 
-import importlib
-from typing import Any
-
+from ..lazy import lazy_getattr
 from .folding import FoldFree, volume_grid
 from .gp_model import RandomGP
 from .models import LatticeSample, RandomLattice
@@ -51,9 +49,4 @@ __all__ = [
 ]
 
 
-def __getattr__(name: str) -> Any:
-    if name in _LAZY:
-        value = getattr(importlib.import_module(_LAZY[name]), name)
-        globals()[name] = value
-        return value
-    raise AttributeError(f"module 'ffd_notebook.batch' has no attribute {name!r}")
+__getattr__ = lazy_getattr(__name__, _LAZY)

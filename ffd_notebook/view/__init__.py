@@ -6,9 +6,7 @@ Importing it applies the headless rendering settings where they help
 
 from __future__ import annotations
 
-import importlib
-from typing import Any
-
+from ..lazy import lazy_getattr
 from .rendering import configure_rendering, is_headless
 
 configure_rendering()
@@ -29,9 +27,4 @@ _LAZY = {
 __all__ = ["configure_rendering", "is_headless", *sorted(_LAZY)]
 
 
-def __getattr__(name: str) -> Any:
-    if name in _LAZY:
-        value = getattr(importlib.import_module(_LAZY[name]), name)
-        globals()[name] = value
-        return value
-    raise AttributeError(f"module 'ffd_notebook.view' has no attribute {name!r}")
+__getattr__ = lazy_getattr(__name__, _LAZY)

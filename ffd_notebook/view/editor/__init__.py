@@ -6,9 +6,7 @@ on first use.
 
 from __future__ import annotations
 
-import importlib
-from typing import Any
-
+from ...lazy import lazy_getattr
 from .changes import Change
 from .editor import Editor, edit
 from .session import EditingSession, MeshIO
@@ -22,9 +20,4 @@ _LAZY = {
 __all__ = ["Change", "EditingSession", "Editor", "MeshIO", "edit", *sorted(_LAZY)]
 
 
-def __getattr__(name: str) -> Any:
-    if name in _LAZY:
-        value = getattr(importlib.import_module(_LAZY[name]), name)
-        globals()[name] = value
-        return value
-    raise AttributeError(f"module 'ffd_notebook.view.editor' has no attribute {name!r}")
+__getattr__ = lazy_getattr(__name__, _LAZY)
