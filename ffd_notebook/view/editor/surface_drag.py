@@ -184,9 +184,11 @@ def ray_hit(
 ) -> tuple[int, NDArray[np.float64]] | None:
     """The first triangle a ray hits, and the hit's barycentric coordinates; None if it hits none.
 
-    Hand-written (Möller-Trumbore) so the view can pick on the deformed mesh without a locator
-    that would have to be rebuilt after every drag: triangles whose bounding sphere the ray
-    misses are dropped first, so only a few are tested exactly (a few ms on the 53k-vertex face).
+    Hand-written so the view can pick on the deformed mesh without a locator that would have to
+    be rebuilt after every drag. Seen along the ray, a triangle it crosses has vertices on both
+    sides of two perpendicular lines through it; one pass over the vertices (their side codes,
+    OR-ed per triangle) keeps only those, and the Moller-Trumbore test runs on them alone: a few
+    ms on the 53k-vertex face, where testing every triangle takes ~70 ms (``vtkCellPicker`` ~45 ms).
 
     Parameters
     ----------
@@ -213,21 +215,21 @@ def ray_hit(
     >>> ray_hit(pts, tri, (2.0, 2.0, 1.0), (0.0, 0.0, -1.0)) is None
     True
     """
-    pts = np.asarray(points, dtype=np.float64)
+    pts = np.asarray(points)
     tri = np.asarray(triangles, dtype=np.int64).reshape(-1, 3)
     o = np.asarray(origin, dtype=np.float64)
     d = np.asarray(direction, dtype=np.float64)
     d = d / np.linalg.norm(d)
-    corners = pts[tri]  # (T, 3, 3)
-    center = corners.mean(axis=1)
-    radius2 = ((corners - center[:, None, :]) ** 2).sum(axis=2).max(axis=1)
-    rel = center - o
-    along = rel @ d
-    near = ((rel**2).sum(axis=1) - along**2 <= radius2 * (1 + 1e-9)) & (along >= -np.sqrt(radius2))
-    cand = np.flatnonzero(near)
+    # two unit vectors across the ray: each vertex's side of the two lines through it, as 4 bits
+    side = np.linalg.svd(d[None, :])[2][1:]  # (2, 3), orthonormal, perpendicular to d
+    across = (pts - o) @ side.T  # (N, 2)
+    code = (across <= 0) @ np.array([1, 4], dtype=np.uint8) + (across >= 0) @ np.array([2, 8], dtype=np.uint8)
+    code = code.astype(np.uint8)
+    cand = np.flatnonzero((code[tri[:, 0]] | code[tri[:, 1]] | code[tri[:, 2]]) == 15)
     if not len(cand):
         return None
-    a, b, c = (corners[cand, k] for k in range(3))
+    corners = pts[tri[cand]].astype(np.float64)
+    a, b, c = (corners[:, k] for k in range(3))
     e1, e2 = b - a, c - a
     p = np.cross(d, e2)
     det = np.einsum("ij,ij->i", e1, p)

@@ -128,11 +128,12 @@ class SurfaceHandle:
     def pick(self, x: float, y: float) -> NDArray[np.float64] | None:
         """The rest position of the mesh point under display position ``(x, y)``, or None (off the mesh)."""
         near, far = self.display_to_world(x, y, 0.0), self.display_to_world(x, y, 1.0)
-        found = ray_hit(self.scene.display_points, self.triangles(), near, far - near)
+        triangles = self.triangles()
+        found = ray_hit(self.scene.display_points, triangles, near, far - near)
         if found is None:
             return None
         cell, bary = found
-        return bary @ self.session.rest_points[self.triangles()[cell]]
+        return bary @ self.session.rest_points[triangles[cell]]
 
     def pin_at(self, x: float, y: float) -> int | None:
         """Index of the pin nearest to display position ``(x, y)`` within :data:`PIN_PX` pixels, or None."""

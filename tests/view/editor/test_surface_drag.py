@@ -269,3 +269,29 @@ def test_control_point_mode_leaves_the_mouse_to_the_spheres(editor):
     editor.session.subscribe(changes.append)
     press_drag_release(editor, (118.0, 86.0), (24.0, 12.0))
     assert not any(c.label == "surface drag" for c in changes) and len(editor.session.pins) == 0
+
+
+def test_picking_agrees_with_vtk_cell_picker(surface_editor):
+    """The NumPy ray test against VTK's own picker, on the plotted (deformed) mesh."""
+    from vtkmodules.vtkRenderingCore import vtkCellPicker
+
+    editor, handle = surface_editor, surface_editor.scene.surface_handle
+    editor.session.begin_surface_drag(0)
+    editor.session.drag_surface(editor.mesh.points[0] + (0.3, 0.0, 0.2))  # pick on a deformed mesh
+    editor.session.end_surface_drag()
+    picker = vtkCellPicker()
+    picker.SetTolerance(0.0)
+    picker.PickFromListOn()
+    picker.AddPickList(editor.mesh_actor)
+    n_hits = 0
+    for x in range(30, 220, 12):
+        for y in range(20, 170, 12):
+            ours = handle.pick(x, y)
+            if not picker.Pick(x, y, 0.0, editor.plotter.renderer):
+                assert ours is None, (x, y)
+                continue
+            n_hits += 1
+            assert ours is not None, (x, y)
+            shown = editor.ffd.deform(ours[None])[0]  # the picked rest point, where it is now
+            np.testing.assert_allclose(shown, picker.GetPickPosition(), atol=0.02)
+    assert n_hits > 50
