@@ -5,8 +5,9 @@ What the browser and kernel tests read about an editor they drive from outside:
 - :func:`fingerprint` of the shown mesh (changes when any point moves);
 - a trace file, one JSON line per drag event (``{"t", "ev": "cb", "index", "ijk", "center", "ms",
   "checksum"}``), ``ms`` being the time from the widget callback's start to the end of the scene's update;
-- two trame triggers, ``ffd_widget_px`` (where each control point is on screen) and ``ffd_state``
-  (fingerprint, sum of |offsets|, number of drag events), registered by :meth:`Instrument.register_triggers`.
+- trame triggers, ``ffd_widget_px`` (where each control point is on screen), ``ffd_state``
+  (fingerprint, sum of |offsets|, number of drag events) and ``ffd_surface`` (surface mode: what is
+  under a screen point, the pins, the last grabbed point), registered by :meth:`Instrument.register_triggers`.
 
 Nothing here is reachable in normal use: test code installs it (in-process, through
 ``tests/browser/serve_instrumented_app.py`` for the app, or an IPython startup file for JupyterLab).
@@ -53,12 +54,15 @@ class Instrument:
     def __init__(self, editor: Any, *, trace: str | os.PathLike[str] | None = None) -> None:
         self.editor = editor
         self.n_drags = 0
+        self.last_grab: list[float] | None = None  # rest position of the last surface-dragged point
         self._trace = open(trace, "a", buffering=1) if trace else None
         self._unsubscribe = editor.session.subscribe(self._follow)
 
     def _follow(self, change: Any) -> None:
         if change.kind != "drag":
             return
+        if change.label == "surface drag" and self.editor.session.surface_grab is not None:
+            self.last_grab = self.editor.session.surface_grab.tolist()
         self.n_drags += 1
         if self._trace is None:
             return
@@ -92,6 +96,30 @@ class Instrument:
             out.append({"index": i, "u": x / w, "v": y / h, "z": z})
         return out
 
+    def surface(self, probe: list[list[float]] | None = None) -> dict[str, Any]:
+        """What the ``ffd_surface`` trigger answers: the mode, the pins (rest and on screen), the last
+        grabbed point (rest and on screen), and for each ``probe`` ``(u, v)`` the rest point under it (or None)."""
+        session, handle = self.editor.session, self.editor.scene.surface_handle
+        w, h = self.editor.plotter.render_window.GetSize()
+
+        def on_screen(rest: Any) -> list[list[float]]:
+            rest = np.asarray(rest, dtype=np.float64).reshape(-1, 3)
+            shown = handle.world_to_display(session.ffd.deform(rest)) if len(rest) else np.empty((0, 3))
+            return [[float(x) / w, float(y) / h] for x, y, _ in shown]
+
+        hits = [handle.pick(u * w, v * h) for u, v in probe or []]
+        return {
+            "mode": session.interaction_mode,
+            "pins": session.pins.tolist(),
+            "pins_uv": on_screen(session.pins),
+            "pins_world": session.pinned_points().tolist(),
+            "grab": self.last_grab,
+            "grab_uv": on_screen(self.last_grab)[0] if self.last_grab is not None else None,
+            "dragging": session.surface_grab is not None,
+            "history": len(session.history),
+            "probe": [None if hit is None else hit.tolist() for hit in hits],
+        }
+
     def state(self) -> dict[str, Any]:
         """What the ``ffd_state`` trigger answers."""
         return {
@@ -105,6 +133,7 @@ class Instrument:
         size = lambda: list(self.editor.plotter.render_window.GetSize())  # noqa: E731
         server.controller.trigger("ffd_widget_px")(lambda: {"size": size(), "widgets": self.widget_display_positions()})
         server.controller.trigger("ffd_state")(self.state)
+        server.controller.trigger("ffd_surface")(self.surface)
 
     def close(self) -> None:
         """Stop following the editor; close the trace file."""

@@ -19,6 +19,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ...basis import BASES
+from .surface_drag import MODES
 
 if TYPE_CHECKING:
     from .editor import Editor
@@ -27,6 +28,7 @@ __all__ = [
     "BASIS_CHOICES",
     "CONTROLS",
     "FIELD_CHOICES",
+    "MODE_CHOICES",
     "N_MESSAGES",
     "Control",
     "by_key",
@@ -149,6 +151,7 @@ class Control:
 BASIS_CHOICES = tuple((b, b) for b in BASES)
 # ipywidgets shows a ``None`` value as an empty dropdown: the panels use "none" for "no field"
 FIELD_CHOICES = (("none", "mesh colours"), ("displacement", "|displacement|"), ("jacobian", "folding (det J <= 0)"))
+MODE_CHOICES = tuple(zip(MODES, ("control points", "the mesh surface"), strict=True))
 _IJK, _XYZ = ("sel_i", "sel_j", "sel_k"), ("dx", "dy", "dz")
 
 
@@ -215,6 +218,27 @@ CONTROLS: tuple[Control, ...] = (
         "Control point",
         state=("moved_points",),
         row=3,
+    ),
+    Control(
+        "mode",
+        "choice",
+        "mouse drags",
+        "Control point",
+        state=("mode",),
+        command="set_interaction_mode",
+        choices=MODE_CHOICES,
+        row=4,
+        tooltip="What a drag in the view moves: the spheres, or the mesh itself (click the mesh to pin a point)",
+    ),
+    Control(
+        "clear_pins",
+        "button",
+        "Clear pins",
+        "Control point",
+        command="clear_pins",
+        enabled="has_pins",
+        row=4,
+        tooltip="Unpin every pinned point of the mesh",
     ),
     Control(
         "ffd_path",
@@ -347,6 +371,8 @@ def editor_state(editor: Editor) -> dict[str, Any]:
         "can_redo": editor.can_redo,
         "has_selection": editor.selected is not None,
         "mesh_info": f"{editor.mesh.n_points} vertices, {editor.mesh.n_cells} faces",
+        "mode": editor.session.interaction_mode,
+        "has_pins": len(editor.session.pins) > 0,
         "moved_points": int(np.any(editor.lattice.offsets != 0, axis=-1).sum()),
         "messages": [{"text": t, "error": t.startswith("Error")} for t in list(editor.messages)[-N_MESSAGES:][::-1]],
     }

@@ -267,6 +267,14 @@ class Editor:
         """Show per-vertex colors: :meth:`EditingSession.show_colors`."""
         self.session.show_colors(show)
 
+    def set_interaction_mode(self, mode: str) -> None:
+        """What a mouse drag moves (spheres or the mesh): :meth:`EditingSession.set_interaction_mode`."""
+        self.session.set_interaction_mode(mode)
+
+    def clear_pins(self) -> None:
+        """Unpin every pinned mesh point: :meth:`EditingSession.clear_pins`."""
+        self.session.clear_pins()
+
     def attempt(self, action: Callable[..., Any], *args: Any) -> bool:
         """Run an action for a user interface, failures as messages: :meth:`EditingSession.attempt`.
 

@@ -26,6 +26,7 @@ from . import coloring
 from .changes import Change
 from .lattice_actor import LatticeActor
 from .session import EditingSession
+from .surface_handle import SurfaceHandle
 
 __all__ = ["EditorScene"]
 
@@ -72,6 +73,7 @@ class EditorScene:
         self.lattice_actor: LatticeActor | None = None
         self._build_mesh()
         self._build_lattice()
+        self.surface_handle = SurfaceHandle(self)  # surface mode: the mouse on the mesh itself, pins
         self._unsubscribe = session.subscribe(self.follow)
 
     # ------------------------------------------------------------------ following the session
@@ -81,7 +83,8 @@ class EditorScene:
         if kind == "message":
             return
         if kind in ("drag", "offsets"):
-            self._move_points(change.points, widgets=kind == "offsets")
+            # a surface drag moves control points that no handle holds: their spheres follow too
+            self._move_points(change.points, widgets=kind == "offsets" or change.label == "surface drag")
         elif kind == "lattice":
             self._build_lattice()
         elif kind == "mesh":
@@ -94,6 +97,7 @@ class EditorScene:
         elif kind == "display":
             self._write_field()
             self._recolor()
+        self.surface_handle.follow(change)
         if kind != "drag" and change.label != "drag":
             self.render()
 
@@ -197,6 +201,7 @@ class EditorScene:
         """Stop following the session; release the widgets and the plotter."""
         self._unsubscribe()
         self.views.clear()
+        self.surface_handle.remove()
         if self.lattice_actor is not None and self.plotter.render_window is not None:
             self.lattice_actor.remove()
         self.plotter.close()

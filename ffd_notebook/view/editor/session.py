@@ -34,6 +34,7 @@ from ...lattice import Lattice
 from .changes import Change, Subscribers
 from .history import History, LatticeSwap, OffsetEdit
 from .message_log import MessageLog
+from .surface_drag import SurfaceDragging
 
 __all__ = ["FIELDS", "EditingSession", "MeshIO", "copy_ffd", "fitted_lattice"]
 
@@ -69,8 +70,10 @@ class MeshIO:
     color_array: Callable[[Any], str | None]  # mesh -> name of its per-vertex color array, or None
 
 
-class EditingSession:
+class EditingSession(SurfaceDragging):
     """The editor's state and commands, without rendering (see the module docstring).
+
+    Surface drags and pins (``pin``, ``begin_surface_drag``...) come from :class:`~.surface_drag.SurfaceDragging`.
 
     Parameters
     ----------
@@ -427,6 +430,7 @@ class EditingSession:
         new_lattice, selected = deformer.ffd is not self.ffd, self.selected
         if new_document:
             self.history.clear()
+            self._pins = None  # pins are points of the old mesh
         self._bind_mesh(mesh, deformer, source=None if new_document else self.source_mesh)
         if not new_lattice:
             self.selected = selected
