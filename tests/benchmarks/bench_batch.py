@@ -60,40 +60,63 @@ def process_cpu(processes: list[psutil.Process]) -> float:
     return sum(sum(p.cpu_times()[:2]) for p in processes)
 
 
-class Measured:
-    """One timed run: samples/s, the sample split, CPU per sample (thread and all processes)."""
+def run_queue_wait(paths: list[Path]) -> float:
+    """Seconds these threads spent ready to run but waiting for a core (Linux schedstat; 0 elsewhere)."""
+    total = 0
+    for path in paths:
+        try:
+            total += int(path.read_text().split()[1])
+        except (OSError, IndexError, ValueError):
+            continue  # a thread that ended, or no /proc
+    return total / 1e9
 
-    def __init__(self, n: int, wall: float, seconds: dict, thread_cpu: np.ndarray, all_cpu: float) -> None:
+
+def threads_of(processes: list[psutil.Process]) -> list[Path]:
+    return [t / "schedstat" for p in processes for t in Path(f"/proc/{p.pid}/task").glob("*")]
+
+
+class Measured:
+    """One timed run: samples/s, the sample split, CPU per sample (the task's thread, all processes), cores used."""
+
+    def __init__(
+        self, n: int, wall: float, seconds: dict, thread_cpu: np.ndarray, all_cpu: float, waited: float
+    ) -> None:
         self.rate = n / wall
         self.seconds = seconds
         self.thread_cpu = float(thread_cpu.mean())
         self.all_cpu = all_cpu / n
+        self.cores = all_cpu / wall
+        self.waited = waited / n
 
     def cpu(self) -> str:
-        return f"CPU per sample {1000 * self.thread_cpu:.1f} ms in the task, {1000 * self.all_cpu:.1f} ms in all"
+        return (f"CPU per sample {1000 * self.thread_cpu:.1f} ms in the task, {1000 * self.all_cpu:.1f} ms in all; "
+                f"{self.cores:.2f} cores used, {1000 * self.waited:.0f} ms/sample waiting for a core")  # fmt: skip
 
 
 def run_loop(job: Job, indices: list[int]) -> Measured:
-    """The plain loop: the same per-task function over the same task groups, in this process."""
+    """The plain loop: the same per-task function over the same task groups, in this thread."""
     # this thread's CPU: the idle cluster's scheduler shares the process, and is not the loop's cost
-    cpu, tic = time.thread_time(), time.perf_counter()
+    me = [Path("/proc/thread-self/schedstat")]
+    cpu, waited, tic = time.thread_time(), run_queue_wait(me), time.perf_counter()
     outs = [out for group in task_groups(indices, WORKERS) for out in run_samples(job, group)]
-    wall, cpu = time.perf_counter() - tic, time.thread_time() - cpu
+    wall, cpu, waited = time.perf_counter() - tic, time.thread_time() - cpu, run_queue_wait(me) - waited
     errors = [o["error"] for o in outs if "error" in o]
     if errors:
         raise RuntimeError(errors[0])
     seconds = {k: np.array([o["seconds"][k] for o in outs]) for k in outs[0]["seconds"]}
-    return Measured(len(outs), wall, seconds, np.array([o["cpu"] for o in outs]), cpu)
+    return Measured(len(outs), wall, seconds, np.array([o["cpu"] for o in outs]), cpu, waited)
 
 
 def run_generate(mesh, model, rule, n, out: Path, **kwargs) -> tuple[Measured, object]:
+    """``generate``, with the CPU and core waits of this process and its children (the cluster's workers)."""
     me = psutil.Process()
     processes = [me, *me.children(recursive=True)]
-    cpu = process_cpu(processes)
+    threads = threads_of(processes)
+    cpu, waited, tic = process_cpu(processes), run_queue_wait(threads), time.perf_counter()
     result = generate(mesh, model, n, out, fold_free=rule, progress=False, **kwargs)
-    cpu = process_cpu(processes) - cpu
+    wall, cpu, waited = time.perf_counter() - tic, process_cpu(processes) - cpu, run_queue_wait(threads) - waited
     shutil.rmtree(out)
-    return Measured(n, result.wall, result.seconds, result.cpu, cpu), result
+    return Measured(n, wall, result.seconds, result.cpu, cpu, waited), result
 
 
 def dask_default_cluster():
@@ -175,6 +198,12 @@ def main() -> None:
           f"all processes of the cluster run cost {100 * overhead:.1f}% more than its tasks "
           f"(the loop: {100 * loop_overhead:.1f}%)")  # fmt: skip
     print(f"CPU-bound on {WORKERS} free cores the cluster would reach {ceiling:.2f}x (2 x loop CPU / cluster CPU)")
+    cores = [(lo.cores, c.cores) for lo, c in zip(loops, clusters, strict=True)]
+    print(f"cores used (CPU seconds per second), loop / cluster: {', '.join(f'{a:.2f} / {b:.2f}' for a, b in cores)}")
+    autogroup = Path("/proc/sys/kernel/sched_autogroup_enabled")
+    if autogroup.is_file() and autogroup.read_text().strip() == "1":
+        print("  (Linux autogroup scheduling is on: this session's processes share one slice of a busy machine,\n"
+              "   so two workers get little more CPU than one loop; on free cores the cluster uses ~2)")  # fmt: skip
     print("\ntargets")
     print(f"  local_cluster(2) >= 1.6x the plain loop: {', '.join(f'{x:.2f}x' for x in ratios)} (median "
           f"{np.median(ratios):.2f}x)  {verdict(float(np.median(ratios)) >= 1.6)}")  # fmt: skip
