@@ -6,7 +6,8 @@
 - :class:`FoldFree`: accept a sample only if det J stays above a threshold at every vertex and on
   a grid through the mesh's box; otherwise redraw or scale down.
 - :func:`generate` writes meshes, parameters and ``manifest.csv`` on Dask (local or a
-  ``distributed`` cluster); :func:`replay` rebuilds one sample's mesh from its parameters.
+  ``distributed`` cluster); :func:`replay` rebuilds one sample's mesh from its parameters;
+  :func:`local_cluster` starts a ``LocalCluster`` whose workers are set up for it.
 - ``python -m ffd_notebook batch MESH --model random-lattice --n 1000 --out DIR``.
 
 Examples
@@ -32,6 +33,7 @@ from .seeds import sample_rng
 _LAZY = {
     "LatticeFiles": "ffd_notebook.batch.files",
     "generate": "ffd_notebook.batch.engine",
+    "local_cluster": "ffd_notebook.batch.cluster",
     "replay": "ffd_notebook.batch.engine",
     "BatchResult": "ffd_notebook.batch.engine",
     "BatchError": "ffd_notebook.batch.engine",

@@ -1,13 +1,15 @@
 """``generate`` and ``replay``: many deformed meshes on Dask, and one of them again.
 
-Each sample is one Dask task (:func:`~ffd_notebook.batch.sample.run_sample`). Without a cluster
-the local threaded scheduler runs them by default: measured on the 53k-vertex face with 2 cores,
-60 samples took 2.3 s on threads, 3.5 s in one thread and 6.5 s on the process pool (whose
-start-up, imports and per-process binding of the model outweigh the GIL time a sample holds, now
-that its NumPy work is mostly large array operations); a GP model is bound once and shared, too.
-``scheduler="processes"`` is there for long runs of GIL-bound models. With ``client=`` or an
-address, the tasks go to that ``distributed`` cluster; its workers must see the mesh and the
-output folder at the same paths (a shared file system).
+Samples go to Dask a few per task (:func:`task_groups`,
+:func:`~ffd_notebook.batch.sample.run_samples`). Without a cluster the local threaded scheduler
+runs them by default: measured on the 53k-vertex face with 2 cores, 60 samples took 2.3 s on
+threads, 3.5 s in one thread and 6.5 s on the process pool (whose start-up, imports and
+per-process binding of the model outweigh the GIL time a sample holds, now that its NumPy work is
+mostly large array operations); a GP model is bound once and shared, too. ``scheduler="processes"``
+is there for long runs of GIL-bound models. With ``client=`` or an address, the tasks go to that
+``distributed`` cluster (:func:`~ffd_notebook.batch.local_cluster` starts a local one set up for
+this); its workers must see the mesh and the output folder at the same paths (a shared file
+system).
 """
 
 from __future__ import annotations
@@ -26,11 +28,13 @@ from ..blas import one_blas_thread
 from .files import LatticeFiles
 from .folding import FoldFree
 from .output import FORMATS, Layout
-from .sample import Job, context, deformed_mesh, load_sample, mesh_sha256, run_sample
+from .sample import Job, context, deformed_mesh, load_sample, mesh_sha256, run_samples
 
 __all__ = ["BatchError", "BatchResult", "generate", "replay"]
 
 LOCAL = ("threads", "processes", "sync")
+MAX_PER_TASK = 8  # samples per Dask task (see task_groups())
+TASKS_PER_WORKER = 4
 
 
 @dataclass
@@ -47,6 +51,9 @@ class BatchResult:
         Sample id -> error message (the sample is named in it).
     seconds : dict of ndarray
         Per made sample, seconds spent in ``draw``, ``fold_check``, ``deform`` and ``write``.
+    cpu : ndarray
+        Per made sample, CPU seconds of the thread that made it (``seconds`` minus the waits for
+        the disk and for a free core).
     wall : float
         Seconds from the first task submitted to the last result.
     scheduler : str
@@ -59,6 +66,7 @@ class BatchResult:
     skipped: list[int] = field(default_factory=list)
     failed: dict[int, str] = field(default_factory=dict)
     seconds: dict[str, np.ndarray] = field(default_factory=dict)
+    cpu: np.ndarray = field(default_factory=lambda: np.zeros(0))
     wall: float = 0.0
     scheduler: str = ""
 
@@ -102,38 +110,63 @@ def _progress(total: int, enabled: bool):
     return tqdm(total=total, desc="samples", unit="mesh", disable=not enabled or total == 0)
 
 
+def task_groups(todo: list[int], workers: int) -> list[list[int]]:
+    """The samples grouped into Dask tasks: up to ``MAX_PER_TASK`` each, at least ``TASKS_PER_WORKER`` per worker.
+
+    A task costs Dask ~8 ms of CPU on a ``LocalCluster`` (scheduler and worker together, measured;
+    a 53k-vertex sample is ~25 ms of work), so several samples share one; enough tasks remain
+    for the workers to balance the load and for the progress bar to move.
+
+    Examples
+    --------
+    >>> [len(t) for t in task_groups(list(range(500)), 2)][:3], len(task_groups(list(range(500)), 2))
+    ([8, 8, 8], 63)
+    >>> task_groups([0, 1, 2, 5], 2)
+    [[0], [1], [2], [5]]
+    """
+    size = max(1, min(MAX_PER_TASK, len(todo) // (TASKS_PER_WORKER * max(1, workers))))
+    return [todo[k : k + size] for k in range(0, len(todo), size)]
+
+
 def _run_local(job: Job, todo: list[int], scheduler: str, workers: int | None, bar) -> Iterable[dict[str, Any]]:
     import dask
     from dask.callbacks import Callback
 
+    groups = task_groups(todo, 1 if scheduler == "sync" else workers or os.cpu_count() or 1)
+    sizes = {f"ffd-samples-{g[0]}-{g[-1]}": len(g) for g in groups}
+
     class _Ticks(Callback):
         def _posttask(self, key, result, dsk, state, worker_id):
-            if isinstance(key, str) and key.startswith("ffd-sample-"):
-                bar.update(1)
+            bar.update(sizes.get(key, 0))
 
-    tasks = [dask.delayed(run_sample, pure=True)(job, i, dask_key_name=f"ffd-sample-{i}") for i in todo]
+    delayed = [
+        dask.delayed(run_samples, pure=True)(job, g, dask_key_name=k) for k, g in zip(sizes, groups, strict=True)
+    ]
     kwargs: dict[str, Any] = {"scheduler": "sync" if scheduler == "sync" else scheduler}
     if scheduler != "sync" and workers:
         kwargs["num_workers"] = workers
     with _Ticks():
-        return dask.compute(*tasks, **kwargs)
+        return [out for outs in dask.compute(*delayed, **kwargs) for out in outs]
 
 
 def _run_distributed(job: Job, todo: list[int], client, bar) -> Iterable[dict[str, Any]]:
     from distributed import as_completed
 
     token = uuid.uuid4().hex[:8]  # fresh keys: a rerun in the same client must not reuse results
-    futures = [client.submit(run_sample, job, i, key=f"ffd-sample-{token}-{i}", pure=False) for i in todo]
-    index = {f.key: i for f, i in zip(futures, todo, strict=True)}
+    threads = sum(w.get("nthreads", 1) for w in client.scheduler_info()["workers"].values())
+    groups = task_groups(todo, threads)
+    futures = [
+        client.submit(run_samples, job, g, key=f"ffd-samples-{token}-{g[0]}-{g[-1]}", pure=False) for g in groups
+    ]
+    index = {f.key: g for f, g in zip(futures, groups, strict=True)}
     for future in as_completed(futures):
         try:
-            result = future.result()
+            outs = future.result()
         except Exception as exc:  # the task itself never raises: the cluster lost it (KilledWorker, ...)
-            i = index[future.key]
-            result = {"id": i, "error": f"sample {i}: {type(exc).__name__}: {exc}"}
+            outs = [{"id": i, "error": f"sample {i}: {type(exc).__name__}: {exc}"} for i in index[future.key]]
         future.release()
-        bar.update(1)
-        yield result
+        bar.update(len(outs))
+        yield from outs
 
 
 def _execute(job, todo, client, scheduler, workers, bar) -> tuple[list[dict[str, Any]], str]:
@@ -250,14 +283,17 @@ def generate(
 
 def _collect(result: BatchResult, outputs: Iterable[dict[str, Any]]) -> None:
     timings: dict[str, list[float]] = {}
+    cpu = []
     for out in sorted(outputs, key=lambda o: o["id"]):
         if "error" in out:
             result.failed[out["id"]] = out["error"]
             continue
         result.made.append(out["id"])
+        cpu.append(out["cpu"])
         for name, value in out["seconds"].items():
             timings.setdefault(name, []).append(value)
     result.seconds = {k: np.array(v) for k, v in timings.items()}
+    result.cpu = np.array(cpu)
 
 
 def replay(out: str | os.PathLike[str], index: int):

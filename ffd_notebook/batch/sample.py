@@ -21,6 +21,7 @@ import numpy as np
 
 from ..blas import one_blas_thread
 from ..io import load_ffd, read_mesh, save_ffd, write_mesh
+from ..io._atomic import folder_syncs_deferred
 from .evaluate import PointEvaluator
 from .files import BoundFiles, LatticeFiles
 from .folding import FoldFree, accept, volume_grid
@@ -30,7 +31,7 @@ from .output import Layout, read_parameters_txt, write_parameters_txt
 from .ply import TrianglePly
 from .seeds import sample_rng
 
-__all__ = ["MODELS", "Context", "Job", "context", "deformed_mesh", "model_from_spec", "run_sample"]
+__all__ = ["MODELS", "Context", "Job", "context", "deformed_mesh", "model_from_spec", "run_sample", "run_samples"]
 
 MODELS = {cls.name: cls for cls in (RandomLattice, RandomGP, LatticeFiles)}
 
@@ -166,20 +167,81 @@ def load_sample(layout: Layout, row: dict[str, Any], ctx: Context, rule: FoldFre
 
 
 def run_sample(job: Job, index: int) -> dict[str, Any]:
-    """Make sample ``index``: returns ``{"id", "row", "seconds"}``, or ``{"id", "error"}`` naming the sample.
+    """Make sample ``index``: returns ``{"id", "row", "seconds", "cpu"}``, or ``{"id", "error"}`` naming the sample.
 
     Errors are returned, not raised, so that one bad sample never stops a Dask computation.
+    """
+    return run_samples(job, [index])[0]
+
+
+def run_samples(job: Job, indices: list[int]) -> list[dict[str, Any]]:
+    """Make several samples (one Dask task): :func:`run_sample`'s result for each, in order.
+
+    One task for several samples spreads Dask's fixed cost per task (the scheduler's
+    bookkeeping, messages, the worker's task state: ~8 ms of CPU per task measured on a
+    ``LocalCluster``, a third of a 53k-vertex sample's work) over all of them. Their meshes and
+    parameters are written first, then their folders are fsync-ed once, then their records:
+    a record that survives a crash names files that survive it too, so a resumed run
+    (:meth:`Layout.done`) never skips a sample whose files were lost; a lost record only means
+    the sample is made again (with the same bytes).
+
+    Examples
+    --------
+    >>> import pathlib, tempfile
+    >>> import pyvista as pv
+    >>> from ffd_notebook.batch.output import Layout
+    >>> folder = pathlib.Path(tempfile.mkdtemp())
+    >>> pv.Sphere(theta_resolution=10, phi_resolution=10).save(folder / "ball.ply")
+    >>> job = Job(str(folder / "ball.ply"), RandomLattice(5, 0.05).to_spec(), 0, FoldFree(), str(folder / "out"), "ply")
+    >>> Layout(job.out).make()
+    >>> [out["id"] for out in run_samples(job, [3, 4])], Layout(job.out).done(4)
+    ([3, 4], True)
     """
     # one BLAS thread: samples run in parallel already, and a sample's numbers must not depend on how
     # many BLAS threads a worker has (bit-for-bit equal outputs on any cluster, and in replay)
     with one_blas_thread():
-        return _run_sample(job, index)
+        layout = Layout(job.out, job.format)
+        with folder_syncs_deferred():
+            outs = [_make_sample(job, layout, i) for i in indices]
+            tic, cpu = time.perf_counter(), time.thread_time()  # to the block's end: the folders' fsyncs
+        synced, synced_cpu = time.perf_counter() - tic, time.thread_time() - cpu
+        with folder_syncs_deferred():
+            for out in outs:
+                if "row" in out:
+                    _write_record(layout, out)
+            tic, cpu = time.perf_counter(), time.thread_time()  # and the records' folder fsync
+        synced, synced_cpu = synced + time.perf_counter() - tic, synced_cpu + time.thread_time() - cpu
+    made = [out for out in outs if "row" in out]
+    for out in made:  # each sample's write time includes its share of the folder fsyncs
+        seconds = out["seconds"]
+        seconds["write"] += seconds.pop("record") + synced / len(made)
+        out["cpu"] += synced_cpu / len(made)
+    return outs
 
 
-def _run_sample(job: Job, index: int) -> dict[str, Any]:
+def _write_record(layout: Layout, out: dict[str, Any]) -> None:
+    """Write the sample's manifest row (last: it marks the sample as done); a failure becomes its error."""
+    tic, cpu = time.perf_counter(), time.thread_time()
+    try:
+        layout.write_record(out["row"])
+    except Exception as exc:
+        index = out["id"]
+        out.clear()
+        out.update(id=index, error=f"sample {index}: {type(exc).__name__}: {exc}")
+        return
+    out["seconds"]["record"] = time.perf_counter() - tic
+    out["cpu"] += time.thread_time() - cpu
+
+
+def _make_sample(job: Job, layout: Layout, index: int) -> dict[str, Any]:
+    """Draw, check, deform and write one sample's mesh and parameters (its record comes later).
+
+    ``cpu`` is the CPU time of the thread that made it (wall time minus waits for the disk and
+    for a core: a busy machine stretches ``seconds``, not ``cpu``).
+    """
+    cpu = time.thread_time()
     try:
         ctx = context(job)
-        layout = Layout(job.out, job.format)
         got = accept(ctx.bound, index, sample_rng(job.seed, index), ctx.min_det_j, job.rule)
         seconds = dict(got.seconds)
         tic = time.perf_counter()
@@ -204,9 +266,8 @@ def _run_sample(job: Job, index: int) -> dict[str, Any]:
             "scale_downs": got.scale_downs,
             "scale": float(got.sample.scale),
         }
-        layout.write_record(row)  # last: the sample is done
         seconds["write"] = time.perf_counter() - tic
-        return {"id": index, "row": row, "seconds": seconds}
+        return {"id": index, "row": row, "seconds": seconds, "cpu": time.thread_time() - cpu}
     except Exception as exc:  # reported per sample; the run goes on with the others
         return {"id": index, "error": f"sample {index}: {type(exc).__name__}: {exc}"}
 

@@ -13,11 +13,20 @@ from pathlib import Path
 import dask
 import numpy as np
 import pytest
-from distributed import Client, LocalCluster
+from distributed import Client
 from pyvista import examples
 
 from ffd_notebook import Lattice, save_ffd
-from ffd_notebook.batch import BatchError, LatticeFiles, RandomGP, RandomLattice, generate, read_manifest, replay
+from ffd_notebook.batch import (
+    BatchError,
+    LatticeFiles,
+    RandomGP,
+    RandomLattice,
+    generate,
+    local_cluster,
+    read_manifest,
+    replay,
+)
 from ffd_notebook.errors import FileFormatError
 from ffd_notebook.io import read_mesh
 
@@ -30,11 +39,25 @@ DEADLINE_S = 120
 
 @pytest.fixture(scope="module")
 def client():
-    # without distributed's MALLOC_TRIM_THRESHOLD_ for workers (2-4x slower NumPy here; see the README)
-    with dask.config.set({"distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None}):
-        with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
-            with Client(cluster) as c:
-                yield c
+    # the package's LocalCluster: no MALLOC_TRIM_THRESHOLD_ (2-4x slower NumPy here), no profiler
+    with local_cluster(2, dashboard_address=None) as cluster, Client(cluster) as c:
+        yield c
+
+
+def test_local_cluster_workers_are_set_up_for_batch_work(client):
+    def worker_settings():
+        from threadpoolctl import threadpool_info
+
+        blas = [lib["num_threads"] for lib in threadpool_info() if lib["user_api"] == "blas"]
+        config = (
+            dask.config.get("distributed.worker.profile.enabled"),
+            dask.config.get("distributed.admin.tick.interval"),
+        )
+        return os.environ.get("MALLOC_TRIM_THRESHOLD_"), *config, blas
+
+    settings = list(client.run(worker_settings).values())
+    assert len(settings) == 2
+    assert all(s[:3] == (None, False, "1s") and s[3] and set(s[3]) == {1} for s in settings), settings
 
 
 @pytest.fixture(scope="module")

@@ -93,6 +93,9 @@ def test_manifest_rows_and_parameters(tmp_path):
         moved = read_mesh(tmp_path / row["mesh_file"]).points
         assert row["max_displacement"] == pytest.approx(np.linalg.norm(moved - read_mesh(ANT).points, axis=1).max())
     assert set(result.seconds) == {"draw", "fold_check", "deform", "write"}
+    # CPU time of the making thread: positive, and within the wall time of the same steps
+    assert result.cpu.shape == (5,) and np.all(result.cpu > 0)
+    assert np.all(result.cpu <= sum(result.seconds.values()) + 0.005)
     settings = json.loads((tmp_path / "run.json").read_text())
     assert settings["model"]["max_displacement"] == [1.0, 1.0, 1.0]
 
