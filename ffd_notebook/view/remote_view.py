@@ -1,0 +1,138 @@
+"""The server-rendered browser view of a plotter, paced by the renderer (trame-rca).
+
+Sphere widgets need server-side rendering: every mouse event must reach the VTK interactor in
+Python. This view is trame-rca's ``RemoteControlledArea`` with its image render scheduler, chosen
+over trame-vtk's ``VtkRemoteView`` (PyVista's default) because of what was measured on the editor's
+drag (tests/benchmarks/bench_browser.py; the figures are in the project's closing notes):
+
+- trame-vtk encodes JPEG in a background thread and sends whatever image is ready when it renders:
+  during a drag almost every image it sends is the *previous* render (one frame late), and the last
+  one arrives only when its 0.5 s stale timer fires; its animation loop renders at most 30 times a
+  second whether or not anything changed; vtk.js drops a mouse move closer than 33 ms to the last
+  one sent (the latest position may never be sent);
+- trame-rca renders only when an event asked for it, and at most once per period of ``target_fps``:
+  events that arrive during a render are coalesced into one frame showing the latest state, never
+  queued; the browser compresses queued mouse moves into the latest one and waits for the server
+  to take each before sending the next; each frame is captured right after its render and encoded
+  in a thread pool.
+
+One change to trame-rca's scheduler (:class:`FrameScheduler`): its image is pushed before the next
+render starts. trame-rca's own scheduler starts the next render (which holds the event loop) while
+the previous image is still being encoded, so during a drag each image reached the websocket one
+render late.
+
+Frames during interaction use ``interactive_quality``; once events stop for a few periods the scene
+is sent again at ``still_quality`` (the sharp frame on release). The encoder is Pillow's JPEG: Pillow
+ships libjpeg-turbo, which encodes an 800x600 frame in ~1-2 ms, as fast as PyTurboJPEG + the system
+libturbojpeg (so no extra dependency); WebP is 30-60 ms and PNG ~70 ms. Rendering at a lower
+resolution while dragging was measured too and left out: the editor's frame is bound by geometry
+(the mesh and the sphere widgets), not pixels, so half the pixels saves little.
+
+The view's token and Origin checks are the server's (:mod:`.web_security`): the area's events and
+images travel over the same protected websocket as the rest of the page.
+"""
+
+from __future__ import annotations
+
+import asyncio
+from time import monotonic
+from typing import Any
+
+from trame_rca.schedulers import RcaImageRenderScheduler
+
+__all__ = ["ENCODER", "FrameScheduler", "RemoteView"]
+
+#: trame-rca's encoder name: Pillow's JPEG (libjpeg-turbo inside Pillow's wheels; see the module docstring)
+ENCODER = "jpeg"
+
+
+class FrameScheduler(RcaImageRenderScheduler):
+    """trame-rca's image scheduler, with each frame rendered, encoded and pushed before the next render.
+
+    Rendering holds the event loop (VTK renders on the thread that handles the mouse events), so a
+    frame waiting for the loop after its encoding waits for a whole render. Encoding stays in the
+    thread pool: the loop takes mouse events (~1 ms each) meanwhile. Requests that arrive during a
+    frame are coalesced into the next one; frames are at most ``target_fps`` a second; once requests
+    stop for a few periods, the scene is sent again at still quality.
+    """
+
+    async def _render(self) -> None:
+        while not self._is_closing:
+            await self._request_event.wait()
+            if self._is_closing:
+                break
+            self._request_event.clear()
+            started = monotonic()
+            await self._frame(self._interactive_quality)
+            if self._interactive_quality == self._still_quality:
+                await asyncio.sleep(max(0.0, self._target_period_s - (monotonic() - started)))
+            elif await self._wait_for_still(started):
+                await self._frame(self._still_quality)
+
+    async def _frame(self, quality: int) -> None:
+        image, cols, rows = self._rca.img_cols_rows  # render and read the pixels back
+        loop = asyncio.get_running_loop()
+        encoded, meta, _ = await loop.run_in_executor(
+            self._encode_pool, self._rca_encoder.encode, image, cols, rows, quality
+        )
+        if self._push_callback is not None:
+            self._push_callback(encoded, meta)
+
+
+def _area_class() -> type:
+    from trame.widgets import rca
+
+    return rca.RemoteControlledArea
+
+
+class RemoteView:
+    """A trame-rca remote view of ``plotter``'s render window, made inside a trame layout.
+
+    The view's element fills its parent; the render window follows its size. ``update()`` asks for a
+    new frame (coalesced with any pending one): :class:`~ffd_notebook.view.jupyter.BrowserViews` calls it
+    after changes made from code.
+
+    Parameters
+    ----------
+    plotter : pyvista.Plotter
+        Its render window is shown (and its interactor receives the mouse events).
+    target_fps : float
+        At most this many frames a second (a render that takes longer simply paces the frames).
+    interactive_quality, still_quality : int
+        JPEG quality while events arrive, and of the frame sent once they stop.
+    event_throttle_ms : int
+        The browser sends at most one (the latest) mouse move per this period.
+    **kwargs
+        Passed to ``RemoteControlledArea`` (``style``, ``id``, ...).
+    """
+
+    def __init__(
+        self,
+        plotter: Any,
+        *,
+        target_fps: float = 60.0,
+        interactive_quality: int = 60,
+        still_quality: int = 90,
+        event_throttle_ms: int = 10,
+        **kwargs: Any,
+    ) -> None:
+        self.plotter = plotter
+        from trame_rca.rca import window_wrapper
+        from trame_rca.view_adapter import RcaViewAdapter
+
+        self.area = _area_class()(display="image", event_throttle_ms=event_throttle_ms, **kwargs)
+        window = window_wrapper(plotter.render_window)
+        scheduler = FrameScheduler(
+            window,
+            target_fps=target_fps,
+            interactive_quality=interactive_quality,
+            still_quality=still_quality,
+            rca_encoder=ENCODER,
+        )
+        self.handler = RcaViewAdapter(window, self.area.name, scheduler=scheduler)
+        self.area.add_view_handler(self.handler)
+        self.server = self.area.server
+
+    def update(self) -> None:
+        """Ask for a new frame (rendered and pushed by the scheduler, once per period at most)."""
+        self.handler.update()
