@@ -69,6 +69,15 @@ class FrameScheduler(RcaImageRenderScheduler):
             elif await self._wait_for_still(started):
                 await self._frame(self._still_quality)
 
+    async def _wait_for_still(self, started: float) -> bool:
+        """Wait up to the still-frame delay; False as soon as a frame is requested. Unlike trame-rca's, it
+        keeps requests made while the previous frame was being encoded (the loop took events meanwhile)."""
+        for i in range(1, self._n_period_until_still_render + 1):
+            await asyncio.sleep(max(0.0, started + i * self._target_period_s - monotonic()))
+            if self._request_event.is_set():
+                return False
+        return True
+
     async def _frame(self, quality: int) -> None:
         image, cols, rows = self._rca.img_cols_rows  # render and read the pixels back
         loop = asyncio.get_running_loop()

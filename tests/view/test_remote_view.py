@@ -62,3 +62,51 @@ def test_frames_are_coalesced_pushed_in_order_and_end_sharp():
     picture = np.asarray(Image.open(io.BytesIO(last_image)))
     assert picture.shape == (240, 320, 3) and picture.std() > 0
     assert len(last_image) > len(interactive[-1][2])
+
+
+class SlowEncoder:
+    """Pillow's JPEG, taking at least ``delay_s``; ``started`` is set while an image is being encoded."""
+
+    def __init__(self, delay_s: float) -> None:
+        import threading
+
+        from trame_rca.encoders import RcaImageEncoder
+
+        self.inner, self.delay_s, self.started = RcaImageEncoder(ENCODER), delay_s, threading.Event()
+
+    def encode(self, *args):
+        self.started.set()
+        time.sleep(self.delay_s)
+        return self.inner.encode(*args)
+
+
+async def _request_during_encoding(editor: Editor) -> list[dict]:
+    pushes: list[dict] = []
+    scheduler = FrameScheduler(
+        editor.plotter.render_window, target_fps=60, interactive_quality=40, still_quality=95,
+        push_callback=lambda image, meta: pushes.append(meta),
+    )  # fmt: skip
+    encoder = scheduler._rca_encoder = SlowEncoder(0.2)
+    try:
+        scheduler.schedule_render()
+        while not encoder.started.is_set():  # the first frame is rendered and now being encoded
+            await asyncio.sleep(0.005)
+        editor.scene.display_points[0] += 0.5  # the scene changes meanwhile (a mouse event's callback)
+        editor.scene.display.GetPoints().Modified()
+        scheduler.schedule_render()
+        deadline = time.perf_counter() + 30
+        while len(pushes) < 2 and time.perf_counter() < deadline:
+            await asyncio.sleep(0.01)
+    finally:
+        await scheduler.close()
+    return pushes
+
+
+def test_a_request_made_while_a_frame_is_encoded_gets_its_own_interactive_frame():
+    editor = Editor(pv.Sphere(), shape=(4, 4, 4), window_size=(160, 120))
+    try:
+        pushes = asyncio.run(_request_during_encoding(editor))
+    finally:
+        editor.close()
+    # not dropped until the still frame (5 periods later): the next frame is interactive
+    assert [p["quality"] for p in pushes[:2]] == [40, 40]
