@@ -16,10 +16,10 @@ drag (tests/benchmarks/bench_browser.py; the figures are in the project's closin
   to take each before sending the next; each frame is captured right after its render and encoded
   in a thread pool.
 
-One change to trame-rca's scheduler (:class:`FrameScheduler`): its image is pushed before the next
-render starts. trame-rca's own scheduler starts the next render (which holds the event loop) while
-the previous image is still being encoded, so during a drag each image reached the websocket one
-render late.
+One change to trame-rca's scheduler (:class:`FrameScheduler`): an image is encoded, pushed and written
+to the websocket before the next render starts. trame-rca's own scheduler starts the next render
+(which holds the event loop) while the previous image is still being encoded or sent, so during a
+drag each image reached the browser one render late.
 
 Frames during interaction use ``interactive_quality``; once events stop for a few periods the scene
 is sent again at ``still_quality`` (the sharp frame on release). The encoder is Pillow's JPEG: Pillow
@@ -35,6 +35,8 @@ images travel over the same protected websocket as the rest of the page.
 from __future__ import annotations
 
 import asyncio
+import contextlib
+from collections.abc import Awaitable, Callable
 from time import monotonic
 from typing import Any
 
@@ -54,7 +56,24 @@ class FrameScheduler(RcaImageRenderScheduler):
     thread pool: the loop takes mouse events (~1 ms each) meanwhile. Requests that arrive during a
     frame are coalesced into the next one; frames are at most ``target_fps`` a second; once requests
     stop for a few periods, the scene is sent again at still quality.
+
+    Parameters
+    ----------
+    window : vtkRenderWindow or trame-rca window
+        What to render.
+    sent : callable, optional
+        Called just before an image is pushed; returns an awaitable that completes once that image is
+        written to the network. The next render waits for it, at most ``SEND_TIMEOUT_S``.
+    **kwargs
+        trame-rca's ``RcaImageRenderScheduler`` arguments (``push_callback``, ``target_fps``,
+        ``interactive_quality``, ``still_quality``, ``rca_encoder``).
     """
+
+    SEND_TIMEOUT_S = 1.0
+
+    def __init__(self, window: Any, sent: Callable[[], Awaitable[Any]] | None = None, **kwargs: Any) -> None:
+        super().__init__(window, **kwargs)
+        self._sent = sent
 
     async def _render(self) -> None:
         while not self._is_closing:
@@ -85,7 +104,11 @@ class FrameScheduler(RcaImageRenderScheduler):
             self._encode_pool, self._rca_encoder.encode, image, cols, rows, quality
         )
         if self._push_callback is not None:
+            sent = None if self._sent is None else self._sent()
             self._push_callback(encoded, meta)
+            if sent is not None:  # the websocket write needs the loop: let it finish before rendering
+                with contextlib.suppress(asyncio.TimeoutError):
+                    await asyncio.wait_for(sent, self.SEND_TIMEOUT_S)
 
 
 def _area_class() -> type:
@@ -133,6 +156,7 @@ class RemoteView:
         window = window_wrapper(plotter.render_window)
         scheduler = FrameScheduler(
             window,
+            sent=self._image_sent,
             target_fps=target_fps,
             interactive_quality=interactive_quality,
             still_quality=still_quality,
@@ -141,6 +165,24 @@ class RemoteView:
         self.handler = RcaViewAdapter(window, self.area.name, scheduler=scheduler)
         self.area.add_view_handler(self.handler)
         self.server = self.area.server
+
+    def _image_sent(self) -> Awaitable[None] | None:
+        """An awaitable completing once the image about to be pushed has been written to the websocket.
+
+        wslink counts pending network writes (``network_monitor.pending``); publishing the image adds
+        one. This waits until the count is back to what it was before the push, ignoring later writes
+        (``server.network_completion`` would also wait for every other message, e.g. a stream of event replies).
+        """
+        monitor = getattr(getattr(self.area.server, "context", None), "network_monitor", None)
+        if monitor is None:  # no client has connected yet
+            return None
+        before = monitor.pending
+
+        async def written() -> None:
+            while monitor.pending > before:
+                await asyncio.sleep(0.001)
+
+        return written()
 
     def update(self) -> None:
         """Ask for a new frame (rendered and pushed by the scheduler, once per period at most)."""
