@@ -16,6 +16,7 @@ its points marked modified, nothing else: the "bare render" the benchmark compar
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import json
 import os
@@ -91,12 +92,38 @@ def _patch_trame_rca() -> None:
     manager._ffd_timed = True
 
 
+def _patch_remote_view() -> None:
+    """``{"ev": "sent", "t", "waited_ms"}`` when the package's RemoteView has seen its image written."""
+    from ffd_notebook.view import remote_view
+
+    view = remote_view.RemoteView
+    if getattr(view, "_ffd_timed", False):
+        return
+    original = view._image_sent
+
+    def _image_sent(self: Any) -> Any:
+        waiter = original(self)
+        if waiter is None:
+            return None
+
+        async def timed() -> None:
+            t0 = time.time()
+            await waiter
+            _log({"ev": "sent", "t": time.time(), "waited_ms": (time.time() - t0) * 1000.0})
+
+        return timed()
+
+    view._image_sent, view._ffd_timed = _image_sent, True
+
+
 def install(path: str | os.PathLike[str]) -> None:
     """Open the trace file and patch trame-vtk's and trame-rca's protocols (before any server starts)."""
     if not _sink:
         _sink.append(open(path, "a", buffering=1))
     _patch_trame_vtk()
     _patch_trame_rca()
+    with contextlib.suppress(ImportError, AttributeError):  # a product without it (e.g. a checkout before it)
+        _patch_remote_view()
 
 
 class FrameTimer:

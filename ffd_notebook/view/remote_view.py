@@ -21,12 +21,14 @@ to the websocket before the next render starts. trame-rca's own scheduler starts
 (which holds the event loop) while the previous image is still being encoded or sent, so during a
 drag each image reached the browser one render late.
 
-Frames during interaction use ``interactive_quality``; once events stop for a few periods the scene
-is sent again at ``still_quality`` (the sharp frame on release). The encoder is Pillow's JPEG: Pillow
-ships libjpeg-turbo, which encodes an 800x600 frame in ~1-2 ms, as fast as PyTurboJPEG + the system
-libturbojpeg (so no extra dependency); WebP is 30-60 ms and PNG ~70 ms. Rendering at a lower
-resolution while dragging was measured too and left out: the editor's frame is bound by geometry
-(the mesh and the sphere widgets), not pixels, so half the pixels saves little.
+While a mouse button is held (a drag, a camera turn) the window renders at ``interactive_ratio`` of its
+size and frames use ``interactive_quality``; the browser stretches them to the view. On release the
+full size comes back, and once events stop for a few periods the scene is sent again at
+``still_quality`` (the sharp frame). With the 53k-vertex face and Mesa's software renderer, half the
+size (a quarter of the pixels) took a render + read-back from ~190-240 ms to ~110-180 ms on a loaded
+2-core machine, and makes encoding and the browser's decoding 4x cheaper. The encoder is Pillow's
+JPEG: Pillow ships libjpeg-turbo, which encodes an 800x600 frame in ~1-2 ms, as fast as PyTurboJPEG +
+the system libturbojpeg (so no extra dependency); WebP took 30-60 ms and PNG ~70 ms.
 
 The view's token and Origin checks are the server's (:mod:`.web_security`): the area's events and
 images travel over the same protected websocket as the rest of the page.
@@ -41,6 +43,7 @@ from time import monotonic
 from typing import Any
 
 from trame_rca.schedulers import RcaImageRenderScheduler
+from trame_rca.view_adapter import RcaViewAdapter
 
 __all__ = ["ENCODER", "FrameScheduler", "RemoteView"]
 
@@ -111,6 +114,23 @@ class FrameScheduler(RcaImageRenderScheduler):
                     await asyncio.wait_for(sent, self.SEND_TIMEOUT_S)
 
 
+class _InteractiveSizeAdapter(RcaViewAdapter):
+    """trame-rca's view adapter, rendering at ``ratio`` of the size between the browser's Start and End of
+    an interaction (trame-rca scales the events' coordinates by the same factor)."""
+
+    def __init__(self, *args: Any, ratio: float = 1.0, **kwargs: Any) -> None:
+        super().__init__(*args, **kwargs)
+        self.ratio = ratio
+
+    def on_interaction(self, origin: Any, event: dict[str, Any]) -> None:
+        kind = event.get("type")
+        if kind == "StartInteractionEvent" and self.ratio != 1.0:
+            self.scale = self.ratio  # before the button press that follows: the whole drag at one size
+        super().on_interaction(origin, event)
+        if kind == "EndInteractionEvent" and self.scale != 1.0:
+            self.scale = 1.0
+
+
 def _area_class() -> type:
     from trame.widgets import rca
 
@@ -130,6 +150,8 @@ class RemoteView:
         Its render window is shown (and its interactor receives the mouse events).
     target_fps : float
         At most this many frames a second (a render that takes longer simply paces the frames).
+    interactive_ratio : float
+        Size of the frames, relative to the view, while a mouse button is held.
     interactive_quality, still_quality : int
         JPEG quality while events arrive, and of the frame sent once they stop.
     event_throttle_ms : int
@@ -143,6 +165,7 @@ class RemoteView:
         plotter: Any,
         *,
         target_fps: float = 60.0,
+        interactive_ratio: float = 0.5,
         interactive_quality: int = 60,
         still_quality: int = 90,
         event_throttle_ms: int = 10,
@@ -150,7 +173,6 @@ class RemoteView:
     ) -> None:
         self.plotter = plotter
         from trame_rca.rca import window_wrapper
-        from trame_rca.view_adapter import RcaViewAdapter
 
         self.area = _area_class()(display="image", event_throttle_ms=event_throttle_ms, **kwargs)
         window = window_wrapper(plotter.render_window)
@@ -162,7 +184,7 @@ class RemoteView:
             still_quality=still_quality,
             rca_encoder=ENCODER,
         )
-        self.handler = RcaViewAdapter(window, self.area.name, scheduler=scheduler)
+        self.handler = _InteractiveSizeAdapter(window, self.area.name, scheduler=scheduler, ratio=interactive_ratio)
         self.area.add_view_handler(self.handler)
         self.server = self.area.server
 

@@ -5,7 +5,8 @@ Run from the repository root (needs /usr/bin/chromium and Playwright; not collec
     python tests/benchmarks/bench_browser.py [--surface app jupyter] [--seconds 3]
 
 For the standalone app (``python -m ffd_notebook``) and for the editor in a private JupyterLab, with the
-default sample face (53k faces), a 7x7x7 lattice and an 800x600 view: headless Chromium grabs an inner
+53k-vertex face (``../shared/data/face/template.ply``), a 7x7x7 lattice and an 800x600 view: headless Chromium
+grabs an inner
 control point and moves the mouse every 16 ms for 3 s. Timestamps on one clock (``time.time()`` in the
 server, ``performance.timeOrigin + performance.now()`` in the page) come from
 
@@ -58,6 +59,7 @@ from browser.helpers import (  # noqa: E402
     widget_xy,
 )
 
+FACE = REPO.parent / "shared" / "data" / "face" / "template.ply"  # 53,349 vertices, 106k triangles (menpo3d)
 SHAPE = (7, 7, 7)
 VIEW = (800, 600)
 MOVE_MS = 16.0
@@ -185,6 +187,9 @@ def analyse(window: dict[str, float], pointer: list[dict], displays: list[dict],
             "chains": len(chains),
         },
         "render_in_drag_ms": _median([r[1] - r[0] for r in drag_renders]),
+        "image_write_wait_ms": _median(
+            [r["waited_ms"] for r in server if r["ev"] == "sent" and t_start <= r["t"] * 1000.0 <= t_end]
+        ),
         "image_kb": _median([p[2] / 1024 for p in drag_pubs if p[2]]),
         "seconds": round(seconds, 2),
     }
@@ -244,7 +249,7 @@ def bench_app(pw: Any, tmp: Path, seconds: float, product: Path) -> dict[str, An
     port = free_port()
     trace, frames_trace, log_path = tmp / "app_trace.jsonl", tmp / "app_frames.jsonl", tmp / "app.log"
     script = REPO / "tests" / "browser" / "serve_instrumented_app.py"
-    cmd = [sys.executable, str(script), str(trace), "--port", str(port), "--shape", *map(str, SHAPE)]
+    cmd = [sys.executable, str(script), str(trace), str(FACE), "--port", str(port), "--shape", *map(str, SHAPE)]
     with open(log_path, "w") as log:
         proc = subprocess.Popen(cmd, cwd=tmp, stdout=log, stderr=subprocess.STDOUT,
                                 env=server_env(FFD_FRAME_TRACE=str(frames_trace), PYTHONPATH=str(product)))  # fmt: skip
@@ -284,7 +289,7 @@ def bench_app(pw: Any, tmp: Path, seconds: float, product: Path) -> dict[str, An
 
 NOTEBOOK_CELLS = [
     "import ffd_notebook as fn",
-    f"editor = fn.edit(shape={SHAPE}, window_size={VIEW})",
+    f"editor = fn.edit({str(FACE)!r}, shape={SHAPE}, window_size={VIEW})",
     "open('ready.txt', 'w').write('ok')",
 ]
 

@@ -24,6 +24,7 @@ import statistics
 import subprocess
 import sys
 import time
+import urllib.error
 import urllib.request
 from collections.abc import Callable, Iterator
 from pathlib import Path
@@ -175,6 +176,25 @@ def settled_drag_state(
     return wait_for(agreed, timeout, "the trace to record every drag event the editor counted")
 
 
+def drawn_after_drag(frame: Any, trace: str | os.PathLike[str], n_before: int, quiet_s: float = 0.5,
+                     timeout: float = 30) -> list[dict[str, Any]]:  # fmt: skip
+    """Wait until a finished drag is drawn: it has drag records past ``n_before``, none arrived for ``quiet_s``,
+    and the page received an image after the last one. Returns the drag's records (polls, never a fixed sleep)."""
+    seen: dict[str, Any] = {"n": -1, "since": time.monotonic()}
+
+    def drawn() -> list[dict[str, Any]] | None:
+        records = callbacks(trace)[n_before:]
+        if len(records) != seen["n"]:
+            seen.update(n=len(records), since=time.monotonic())
+            return None
+        if not records or time.monotonic() - seen["since"] < quiet_s:
+            return None
+        frames = image_frames(frame)
+        return records if frames and frames[-1]["t"] >= records[-1]["t"] * 1000.0 else None
+
+    return wait_for(drawn, timeout, "the drag's last callback and the image after it", interval=0.1)
+
+
 def image_frames(frame: Any, t_from: float | None = None, t_to: float | None = None) -> list[dict[str, Any]]:
     """Image frames (big websocket messages) received by ``frame``, optionally within [t_from, t_to) ms."""
     frames = [m for m in frame.evaluate("window.__ws || []") if m["size"] >= FRAME_MIN_BYTES]
@@ -267,7 +287,7 @@ def stepped_drag(page: Any, frame: Any, start: tuple[float, float], delta: tuple
         page.mouse.move(x, y)
         time.sleep(settle_s)
     page.mouse.up()
-    time.sleep(0.8)
+    drawn_after_drag(frame, trace, n_before)
     # when each measured move really reached the page (first pointermove at or after sending it)
     pointer = [p["t"] for p in frame.evaluate("window.__ptr") if p["type"] == "pointermove"]
     events = [min((t for t in pointer if t >= s - 1.0), default=s) for s in sent]
@@ -307,7 +327,7 @@ def paced_drag(page: Any, frame: Any, start: tuple[float, float], delta: tuple[f
         time.sleep(step_s)
     t_end = time.time() * 1000.0
     page.mouse.up()
-    time.sleep(1.0)
+    drawn_after_drag(frame, trace, n_before)
     frames = image_frames(frame, t_start, t_end)
     seconds = (t_end - t_start) / 1000.0
     return {
@@ -403,15 +423,25 @@ class Lab:
     def __init__(self, port: int, work: Path) -> None:
         self.port, self.work = port, work
 
-    def kernels(self) -> list[dict]:
-        return list(lab_api(self.port, "/api/kernels") or [])  # type: ignore[arg-type]
+    def kernels(self) -> list[dict] | None:
+        """The running kernels, or None when the server could not answer this time (it answered 500 once
+        while starting a kernel on a loaded machine): callers poll again."""
+        try:
+            return list(lab_api(self.port, "/api/kernels") or [])  # type: ignore[arg-type]
+        except urllib.error.HTTPError as exc:
+            if exc.code >= 500:
+                return None
+            raise
 
     def settled_kernel(self, page: Any) -> str:
         """The notebook's kernel once Lab has stopped changing it: one kernel, the same for 2 s, idle."""
         seen: dict = {"ids": None, "since": time.monotonic()}
 
         def settled() -> bool:
-            ids = [k["id"] for k in self.kernels()]
+            kernels = self.kernels()
+            if kernels is None:
+                return False
+            ids = [k["id"] for k in kernels]
             if ids != seen["ids"]:
                 seen.update(ids=ids, since=time.monotonic())
                 return False
@@ -449,6 +479,8 @@ class Lab:
         tracebacks = [t for t in errors.all_inner_texts() if "Traceback" in t or "Error" in t]
         assert not tracebacks, f"a notebook cell failed:\n{tracebacks[0][-2000:]}"
         kernels = self.kernels()
+        if kernels is None:
+            return False
         if [k["id"] for k in kernels] != [kernel]:
             raise KernelReplaced(f"kernel {kernel} was replaced by {[k['id'] for k in kernels]}")
         return finished() and kernels[0]["execution_state"] == "idle"

@@ -110,3 +110,45 @@ def test_a_request_made_while_a_frame_is_encoded_gets_its_own_interactive_frame(
         editor.close()
     # not dropped until the still frame (5 periods later): the next frame is interactive
     assert [p["quality"] for p in pushes[:2]] == [40, 40]
+
+
+def _mouse(kind: str, action: str) -> dict:
+    """A mouse event at the centre of a 320x240 view, as trame-rca's browser side sends it (vtk.js's fields)."""
+    buttons = {"buttonLeft": int(action == "down"), "buttonMiddle": 0, "buttonRight": 0}
+    keys = {"shiftKey": 0, "altKey": 0, "ctrlKey": 0, "metaKey": 0}
+    return {"type": kind, "action": action, "x": 160, "y": 120, "w": 320, "h": 240, **buttons, **keys}
+
+
+async def _interaction_sizes(editor: Editor) -> list[tuple[int, int]]:
+    from trame_rca.rca import window_wrapper
+
+    from ffd_notebook.view.remote_view import _InteractiveSizeAdapter
+
+    window = window_wrapper(editor.plotter.render_window)
+    scheduler = FrameScheduler(window, rca_encoder=ENCODER)
+    adapter = _InteractiveSizeAdapter(window, "test_area", scheduler=scheduler, ratio=0.5)
+    sizes = []
+    try:
+        adapter.update_size("browser", {"w": 320, "h": 240, "p": 1})  # the element's size, as the browser says
+        sizes.append(tuple(editor.plotter.render_window.GetSize()))
+        adapter.on_interaction("browser", {"type": "StartInteractionEvent"})
+        sizes.append(tuple(editor.plotter.render_window.GetSize()))
+        # a press at the view's centre, in the browser's pixels: VTK gets it at the reduced size
+        adapter.on_interaction("browser", _mouse("LeftButtonPress", "down"))
+        sizes.append(tuple(editor.plotter.iren.interactor.GetEventPosition()))
+        adapter.on_interaction("browser", _mouse("LeftButtonRelease", "up"))
+        adapter.on_interaction("browser", {"type": "EndInteractionEvent"})
+        sizes.append(tuple(editor.plotter.render_window.GetSize()))
+    finally:
+        await scheduler.close()
+    return sizes
+
+
+def test_the_window_renders_at_the_interactive_ratio_while_a_button_is_held():
+    editor = Editor(pv.Sphere(), shape=(4, 4, 4), window_size=(320, 240))
+    try:
+        before, during, press_at, after = asyncio.run(_interaction_sizes(editor))
+    finally:
+        editor.close()
+    assert before == (320, 240) and during == (160, 120) and after == (320, 240)
+    assert press_at == (80, 60)
