@@ -21,6 +21,7 @@ through the plotter's :class:`BrowserViews` (:func:`views_of`), the one place th
 
 from __future__ import annotations
 
+import itertools
 import weakref
 from collections.abc import Callable
 from typing import Any
@@ -46,6 +47,7 @@ __all__ = [
 STATIC_BACKENDS = ("static", "none")
 SERVER_NAME = "ffd_notebook_views"  # the package's own trame server for its views (see jupyter_server)
 _tokens: dict[str, str] = {}  # server name -> its session token
+_pages = itertools.count(1)  # page (template) names of the served plotters
 
 
 def execution_count() -> int | None:
@@ -129,7 +131,7 @@ def serve_plotter(plotter: pv.Plotter) -> Any:
     from .web_security import url_with_token
 
     server = jupyter_server()
-    page = f"ffd_view_{plotter._id_name}"
+    page = f"ffd_view_{next(_pages)}"
     with DivLayout(server, template_name=page) as layout:
         layout.root.style = "width: 100vw; height: 100vh; margin: 0; padding: 0; overflow: hidden;"
         view = RemoteView(plotter, style="width: 100%; height: 100%;")

@@ -16,10 +16,11 @@ drag (tests/benchmarks/bench_browser.py; the figures are in the project's closin
   to take each before sending the next; each frame is captured right after its render and encoded
   in a thread pool.
 
-One change to trame-rca's scheduler (:class:`FrameScheduler`): an image is encoded, pushed and written
-to the websocket before the next render starts. trame-rca's own scheduler starts the next render
-(which holds the event loop) while the previous image is still being encoded or sent, so during a
-drag each image reached the browser one render late.
+The scheduler is the package's own (:class:`FrameScheduler`), in trame-rca's place: an image is encoded,
+pushed and written to the websocket before the next render starts. trame-rca's scheduler starts the
+next render (which holds the event loop) while the previous image is still being encoded or sent, so
+during a drag each image reached the browser one render late; its wait for the still frame also
+forgot requests made while a frame was encoded.
 
 While a mouse button is held (a drag, a camera turn) the window renders at ``interactive_ratio`` of its
 size and frames use ``interactive_quality``; the browser stretches them to the view. On release the
@@ -39,82 +40,165 @@ from __future__ import annotations
 import asyncio
 import contextlib
 from collections.abc import Awaitable, Callable
+from concurrent.futures import ThreadPoolExecutor
 from time import monotonic
 from typing import Any
 
-from trame_rca.schedulers import RcaImageRenderScheduler
 from trame_rca.view_adapter import RcaViewAdapter
 
-__all__ = ["ENCODER", "FrameScheduler", "RemoteView"]
+__all__ = ["ENCODER", "FrameScheduler", "InteractiveSizeAdapter", "RemoteView"]
 
 #: trame-rca's encoder name: Pillow's JPEG (libjpeg-turbo inside Pillow's wheels; see the module docstring)
 ENCODER = "jpeg"
 
 
-class FrameScheduler(RcaImageRenderScheduler):
-    """trame-rca's image scheduler, with each frame rendered, encoded and pushed before the next render.
+_ENCODING: list[ThreadPoolExecutor] = []  # one small pool per process, made on first use
 
-    Rendering holds the event loop (VTK renders on the thread that handles the mouse events), so a
-    frame waiting for the loop after its encoding waits for a whole render. Encoding stays in the
-    thread pool: the loop takes mouse events (~1 ms each) meanwhile. Requests that arrive during a
-    frame are coalesced into the next one; frames are at most ``target_fps`` a second; once requests
-    stop for a few periods, the scene is sent again at still quality.
+
+def _encoding_pool() -> ThreadPoolExecutor:
+    if not _ENCODING:
+        _ENCODING.append(ThreadPoolExecutor(max_workers=2, thread_name_prefix="ffd-view-encode"))
+    return _ENCODING[0]
+
+
+class FrameScheduler:
+    """Renders a window when asked, one frame at a time: render, read back, encode, push, written.
+
+    It plays trame-rca's scheduler part (what :class:`trame_rca.view_adapter.RcaViewAdapter` calls:
+    ``rca``, ``schedule_render``, ``set_push_callback``, ``target_fps``, ``reset``, ``close``),
+    written here rather than subclassed because the order within a frame is the point: rendering
+    holds the event loop (VTK renders on the thread that handles the mouse events), so an image that
+    still waits for its encoding or its websocket write when the next render starts waits a whole
+    render more. Encoding runs in a thread pool so the loop takes mouse events (~1 ms each) meanwhile;
+    requests made during a frame (and while it is encoded or sent) make one next frame with the latest
+    state; frames are at most ``target_fps`` a second; once requests stop for ``still_after`` periods,
+    the scene is sent again at still quality.
 
     Parameters
     ----------
     window : vtkRenderWindow or trame-rca window
-        What to render.
+        What to render (wrapped by :func:`trame_rca.rca.window_wrapper`).
+    push_callback : callable, optional
+        ``push(image_bytes, meta)``; the adapter sets it with :meth:`set_push_callback`.
     sent : callable, optional
         Called just before an image is pushed; returns an awaitable that completes once that image is
         written to the network. The next render waits for it, at most ``SEND_TIMEOUT_S``.
-    **kwargs
-        trame-rca's ``RcaImageRenderScheduler`` arguments (``push_callback``, ``target_fps``,
-        ``interactive_quality``, ``still_quality``, ``rca_encoder``).
+    target_fps : float
+        At most this many frames a second.
+    interactive_quality, still_quality : int
+        Image quality of the frames made on request, and of the frame made once requests stop.
+    encoder : str or object
+        A trame-rca encoder name, or an object with ``encode(image, cols, rows, quality) -> (bytes,
+        meta, ms)`` like :class:`trame_rca.encoders.RcaImageEncoder`.
+    still_after : int
+        Periods without a request before the still frame.
+
+    Examples
+    --------
+    >>> import asyncio
+    >>> import pyvista as pv
+    >>> pl = pv.Plotter(off_screen=True, window_size=(64, 48))
+    >>> _ = pl.add_mesh(pv.Sphere())
+    >>> async def frames():
+    ...     pushed = []
+    ...     scheduler = FrameScheduler(pl.render_window, push_callback=lambda image, meta: pushed.append(meta))
+    ...     scheduler.schedule_render()
+    ...     while len(pushed) < 2:  # the requested frame, then the still one
+    ...         await asyncio.sleep(0.01)
+    ...     await scheduler.close()
+    ...     return [(meta["w"], meta["h"], meta["quality"]) for meta in pushed]
+    >>> asyncio.run(frames())
+    [(64, 48, 60), (64, 48, 90)]
+    >>> pl.close()
     """
 
     SEND_TIMEOUT_S = 1.0
 
-    def __init__(self, window: Any, sent: Callable[[], Awaitable[Any]] | None = None, **kwargs: Any) -> None:
-        super().__init__(window, **kwargs)
-        self._sent = sent
+    def __init__(
+        self,
+        window: Any,
+        *,
+        push_callback: Callable[[bytes, dict], None] | None = None,
+        sent: Callable[[], Awaitable[Any] | None] | None = None,
+        target_fps: float = 60.0,
+        interactive_quality: int = 60,
+        still_quality: int = 90,
+        encoder: Any = ENCODER,
+        still_after: int = 5,
+    ) -> None:
+        from trame.app import asynchronous
+        from trame_rca.encoders import RcaImageEncoder
+        from trame_rca.rca import window_wrapper
 
-    async def _render(self) -> None:
-        while not self._is_closing:
-            await self._request_event.wait()
-            if self._is_closing:
+        self.rca = window_wrapper(window)
+        self.target_fps = target_fps
+        self.interactive_quality, self.still_quality = interactive_quality, still_quality
+        self.encoder = RcaImageEncoder(encoder) if isinstance(encoder, str) else encoder
+        self.still_after = still_after
+        self._push, self._sent = push_callback, sent
+        self._requested = asyncio.Event()
+        self._closing = False
+        self._task = asynchronous.create_task(self._run())
+
+    def set_push_callback(self, callback: Callable[[bytes, dict], None]) -> None:
+        """Where encoded images go: ``callback(image_bytes, meta)``."""
+        self._push = callback
+
+    def schedule_render(self) -> None:
+        """Ask for a frame (coalesced with any request not yet served)."""
+        self._requested.set()
+
+    def reset(self) -> None:
+        """Nothing to reset: images carry no state between frames."""
+
+    async def close(self) -> None:
+        """Stop the frame loop."""
+        self._closing = True
+        self._requested.set()
+        self._task.cancel()
+        await asyncio.gather(self._task, return_exceptions=True)
+
+    @property
+    def period_s(self) -> float:
+        """The shortest time between two frames."""
+        return 1.0 / self.target_fps
+
+    async def _run(self) -> None:
+        while not self._closing:
+            await self._requested.wait()
+            if self._closing:
                 break
-            self._request_event.clear()
+            self._requested.clear()
             started = monotonic()
-            await self._frame(self._interactive_quality)
-            if self._interactive_quality == self._still_quality:
-                await asyncio.sleep(max(0.0, self._target_period_s - (monotonic() - started)))
-            elif await self._wait_for_still(started):
-                await self._frame(self._still_quality)
+            await self._frame(self.interactive_quality)
+            if self.interactive_quality == self.still_quality:
+                await asyncio.sleep(max(0.0, self.period_s - (monotonic() - started)))
+            elif await self._quiet_since(started):
+                await self._frame(self.still_quality)
 
-    async def _wait_for_still(self, started: float) -> bool:
-        """Wait up to the still-frame delay; False as soon as a frame is requested. Unlike trame-rca's, it
-        keeps requests made while the previous frame was being encoded (the loop took events meanwhile)."""
-        for i in range(1, self._n_period_until_still_render + 1):
-            await asyncio.sleep(max(0.0, started + i * self._target_period_s - monotonic()))
-            if self._request_event.is_set():
+    async def _quiet_since(self, started: float) -> bool:
+        """Wait ``still_after`` periods from ``started``; False as soon as a frame is requested (including a
+        request made while the last frame was encoded or sent)."""
+        for i in range(1, self.still_after + 1):
+            await asyncio.sleep(max(0.0, started + i * self.period_s - monotonic()))
+            if self._requested.is_set():
                 return False
         return True
 
     async def _frame(self, quality: int) -> None:
-        image, cols, rows = self._rca.img_cols_rows  # render and read the pixels back
+        image, cols, rows = self.rca.img_cols_rows  # render and read the pixels back
         loop = asyncio.get_running_loop()
-        encoded, meta, _ = await loop.run_in_executor(
-            self._encode_pool, self._rca_encoder.encode, image, cols, rows, quality
-        )
-        if self._push_callback is not None:
-            sent = None if self._sent is None else self._sent()
-            self._push_callback(encoded, meta)
-            if sent is not None:  # the websocket write needs the loop: let it finish before rendering
-                with contextlib.suppress(asyncio.TimeoutError):
-                    await asyncio.wait_for(sent, self.SEND_TIMEOUT_S)
+        encoded, meta, _ = await loop.run_in_executor(_encoding_pool(), self.encoder.encode, image, cols, rows, quality)
+        if self._push is None:
+            return
+        sent = None if self._sent is None else self._sent()
+        self._push(encoded, meta)
+        if sent is not None:  # the websocket write needs the loop: let it finish before rendering
+            with contextlib.suppress(asyncio.TimeoutError):
+                await asyncio.wait_for(sent, self.SEND_TIMEOUT_S)
 
 
-class _InteractiveSizeAdapter(RcaViewAdapter):
+class InteractiveSizeAdapter(RcaViewAdapter):
     """trame-rca's view adapter, rendering at ``ratio`` of the size between the browser's Start and End of
     an interaction (trame-rca scales the events' coordinates by the same factor)."""
 
@@ -182,9 +266,8 @@ class RemoteView:
             target_fps=target_fps,
             interactive_quality=interactive_quality,
             still_quality=still_quality,
-            rca_encoder=ENCODER,
         )
-        self.handler = _InteractiveSizeAdapter(window, self.area.name, scheduler=scheduler, ratio=interactive_ratio)
+        self.handler = InteractiveSizeAdapter(window, self.area.name, scheduler=scheduler, ratio=interactive_ratio)
         self.area.add_view_handler(self.handler)
         self.server = self.area.server
 

@@ -24,7 +24,7 @@ async def _drive(editor: Editor, n_requests: int, every_s: float) -> tuple[list,
     window.AddObserver("StartEvent", lambda *_: renders.append([time.perf_counter(), 0.0]))
     window.AddObserver("EndEvent", lambda *_: renders[-1].__setitem__(1, time.perf_counter()))
     scheduler = FrameScheduler(
-        window, target_fps=60, interactive_quality=40, still_quality=95, rca_encoder=ENCODER,
+        window, target_fps=60, interactive_quality=40, still_quality=95,
         push_callback=lambda image, meta: pushes.append((time.perf_counter(), meta, image)),
     )  # fmt: skip
     try:
@@ -82,11 +82,11 @@ class SlowEncoder:
 
 async def _request_during_encoding(editor: Editor) -> list[dict]:
     pushes: list[dict] = []
+    encoder = SlowEncoder(0.2)
     scheduler = FrameScheduler(
-        editor.plotter.render_window, target_fps=60, interactive_quality=40, still_quality=95,
+        editor.plotter.render_window, target_fps=60, interactive_quality=40, still_quality=95, encoder=encoder,
         push_callback=lambda image, meta: pushes.append(meta),
     )  # fmt: skip
-    encoder = scheduler._rca_encoder = SlowEncoder(0.2)
     try:
         scheduler.schedule_render()
         while not encoder.started.is_set():  # the first frame is rendered and now being encoded
@@ -122,11 +122,11 @@ def _mouse(kind: str, action: str) -> dict:
 async def _interaction_sizes(editor: Editor) -> list[tuple[int, int]]:
     from trame_rca.rca import window_wrapper
 
-    from ffd_notebook.view.remote_view import _InteractiveSizeAdapter
+    from ffd_notebook.view.remote_view import InteractiveSizeAdapter
 
     window = window_wrapper(editor.plotter.render_window)
-    scheduler = FrameScheduler(window, rca_encoder=ENCODER)
-    adapter = _InteractiveSizeAdapter(window, "test_area", scheduler=scheduler, ratio=0.5)
+    scheduler = FrameScheduler(window)
+    adapter = InteractiveSizeAdapter(window, "test_area", scheduler=scheduler, ratio=0.5)
     sizes = []
     try:
         adapter.update_size("browser", {"w": 320, "h": 240, "p": 1})  # the element's size, as the browser says
