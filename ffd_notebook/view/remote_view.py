@@ -177,13 +177,18 @@ class FrameScheduler:
                 await self._frame(self.still_quality)
 
     async def _quiet_since(self, started: float) -> bool:
-        """Wait ``still_after`` periods from ``started``; False as soon as a frame is requested (including a
-        request made while the last frame was encoded or sent)."""
-        for i in range(1, self.still_after + 1):
-            await asyncio.sleep(max(0.0, started + i * self.period_s - monotonic()))
-            if self._requested.is_set():
-                return False
-        return True
+        """True if no frame is requested for ``still_after`` periods after the frame that began at ``started``
+        ended; False as soon as one is (including a request made while that frame was encoded or sent), but
+        never sooner than one period after ``started``. Quiet is counted from the frame's end: with renders
+        longer than the delay, counting from its start would make a still frame at once after every frame
+        whose next event is a few ms away, and that event would wait a whole render more."""
+        ended = monotonic()
+        await asyncio.sleep(max(0.0, started + self.period_s - ended))
+        if self._requested.is_set():
+            return False
+        with contextlib.suppress(asyncio.TimeoutError):
+            await asyncio.wait_for(self._requested.wait(), ended + self.still_after * self.period_s - monotonic())
+        return not self._requested.is_set()
 
     async def _frame(self, quality: int) -> None:
         image, cols, rows = self.rca.img_cols_rows  # render and read the pixels back

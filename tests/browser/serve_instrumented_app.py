@@ -30,4 +30,8 @@ def instrument(trace: str):
 
 
 if __name__ == "__main__":
+    if os.environ.get("FFD_FRAME_TRACE"):  # patch the protocols and views before the app makes its view
+        import frame_timing
+
+        frame_timing.install(os.environ["FFD_FRAME_TRACE"])
     sys.exit(main(sys.argv[2:], setup=instrument(sys.argv[1])))

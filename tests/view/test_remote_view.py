@@ -152,3 +152,34 @@ def test_the_window_renders_at_the_interactive_ratio_while_a_button_is_held():
         editor.close()
     assert before == (320, 240) and during == (160, 120) and after == (320, 240)
     assert press_at == (80, 60)
+
+
+async def _request_soon_after_a_slow_frame(editor: Editor) -> list[int]:
+    pushes: list[dict] = []
+    scheduler = FrameScheduler(
+        editor.plotter.render_window, target_fps=60, interactive_quality=40, still_quality=95,
+        encoder=SlowEncoder(0.15), push_callback=lambda image, meta: pushes.append(meta),
+    )  # fmt: skip
+    try:
+        scheduler.schedule_render()
+        deadline = time.perf_counter() + 30
+        while not pushes and time.perf_counter() < deadline:
+            await asyncio.sleep(0.002)
+        await asyncio.sleep(0.02)  # the next mouse event, well within the still frame's delay (5 x 16.7 ms)
+        editor.scene.display_points[0] += 0.5
+        editor.scene.display.GetPoints().Modified()
+        scheduler.schedule_render()
+        while len(pushes) < 3 and time.perf_counter() < deadline:
+            await asyncio.sleep(0.01)
+    finally:
+        await scheduler.close()
+    return [p["quality"] for p in pushes]
+
+
+def test_frames_slower_than_the_still_delay_do_not_make_a_still_frame_before_the_next_event():
+    editor = Editor(pv.Sphere(), shape=(4, 4, 4), window_size=(160, 120))
+    try:
+        qualities = asyncio.run(_request_soon_after_a_slow_frame(editor))
+    finally:
+        editor.close()
+    assert qualities == [40, 40, 95]
