@@ -289,8 +289,14 @@ class RemoteView:
         before = monitor.pending
 
         async def written() -> None:
+            # wslink sets ``monitor.event`` when a write completes and lowers ``pending`` in the write task's
+            # done-callback just after: wake on the event (not on a timer: under load each timer wake-up costs
+            # ms), then let the callbacks run
             while monitor.pending > before:
-                await asyncio.sleep(0.001)
+                monitor.event.clear()
+                with contextlib.suppress(asyncio.TimeoutError):
+                    await asyncio.wait_for(monitor.event.wait(), 0.005)
+                await asyncio.sleep(0)
 
         return written()
 
