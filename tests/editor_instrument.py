@@ -143,11 +143,15 @@ class Instrument:
             self._trace = None
 
 
-def instrument_notebook_editors(trace: str | os.PathLike[str] | None = None) -> None:
+def instrument_notebook_editors(
+    trace: str | os.PathLike[str] | None = None, frames: str | os.PathLike[str] | None = None
+) -> None:
     """In an IPython kernel: instrument every Editor a cell leaves in the user's namespace.
 
     After each cell, new editors get an :class:`Instrument` (tracing to ``trace``) whose triggers are
-    registered on the trame server that serves the package's notebook views.
+    registered on the trame server that serves the package's notebook views; with ``frames``, also a
+    :class:`frame_timing.FrameTimer` logging there (its protocol patches are installed right away,
+    before any trame server starts).
     """
     import sys
 
@@ -155,6 +159,10 @@ def instrument_notebook_editors(trace: str | os.PathLike[str] | None = None) -> 
 
     shell = get_ipython()
     seen: dict[int, Instrument] = {}
+    if frames is not None:
+        import frame_timing
+
+        frame_timing.install(frames)
 
     def after_cell(_result: Any = None) -> None:
         if "ffd_notebook.view.editor" not in sys.modules:  # no editor yet: import nothing
@@ -169,5 +177,7 @@ def instrument_notebook_editors(trace: str | os.PathLike[str] | None = None) -> 
 
                 seen[id(value)] = inst = Instrument(value, trace=trace)
                 inst.register_triggers(get_server(SERVER_NAME))
+                if frames is not None:
+                    frame_timing.FrameTimer(value, frames).register_triggers(get_server(SERVER_NAME))
 
     shell.events.register("post_run_cell", after_cell)

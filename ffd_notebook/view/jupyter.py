@@ -1,9 +1,11 @@
 """Showing a plotter in Jupyter through trame: shared by the editor, the GP explorer and the cut viewer.
 
-The view is PyVista's own trame Jupyter widget (:func:`trame_pyvista.jupyter.show_trame` with
-``mode="server"``): an ``<iframe class="pyvista">`` served by the trame server that runs inside
-the kernel. Server-side rendering is what sphere widgets need: every mouse event reaches VTK in
-the kernel, the widget callback changes the scene and the server streams the new image.
+The view is an ``<iframe class="pyvista">`` (PyVista's trame Jupyter widget,
+:class:`trame_pyvista.jupyter.Widget`) showing a page of the trame server that runs inside the
+kernel; the page holds one :class:`~.remote_view.RemoteView` of the plotter. Server-side rendering
+is what sphere widgets need: every mouse event reaches VTK in the kernel, the widget callback
+changes the scene and the server streams the new image, paced by the renderer (see
+:mod:`.remote_view` for why this view rather than PyVista's ``show_trame(mode="server")``).
 The iframe's address honours ``pyvista.global_theme.trame.server_proxy_enabled`` /
 ``server_proxy_prefix`` (for jupyter-server-proxy), exactly like ``plotter.show()``.
 
@@ -19,6 +21,7 @@ through the plotter's :class:`BrowserViews` (:func:`views_of`), the one place th
 
 from __future__ import annotations
 
+import itertools
 import weakref
 from collections.abc import Callable
 from typing import Any
@@ -44,6 +47,7 @@ __all__ = [
 STATIC_BACKENDS = ("static", "none")
 SERVER_NAME = "ffd_notebook_views"  # the package's own trame server for its views (see jupyter_server)
 _tokens: dict[str, str] = {}  # server name -> its session token
+_pages = itertools.count(1)  # page (template) names of the served plotters
 
 
 def execution_count() -> int | None:
@@ -74,7 +78,7 @@ def jupyter_server() -> Any:
     import asyncio
     import os
 
-    from trame.widgets import html, vuetify, vuetify3
+    from trame.widgets import html, rca, vuetify, vuetify3
     from trame.widgets import vtk as vtk_widgets
     from trame_pyvista.widgets import get_server
 
@@ -83,7 +87,8 @@ def jupyter_server() -> Any:
     server = get_server(SERVER_NAME)
     if server.running:
         return server
-    for module in (html, vtk_widgets, vuetify if server.client_type == "vue2" else vuetify3):
+    # trame-rca before the start: its protocol (the views' images and events) is set up when the server starts
+    for module in (html, vtk_widgets, rca, vuetify if server.client_type == "vue2" else vuetify3):
         module.initialize(server)
     if SERVER_NAME not in _tokens:  # not started yet by this process (a start in progress has its token)
         backend = "jupyter" if pv.global_theme.trame.jupyter_extension_enabled else "aiohttp"
@@ -113,27 +118,27 @@ def jupyter_server() -> Any:
 
 
 def serve_plotter(plotter: pv.Plotter) -> Any:
-    """PyVista's trame iframe widget for a plotter, with server-side rendering (VTK widgets need it).
+    """An iframe widget showing ``plotter`` with server-side rendering (VTK widgets need it).
 
-    The iframe's address carries the server's session token (the trame client reads it from there).
-    The widget's viewer joins the plotter's :class:`BrowserViews`, so :func:`push_to_browser` reaches it.
+    The iframe shows a page of :func:`jupyter_server` holding a :class:`~.remote_view.RemoteView`
+    that fills it; its address carries the server's session token (the trame client reads it from
+    there). The view joins the plotter's :class:`BrowserViews`, so :func:`push_to_browser` reaches it.
     """
-    from trame_pyvista.jupyter import Widget, show_trame
+    from trame.ui.html import DivLayout
+    from trame_pyvista.jupyter import Widget, build_url
 
+    from .remote_view import RemoteView
     from .web_security import url_with_token
 
     server = jupyter_server()
-    token = _tokens[SERVER_NAME]
-
-    def with_token(viewer: Any, src: str, iframe_attrs: dict[str, Any] | None = None, **kwargs: Any) -> Any:
-        src = url_with_token(src, token)
-        attrs = {**(iframe_attrs or {}), "src": src}
-        return Widget(viewer, src, iframe_attrs=attrs, **kwargs)
-
+    page = f"ffd_view_{next(_pages)}"
+    with DivLayout(server, template_name=page) as layout:
+        layout.root.style = "width: 100vw; height: 100vh; margin: 0; padding: 0; overflow: hidden;"
+        view = RemoteView(plotter, style="width: 100%; height: 100%;")
+    src = url_with_token(build_url(server, ui=page), _tokens[SERVER_NAME])
     width, height = plotter.window_size
-    widget = show_trame(plotter, mode="server", name=server.name, handler=with_token, collapse_menu=True,
-                        width=f"{width}px", height=f"{height}px")  # fmt: skip
-    views_of(plotter).add(widget.viewer)
+    widget = Widget(view, src, width=f"{width}px", height=f"{height}px")
+    views_of(plotter).add(view)
     return widget
 
 

@@ -14,14 +14,19 @@ Facts these helpers rely on (measured on this kind of machine, see the project's
 
 from __future__ import annotations
 
+import contextlib
 import json
 import math
 import os
+import shutil
 import socket
 import statistics
 import subprocess
+import sys
 import time
-from collections.abc import Callable
+import urllib.error
+import urllib.request
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -171,6 +176,25 @@ def settled_drag_state(
     return wait_for(agreed, timeout, "the trace to record every drag event the editor counted")
 
 
+def drawn_after_drag(frame: Any, trace: str | os.PathLike[str], n_before: int, quiet_s: float = 0.5,
+                     timeout: float = 30) -> list[dict[str, Any]]:  # fmt: skip
+    """Wait until a finished drag is drawn: it has drag records past ``n_before``, none arrived for ``quiet_s``,
+    and the page received an image after the last one. Returns the drag's records (polls, never a fixed sleep)."""
+    seen: dict[str, Any] = {"n": -1, "since": time.monotonic()}
+
+    def drawn() -> list[dict[str, Any]] | None:
+        records = callbacks(trace)[n_before:]
+        if len(records) != seen["n"]:
+            seen.update(n=len(records), since=time.monotonic())
+            return None
+        if not records or time.monotonic() - seen["since"] < quiet_s:
+            return None
+        frames = image_frames(frame)
+        return records if frames and frames[-1]["t"] >= records[-1]["t"] * 1000.0 else None
+
+    return wait_for(drawn, timeout, "the drag's last callback and the image after it", interval=0.1)
+
+
 def image_frames(frame: Any, t_from: float | None = None, t_to: float | None = None) -> list[dict[str, Any]]:
     """Image frames (big websocket messages) received by ``frame``, optionally within [t_from, t_to) ms."""
     frames = [m for m in frame.evaluate("window.__ws || []") if m["size"] >= FRAME_MIN_BYTES]
@@ -263,7 +287,7 @@ def stepped_drag(page: Any, frame: Any, start: tuple[float, float], delta: tuple
         page.mouse.move(x, y)
         time.sleep(settle_s)
     page.mouse.up()
-    time.sleep(0.8)
+    drawn_after_drag(frame, trace, n_before)
     # when each measured move really reached the page (first pointermove at or after sending it)
     pointer = [p["t"] for p in frame.evaluate("window.__ptr") if p["type"] == "pointermove"]
     events = [min((t for t in pointer if t >= s - 1.0), default=s) for s in sent]
@@ -303,7 +327,7 @@ def paced_drag(page: Any, frame: Any, start: tuple[float, float], delta: tuple[f
         time.sleep(step_s)
     t_end = time.time() * 1000.0
     page.mouse.up()
-    time.sleep(1.0)
+    drawn_after_drag(frame, trace, n_before)
     frames = image_frames(frame, t_start, t_end)
     seconds = (t_end - t_start) / 1000.0
     return {
@@ -344,3 +368,199 @@ def record_metrics(name: str, metrics: dict[str, Any]) -> None:
     everything[name] = metrics
     METRICS_FILE.write_text(json.dumps(everything, indent=1))
     print(f"\n[{name}] browser metrics:\n{json.dumps(metrics, indent=1)}")
+
+
+# ---------------------------------------------------------------------- JupyterLab
+LAB_TOKEN = "ffd-notebook-test-token"
+IDLE = ".jp-Notebook-ExecutionIndicator[data-status='idle']"
+
+
+def lab_api(port: int, path: str, method: str = "GET") -> object:
+    """Call JupyterLab's REST API (with the test token); the decoded JSON answer."""
+    request = urllib.request.Request(f"http://127.0.0.1:{port}{path}?token={LAB_TOKEN}", method=method)
+    with urllib.request.urlopen(request, timeout=10) as response:
+        body = response.read()
+    return json.loads(body) if body else None
+
+
+def _lab_settings(root: Path) -> Path:
+    """Private JupyterLab settings: no news/update toasts over the output, start the kernel without asking."""
+    settings = root / ".lab-settings" / "@jupyterlab"
+    for folder, name, values in (
+        ("apputils-extension", "notification", {"fetchNews": "false", "checkForUpdates": False}),
+        # every cell stays in the page: with windowing, the editor's iframe leaves the DOM when scrolled away
+        ("notebook-extension", "tracker", {"autoStartDefaultKernel": True, "windowingMode": "none"}),
+    ):
+        (settings / folder).mkdir(parents=True, exist_ok=True)
+        (settings / folder / f"{name}.jupyterlab-settings").write_text(json.dumps(values))
+    return root / ".lab-settings"
+
+
+def _instrumenting_ipython_dir(tmp_path: Path, trace: Path, frames_trace: Path | None) -> Path:
+    """An IPython folder whose startup file instruments the notebook's editors (tests/editor_instrument.py and,
+    with ``frames_trace``, tests/frame_timing.py): notebooks run unmodified, and the product has no setting
+    that installs test hooks."""
+    ipython = tmp_path / "ipython"
+    startup = ipython / "profile_default" / "startup"
+    startup.mkdir(parents=True)
+    tests = Path(__file__).resolve().parents[1]
+    frames = "" if frames_trace is None else f", frames={str(frames_trace)!r}"
+    (startup / "00-instrument.py").write_text(
+        f"import sys\nsys.path.insert(0, {str(tests)!r})\n"
+        f"from editor_instrument import instrument_notebook_editors\n"
+        f"instrument_notebook_editors({str(trace)!r}{frames})\n"
+    )
+    return ipython
+
+
+class KernelReplaced(RuntimeError):
+    """JupyterLab swapped the notebook's kernel while it ran (seen right after opening a notebook)."""
+
+
+class Lab:
+    """A private JupyterLab started by :func:`start_lab`: its port and folder, and ways to run a notebook in it."""
+
+    def __init__(self, port: int, work: Path) -> None:
+        self.port, self.work = port, work
+
+    def kernels(self) -> list[dict] | None:
+        """The running kernels, or None when the server could not answer this time (it answered 500 once
+        while starting a kernel on a loaded machine): callers poll again."""
+        try:
+            return list(lab_api(self.port, "/api/kernels") or [])  # type: ignore[arg-type]
+        except urllib.error.HTTPError as exc:
+            if exc.code >= 500:
+                return None
+            raise
+
+    def settled_kernel(self, page: Any) -> str:
+        """The notebook's kernel once Lab has stopped changing it: one kernel, the same for 2 s, idle."""
+        seen: dict = {"ids": None, "since": time.monotonic()}
+
+        def settled() -> bool:
+            kernels = self.kernels()
+            if kernels is None:
+                return False
+            ids = [k["id"] for k in kernels]
+            if ids != seen["ids"]:
+                seen.update(ids=ids, since=time.monotonic())
+                return False
+            return len(ids) == 1 and time.monotonic() - seen["since"] > 2.0 and page.locator(IDLE).count() > 0
+
+        wait_for(settled, 90, "JupyterLab to settle on one kernel", interval=0.5)
+        return seen["ids"][0]
+
+    @staticmethod
+    def run_all(page: Any) -> int:
+        """Run > Run All Cells until the first cell starts; accept a "Select Kernel" dialog. Returns the attempts."""
+        for attempt in range(1, 6):
+            dialog = page.locator(".jp-Dialog .jp-mod-accept")
+            if dialog.count():
+                dialog.first.click()
+                page.wait_for_selector(IDLE, timeout=90_000)
+            page.locator(".lm-MenuBar-itemLabel", has_text="Run").first.click()
+            item = page.locator(".lm-Menu-itemLabel", has_text="Run All Cells").first
+            item.wait_for(state="visible", timeout=10_000)
+            item.click()
+            try:  # the click can land before Lab is wired up: check that the first cell started
+                page.wait_for_function(
+                    r"""() => { const p = document.querySelector('.jp-CodeCell .jp-InputPrompt');
+                                 return p && /\[(\*|\d+)\]/.test(p.textContent); }""",
+                    timeout=10_000,
+                )
+                return attempt
+            except Exception:
+                page.keyboard.press("Escape")
+        raise AssertionError("Run All Cells did not start the notebook")
+
+    def done(self, page: Any, kernel: str, finished: Callable[[], bool]) -> bool:
+        """True once ``finished()`` and the kernel is idle; fails on a cell's error or a replaced kernel."""
+        errors = page.locator(".jp-OutputArea-output[data-mime-type='application/vnd.jupyter.stderr']")
+        tracebacks = [t for t in errors.all_inner_texts() if "Traceback" in t or "Error" in t]
+        assert not tracebacks, f"a notebook cell failed:\n{tracebacks[0][-2000:]}"
+        kernels = self.kernels()
+        if kernels is None:
+            return False
+        if [k["id"] for k in kernels] != [kernel]:
+            raise KernelReplaced(f"kernel {kernel} was replaced by {[k['id'] for k in kernels]}")
+        return finished() and kernels[0]["execution_state"] == "idle"
+
+    def run_notebook(self, page: Any, name: str, finished: Callable[[], bool], metrics: dict | None = None) -> None:
+        """Open notebook ``name``, run all its cells and wait until ``finished()`` (retried once if Lab swaps
+        the kernel meanwhile); ``metrics`` receives the timings."""
+        metrics = {} if metrics is None else metrics
+        t0 = time.monotonic()
+        page.goto(f"http://127.0.0.1:{self.port}/lab/tree/{name}?token={LAB_TOKEN}&reset", wait_until="load")
+        page.wait_for_selector(IDLE, timeout=90_000)
+        metrics["lab_and_kernel_ready_s"] = round(time.monotonic() - t0, 1)
+        for attempt in (1, 2):
+            kernel = self.settled_kernel(page)
+            metrics["run_all_attempts"] = self.run_all(page)
+            try:
+                wait_for(lambda k=kernel: self.done(page, k, finished), 120, "the last cell", interval=0.5)
+                break
+            except KernelReplaced:
+                if attempt == 2:
+                    raise
+                metrics["kernel_replaced_during_run_all"] = True
+        page.wait_for_selector(IDLE, timeout=60_000)
+
+    @staticmethod
+    def editor_frame(page: Any, cell_text: str) -> Any:
+        """The content frame of the editor's trame iframe in the cell containing ``cell_text``, once it shows
+        an image."""
+        cell = page.locator(".jp-CodeCell", has_text=cell_text).first
+        cell.scroll_into_view_if_needed()
+        iframe = cell.locator("iframe.pyvista").first
+        iframe.wait_for(state="attached", timeout=60_000)
+        iframe.scroll_into_view_if_needed()
+        frame = iframe.element_handle().content_frame()
+        frame.wait_for_load_state("load")
+        wait_for(lambda: image_frames(frame), 60, "the first image in the editor's iframe")
+        return frame
+
+
+@contextlib.contextmanager
+def start_lab(tmp_path: Path, work: Path, trace: Path, frames_trace: Path | None = None,
+              pythonpath: Path = REPO) -> Iterator[Lab]:  # fmt: skip
+    """JupyterLab on a free port serving ``work``, kernels instrumented (see :func:`_instrumenting_ipython_dir`)
+    and importing ffd_notebook from ``pythonpath``; its kernels and the server are stopped on exit."""
+    port = free_port()
+    env = server_env(
+        IPYTHONDIR=str(_instrumenting_ipython_dir(tmp_path, trace, frames_trace)),
+        JUPYTER_RUNTIME_DIR=str(tmp_path / "runtime"),
+        PYTHONPATH=str(pythonpath),
+    )
+    env.pop("PYVISTA_JUPYTER_BACKEND", None)  # users' default: the trame backend
+    cmd = [
+        sys.executable, "-m", "jupyter", "lab", "--no-browser", "--ip=127.0.0.1", f"--port={port}",
+        f"--IdentityProvider.token={LAB_TOKEN}", f"--ServerApp.root_dir={work}",
+        f"--LabApp.user_settings_dir={_lab_settings(tmp_path)}",
+        f"--LabApp.workspaces_dir={tmp_path / '.lab-workspaces'}",
+        "--LabApp.news_url=None", "--LabApp.check_for_updates_class=jupyterlab.NeverCheckForUpdate",
+    ]  # fmt: skip
+    if sys.platform.startswith("linux") and os.geteuid() == 0:
+        cmd.append("--allow-root")
+    log_path = tmp_path / "jupyter.log"
+    with open(log_path, "w") as log:
+        proc = subprocess.Popen(cmd, cwd=work, stdout=log, stderr=subprocess.STDOUT, env=env)
+        try:
+
+            def up() -> object:
+                if proc.poll() is not None:
+                    raise RuntimeError(f"jupyter lab exited:\n{log_path.read_text()[-3000:]}")
+                try:
+                    return lab_api(port, "/api/status")
+                except OSError:
+                    return None
+
+            wait_for(up, 90, "JupyterLab to answer")
+            yield Lab(port, work)
+        finally:
+            try:  # shut the kernels down cleanly (they run the trame servers), then the server
+                for kernel in lab_api(port, "/api/kernels") or []:
+                    lab_api(port, f"/api/kernels/{kernel['id']}", method="DELETE")
+            except Exception:
+                pass
+            stop_process(proc)
+            shutil.copy(log_path, ARTIFACTS / "jupyter.log") if ARTIFACTS.is_dir() else None

@@ -176,7 +176,8 @@ def build_layout(app: Any) -> tuple[Any, Any]:
     from trame.ui.vuetify3 import SinglePageWithDrawerLayout
     from trame.widgets import html
     from trame.widgets import vuetify3 as v
-    from trame_pyvista import PyVistaRemoteView
+
+    from ..remote_view import RemoteView
 
     toolbar = [c for c in app.controls if c.section == "toolbar"]
     with SinglePageWithDrawerLayout(app.server, width=340) as layout:
@@ -199,6 +200,6 @@ def build_layout(app: Any) -> tuple[Any, Any]:
         with layout.content:
             with v.VContainer(fluid=True, classes="pa-0 fill-height"):
                 with html.Div(id="ffd-view", style="width: 100%; height: 100%; position: relative;"):
-                    # same ratio still and moving: the image is never re-scaled mid-drag
-                    view = PyVistaRemoteView(app.editor.plotter, interactive_ratio=1, still_ratio=1)
+                    # server-side rendering paced by the renderer (see ..remote_view)
+                    view = RemoteView(app.editor.plotter, style="width: 100%; height: 100%;")
     return layout, view

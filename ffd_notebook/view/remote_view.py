@@ -1,0 +1,305 @@
+"""The server-rendered browser view of a plotter, paced by the renderer (trame-rca).
+
+Sphere widgets need server-side rendering: every mouse event must reach the VTK interactor in
+Python. This view is trame-rca's ``RemoteControlledArea`` with its image render scheduler, chosen
+over trame-vtk's ``VtkRemoteView`` (PyVista's default) because of what was measured on the editor's
+drag (tests/benchmarks/bench_browser.py; the figures are in the project's closing notes):
+
+- trame-vtk encodes JPEG in a background thread and sends whatever image is ready when it renders:
+  during a drag almost every image it sends is the *previous* render (one frame late), and the last
+  one arrives only when its 0.5 s stale timer fires; its animation loop renders at most 30 times a
+  second whether or not anything changed; vtk.js drops a mouse move closer than 33 ms to the last
+  one sent (the latest position may never be sent);
+- trame-rca renders only when an event asked for it, and at most once per period of ``target_fps``:
+  events that arrive during a render are coalesced into one frame showing the latest state, never
+  queued; the browser compresses queued mouse moves into the latest one and waits for the server
+  to take each before sending the next; each frame is captured right after its render and encoded
+  in a thread pool.
+
+The scheduler is the package's own (:class:`FrameScheduler`), in trame-rca's place: an image is encoded,
+pushed and written to the websocket before the next render starts. trame-rca's scheduler starts the
+next render (which holds the event loop) while the previous image is still being encoded or sent, so
+during a drag each image reached the browser one render late; its wait for the still frame also
+forgot requests made while a frame was encoded.
+
+While a mouse button is held (a drag, a camera turn) the window renders at ``interactive_ratio`` of its
+size and frames use ``interactive_quality``; the browser stretches them to the view. On release the
+full size comes back, and once events stop for a few periods the scene is sent again at
+``still_quality`` (the sharp frame). With the 53k-vertex face and Mesa's software renderer, half the
+size (a quarter of the pixels) took a render + read-back from ~190-240 ms to ~110-180 ms on a loaded
+2-core machine, and makes encoding and the browser's decoding 4x cheaper. The encoder is Pillow's
+JPEG: Pillow ships libjpeg-turbo, which encodes an 800x600 frame in ~1-2 ms, as fast as PyTurboJPEG +
+the system libturbojpeg (so no extra dependency); WebP took 30-60 ms and PNG ~70 ms.
+
+The view's token and Origin checks are the server's (:mod:`.web_security`): the area's events and
+images travel over the same protected websocket as the rest of the page.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+from collections.abc import Awaitable, Callable
+from concurrent.futures import ThreadPoolExecutor
+from time import monotonic
+from typing import Any
+
+from trame_rca.view_adapter import RcaViewAdapter
+
+__all__ = ["ENCODER", "FrameScheduler", "InteractiveSizeAdapter", "RemoteView"]
+
+#: trame-rca's encoder name: Pillow's JPEG (libjpeg-turbo inside Pillow's wheels; see the module docstring)
+ENCODER = "jpeg"
+
+
+_ENCODING: list[ThreadPoolExecutor] = []  # one small pool per process, made on first use
+
+
+def _encoding_pool() -> ThreadPoolExecutor:
+    if not _ENCODING:
+        _ENCODING.append(ThreadPoolExecutor(max_workers=2, thread_name_prefix="ffd-view-encode"))
+    return _ENCODING[0]
+
+
+class FrameScheduler:
+    """Renders a window when asked, one frame at a time: render, read back, encode, push, written.
+
+    It plays trame-rca's scheduler part (what :class:`trame_rca.view_adapter.RcaViewAdapter` calls:
+    ``rca``, ``schedule_render``, ``set_push_callback``, ``target_fps``, ``reset``, ``close``),
+    written here rather than subclassed because the order within a frame is the point: rendering
+    holds the event loop (VTK renders on the thread that handles the mouse events), so an image that
+    still waits for its encoding or its websocket write when the next render starts waits a whole
+    render more. Encoding runs in a thread pool so the loop takes mouse events (~1 ms each) meanwhile;
+    requests made during a frame (and while it is encoded or sent) make one next frame with the latest
+    state; frames are at most ``target_fps`` a second; once requests stop for ``still_after`` periods,
+    the scene is sent again at still quality.
+
+    Parameters
+    ----------
+    window : vtkRenderWindow or trame-rca window
+        What to render (wrapped by :func:`trame_rca.rca.window_wrapper`).
+    push_callback : callable, optional
+        ``push(image_bytes, meta)``; the adapter sets it with :meth:`set_push_callback`.
+    sent : callable, optional
+        Called just before an image is pushed; returns an awaitable that completes once that image is
+        written to the network. The next render waits for it, at most ``SEND_TIMEOUT_S``.
+    target_fps : float
+        At most this many frames a second.
+    interactive_quality, still_quality : int
+        Image quality of the frames made on request, and of the frame made once requests stop.
+    encoder : str or object
+        A trame-rca encoder name, or an object with ``encode(image, cols, rows, quality) -> (bytes,
+        meta, ms)`` like :class:`trame_rca.encoders.RcaImageEncoder`.
+    still_after : int
+        Periods without a request before the still frame.
+
+    Examples
+    --------
+    >>> import asyncio
+    >>> import pyvista as pv
+    >>> pl = pv.Plotter(off_screen=True, window_size=(64, 48))
+    >>> _ = pl.add_mesh(pv.Sphere())
+    >>> async def frames():
+    ...     pushed = []
+    ...     scheduler = FrameScheduler(pl.render_window, push_callback=lambda image, meta: pushed.append(meta))
+    ...     scheduler.schedule_render()
+    ...     while len(pushed) < 2:  # the requested frame, then the still one
+    ...         await asyncio.sleep(0.01)
+    ...     await scheduler.close()
+    ...     return [(meta["w"], meta["h"], meta["quality"]) for meta in pushed]
+    >>> asyncio.run(frames())
+    [(64, 48, 60), (64, 48, 90)]
+    >>> pl.close()
+    """
+
+    SEND_TIMEOUT_S = 1.0
+
+    def __init__(
+        self,
+        window: Any,
+        *,
+        push_callback: Callable[[bytes, dict], None] | None = None,
+        sent: Callable[[], Awaitable[Any] | None] | None = None,
+        target_fps: float = 60.0,
+        interactive_quality: int = 60,
+        still_quality: int = 90,
+        encoder: Any = ENCODER,
+        still_after: int = 5,
+    ) -> None:
+        from trame.app import asynchronous
+        from trame_rca.encoders import RcaImageEncoder
+        from trame_rca.rca import window_wrapper
+
+        self.rca = window_wrapper(window)
+        self.target_fps = target_fps
+        self.interactive_quality, self.still_quality = interactive_quality, still_quality
+        self.encoder = RcaImageEncoder(encoder) if isinstance(encoder, str) else encoder
+        self.still_after = still_after
+        self._push, self._sent = push_callback, sent
+        self._requested = asyncio.Event()
+        self._closing = False
+        self._task = asynchronous.create_task(self._run())
+
+    def set_push_callback(self, callback: Callable[[bytes, dict], None]) -> None:
+        """Where encoded images go: ``callback(image_bytes, meta)``."""
+        self._push = callback
+
+    def schedule_render(self) -> None:
+        """Ask for a frame (coalesced with any request not yet served)."""
+        self._requested.set()
+
+    def reset(self) -> None:
+        """Nothing to reset: images carry no state between frames."""
+
+    async def close(self) -> None:
+        """Stop the frame loop."""
+        self._closing = True
+        self._requested.set()
+        self._task.cancel()
+        await asyncio.gather(self._task, return_exceptions=True)
+
+    @property
+    def period_s(self) -> float:
+        """The shortest time between two frames."""
+        return 1.0 / self.target_fps
+
+    async def _run(self) -> None:
+        while not self._closing:
+            await self._requested.wait()
+            if self._closing:
+                break
+            self._requested.clear()
+            started = monotonic()
+            await self._frame(self.interactive_quality)
+            if self.interactive_quality == self.still_quality:
+                await asyncio.sleep(max(0.0, self.period_s - (monotonic() - started)))
+            elif await self._quiet_since(started):
+                await self._frame(self.still_quality)
+
+    async def _quiet_since(self, started: float) -> bool:
+        """True if no frame is requested for ``still_after`` periods after the frame that began at ``started``
+        ended; False as soon as one is (including a request made while that frame was encoded or sent), but
+        never sooner than one period after ``started``. Quiet is counted from the frame's end: with renders
+        longer than the delay, counting from its start would make a still frame at once after every frame
+        whose next event is a few ms away, and that event would wait a whole render more."""
+        ended = monotonic()
+        await asyncio.sleep(max(0.0, started + self.period_s - ended))
+        if self._requested.is_set():
+            return False
+        with contextlib.suppress(asyncio.TimeoutError):
+            await asyncio.wait_for(self._requested.wait(), ended + self.still_after * self.period_s - monotonic())
+        return not self._requested.is_set()
+
+    async def _frame(self, quality: int) -> None:
+        image, cols, rows = self.rca.img_cols_rows  # render and read the pixels back
+        loop = asyncio.get_running_loop()
+        encoded, meta, _ = await loop.run_in_executor(_encoding_pool(), self.encoder.encode, image, cols, rows, quality)
+        if self._push is None:
+            return
+        sent = None if self._sent is None else self._sent()
+        self._push(encoded, meta)
+        if sent is not None:  # the websocket write needs the loop: let it finish before rendering
+            with contextlib.suppress(asyncio.TimeoutError):
+                await asyncio.wait_for(sent, self.SEND_TIMEOUT_S)
+
+
+class InteractiveSizeAdapter(RcaViewAdapter):
+    """trame-rca's view adapter, rendering at ``ratio`` of the size between the browser's Start and End of
+    an interaction (trame-rca scales the events' coordinates by the same factor)."""
+
+    def __init__(self, *args: Any, ratio: float = 1.0, **kwargs: Any) -> None:
+        super().__init__(*args, **kwargs)
+        self.ratio = ratio
+
+    def on_interaction(self, origin: Any, event: dict[str, Any]) -> None:
+        kind = event.get("type")
+        if kind == "StartInteractionEvent" and self.ratio != 1.0:
+            self.scale = self.ratio  # before the button press that follows: the whole drag at one size
+        super().on_interaction(origin, event)
+        if kind == "EndInteractionEvent" and self.scale != 1.0:
+            self.scale = 1.0
+
+
+def _area_class() -> type:
+    from trame.widgets import rca
+
+    return rca.RemoteControlledArea
+
+
+class RemoteView:
+    """A trame-rca remote view of ``plotter``'s render window, made inside a trame layout.
+
+    The view's element fills its parent; the render window follows its size. ``update()`` asks for a
+    new frame (coalesced with any pending one): :class:`~ffd_notebook.view.jupyter.BrowserViews` calls it
+    after changes made from code.
+
+    Parameters
+    ----------
+    plotter : pyvista.Plotter
+        Its render window is shown (and its interactor receives the mouse events).
+    target_fps : float
+        At most this many frames a second (a render that takes longer simply paces the frames).
+    interactive_ratio : float
+        Size of the frames, relative to the view, while a mouse button is held.
+    interactive_quality, still_quality : int
+        JPEG quality while events arrive, and of the frame sent once they stop.
+    event_throttle_ms : int
+        The browser sends at most one (the latest) mouse move per this period.
+    **kwargs
+        Passed to ``RemoteControlledArea`` (``style``, ``id``, ...).
+    """
+
+    def __init__(
+        self,
+        plotter: Any,
+        *,
+        target_fps: float = 60.0,
+        interactive_ratio: float = 0.5,
+        interactive_quality: int = 60,
+        still_quality: int = 90,
+        event_throttle_ms: int = 10,
+        **kwargs: Any,
+    ) -> None:
+        self.plotter = plotter
+        from trame_rca.rca import window_wrapper
+
+        self.area = _area_class()(display="image", event_throttle_ms=event_throttle_ms, **kwargs)
+        window = window_wrapper(plotter.render_window)
+        scheduler = FrameScheduler(
+            window,
+            sent=self._image_sent,
+            target_fps=target_fps,
+            interactive_quality=interactive_quality,
+            still_quality=still_quality,
+        )
+        self.handler = InteractiveSizeAdapter(window, self.area.name, scheduler=scheduler, ratio=interactive_ratio)
+        self.area.add_view_handler(self.handler)
+        self.server = self.area.server
+
+    def _image_sent(self) -> Awaitable[None] | None:
+        """An awaitable completing once the image about to be pushed has been written to the websocket.
+
+        wslink counts pending network writes (``network_monitor.pending``); publishing the image adds
+        one. This waits until the count is back to what it was before the push, ignoring later writes
+        (``server.network_completion`` would also wait for every other message, e.g. a stream of event replies).
+        """
+        monitor = getattr(getattr(self.area.server, "context", None), "network_monitor", None)
+        if monitor is None:  # no client has connected yet
+            return None
+        before = monitor.pending
+
+        async def written() -> None:
+            # wslink sets ``monitor.event`` when a write completes and lowers ``pending`` in the write task's
+            # done-callback just after: wake on the event (not on a timer: under load each timer wake-up costs
+            # ms), then let the callbacks run
+            while monitor.pending > before:
+                monitor.event.clear()
+                with contextlib.suppress(asyncio.TimeoutError):
+                    await asyncio.wait_for(monitor.event.wait(), 0.005)
+                await asyncio.sleep(0)
+
+        return written()
+
+    def update(self) -> None:
+        """Ask for a new frame (rendered and pushed by the scheduler, once per period at most)."""
+        self.handler.update()

@@ -1,0 +1,185 @@
+"""The remote view's frame scheduler: coalesced requests, each image pushed before the next render, a sharp
+frame once requests stop (ffd_notebook.view.remote_view.FrameScheduler), on a real editor's render window."""
+
+from __future__ import annotations
+
+import asyncio
+import io
+import time
+
+import numpy as np
+import pyvista as pv
+from PIL import Image
+
+from ffd_notebook.view import Editor
+from ffd_notebook.view.remote_view import ENCODER, FrameScheduler
+
+
+async def _drive(editor: Editor, n_requests: int, every_s: float) -> tuple[list, list]:
+    """Request ``n_requests`` frames ``every_s`` apart, moving a mesh point each time; returns the
+    (render start, render end) times and the (push time, meta, image) records once the frames stop."""
+    renders: list[list[float]] = []
+    pushes: list[tuple[float, dict, bytes]] = []
+    window = editor.plotter.render_window
+    window.AddObserver("StartEvent", lambda *_: renders.append([time.perf_counter(), 0.0]))
+    window.AddObserver("EndEvent", lambda *_: renders[-1].__setitem__(1, time.perf_counter()))
+    scheduler = FrameScheduler(
+        window, target_fps=60, interactive_quality=40, still_quality=95,
+        push_callback=lambda image, meta: pushes.append((time.perf_counter(), meta, image)),
+    )  # fmt: skip
+    try:
+        for k in range(n_requests):
+            editor.scene.display_points[0] += 0.01 * (k + 1)
+            editor.scene.display.GetPoints().Modified()
+            scheduler.schedule_render()
+            await asyncio.sleep(every_s)
+        deadline = time.perf_counter() + 30
+        while time.perf_counter() < deadline:  # until the still frame has been pushed
+            if pushes and pushes[-1][1]["quality"] == 95 and time.perf_counter() - pushes[-1][0] > 0.3:
+                break
+            await asyncio.sleep(0.02)
+    finally:
+        await scheduler.close()
+    return renders, pushes
+
+
+def test_frames_are_coalesced_pushed_in_order_and_end_sharp():
+    editor = Editor(pv.Sphere(theta_resolution=60, phi_resolution=60), shape=(4, 4, 4), window_size=(320, 240))
+    try:
+        renders, pushes = asyncio.run(_drive(editor, n_requests=40, every_s=0.002))
+    finally:
+        editor.close()
+    interactive = [p for p in pushes if p[1]["quality"] == 40]
+    # 40 requests 2 ms apart, each frame longer than that: requests made during a frame make one more frame
+    assert 1 <= len(interactive) < 40
+    assert len(renders) == len(pushes)
+    # every image is pushed before the next render starts (it never waits for a render to free the loop)
+    for (t_push, _, _), (t_next, _) in zip(pushes, renders[1:], strict=False):
+        assert t_push <= t_next
+    # the last frame repeats the scene at still quality: same size, a real JPEG, more bytes than interactive
+    last_meta, last_image = pushes[-1][1], pushes[-1][2]
+    assert last_meta["quality"] == 95 and (last_meta["w"], last_meta["h"]) == (320, 240)
+    picture = np.asarray(Image.open(io.BytesIO(last_image)))
+    assert picture.shape == (240, 320, 3) and picture.std() > 0
+    assert len(last_image) > len(interactive[-1][2])
+
+
+class SlowEncoder:
+    """Pillow's JPEG, taking at least ``delay_s``; ``started`` is set while an image is being encoded."""
+
+    def __init__(self, delay_s: float) -> None:
+        import threading
+
+        from trame_rca.encoders import RcaImageEncoder
+
+        self.inner, self.delay_s, self.started = RcaImageEncoder(ENCODER), delay_s, threading.Event()
+
+    def encode(self, *args):
+        self.started.set()
+        time.sleep(self.delay_s)
+        return self.inner.encode(*args)
+
+
+async def _request_during_encoding(editor: Editor) -> list[dict]:
+    pushes: list[dict] = []
+    encoder = SlowEncoder(0.2)
+    scheduler = FrameScheduler(
+        editor.plotter.render_window, target_fps=60, interactive_quality=40, still_quality=95, encoder=encoder,
+        push_callback=lambda image, meta: pushes.append(meta),
+    )  # fmt: skip
+    try:
+        scheduler.schedule_render()
+        while not encoder.started.is_set():  # the first frame is rendered and now being encoded
+            await asyncio.sleep(0.005)
+        editor.scene.display_points[0] += 0.5  # the scene changes meanwhile (a mouse event's callback)
+        editor.scene.display.GetPoints().Modified()
+        scheduler.schedule_render()
+        deadline = time.perf_counter() + 30
+        while len(pushes) < 2 and time.perf_counter() < deadline:
+            await asyncio.sleep(0.01)
+    finally:
+        await scheduler.close()
+    return pushes
+
+
+def test_a_request_made_while_a_frame_is_encoded_gets_its_own_interactive_frame():
+    editor = Editor(pv.Sphere(), shape=(4, 4, 4), window_size=(160, 120))
+    try:
+        pushes = asyncio.run(_request_during_encoding(editor))
+    finally:
+        editor.close()
+    # not dropped until the still frame (5 periods later): the next frame is interactive
+    assert [p["quality"] for p in pushes[:2]] == [40, 40]
+
+
+def _mouse(kind: str, action: str) -> dict:
+    """A mouse event at the centre of a 320x240 view, as trame-rca's browser side sends it (vtk.js's fields)."""
+    buttons = {"buttonLeft": int(action == "down"), "buttonMiddle": 0, "buttonRight": 0}
+    keys = {"shiftKey": 0, "altKey": 0, "ctrlKey": 0, "metaKey": 0}
+    return {"type": kind, "action": action, "x": 160, "y": 120, "w": 320, "h": 240, **buttons, **keys}
+
+
+async def _interaction_sizes(editor: Editor) -> list[tuple[int, int]]:
+    from trame_rca.rca import window_wrapper
+
+    from ffd_notebook.view.remote_view import InteractiveSizeAdapter
+
+    window = window_wrapper(editor.plotter.render_window)
+    scheduler = FrameScheduler(window)
+    adapter = InteractiveSizeAdapter(window, "test_area", scheduler=scheduler, ratio=0.5)
+    sizes = []
+    try:
+        adapter.update_size("browser", {"w": 320, "h": 240, "p": 1})  # the element's size, as the browser says
+        sizes.append(tuple(editor.plotter.render_window.GetSize()))
+        adapter.on_interaction("browser", {"type": "StartInteractionEvent"})
+        sizes.append(tuple(editor.plotter.render_window.GetSize()))
+        # a press at the view's centre, in the browser's pixels: VTK gets it at the reduced size
+        adapter.on_interaction("browser", _mouse("LeftButtonPress", "down"))
+        sizes.append(tuple(editor.plotter.iren.interactor.GetEventPosition()))
+        adapter.on_interaction("browser", _mouse("LeftButtonRelease", "up"))
+        adapter.on_interaction("browser", {"type": "EndInteractionEvent"})
+        sizes.append(tuple(editor.plotter.render_window.GetSize()))
+    finally:
+        await scheduler.close()
+    return sizes
+
+
+def test_the_window_renders_at_the_interactive_ratio_while_a_button_is_held():
+    editor = Editor(pv.Sphere(), shape=(4, 4, 4), window_size=(320, 240))
+    try:
+        before, during, press_at, after = asyncio.run(_interaction_sizes(editor))
+    finally:
+        editor.close()
+    assert before == (320, 240) and during == (160, 120) and after == (320, 240)
+    assert press_at == (80, 60)
+
+
+async def _request_soon_after_a_slow_frame(editor: Editor) -> list[int]:
+    pushes: list[dict] = []
+    scheduler = FrameScheduler(
+        editor.plotter.render_window, target_fps=60, interactive_quality=40, still_quality=95,
+        encoder=SlowEncoder(0.15), push_callback=lambda image, meta: pushes.append(meta),
+    )  # fmt: skip
+    try:
+        scheduler.schedule_render()
+        deadline = time.perf_counter() + 30
+        while not pushes and time.perf_counter() < deadline:
+            await asyncio.sleep(0.002)
+        await asyncio.sleep(0.02)  # the next mouse event, well within the still frame's delay (5 x 16.7 ms)
+        editor.scene.display_points[0] += 0.5
+        editor.scene.display.GetPoints().Modified()
+        scheduler.schedule_render()
+        while len(pushes) < 3 and time.perf_counter() < deadline:
+            await asyncio.sleep(0.01)
+    finally:
+        await scheduler.close()
+    return [p["quality"] for p in pushes]
+
+
+def test_frames_slower_than_the_still_delay_do_not_make_a_still_frame_before_the_next_event():
+    editor = Editor(pv.Sphere(), shape=(4, 4, 4), window_size=(160, 120))
+    try:
+        qualities = asyncio.run(_request_soon_after_a_slow_frame(editor))
+    finally:
+        editor.close()
+    assert qualities == [40, 40, 95]
