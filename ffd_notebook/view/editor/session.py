@@ -197,14 +197,15 @@ class EditingSession(SurfaceDragging):
         """Unsubscribe everybody."""
         self._subscribers.clear()
 
-    def _emit(self, kind: str, points: Any = None, label: str = "", started: float | None = None) -> None:
+    def notify(self, kind: str, points: Any = None, label: str = "", started: float | None = None) -> None:
+        """Tell every subscriber about one :class:`~.changes.Change` (for the session's own commands and its mixins)."""
         change = Change(kind, points, label) if started is None else Change(kind, points, label, started)
         self._subscribers.emit(change)
 
     def info(self, text: str) -> None:
         """Add a message (and tell the views)."""
         self.messages.append(text)
-        self._emit("message")
+        self.notify("message")
 
     def error(self, text: str) -> None:
         """Add an error message ``"Error: text"`` (and tell the views)."""
@@ -252,14 +253,14 @@ class EditingSession(SurfaceDragging):
         self._dragged = index
         if self.selected != ijk:
             self._select(ijk, "drag")
-        self._emit("drag", [index], "drag", started)
+        self.notify("drag", [index], "drag", started)
 
     def end_drag(self) -> None:
         """The handle was released: the drag's undo step is closed."""
         self.history.close()
         points = [] if self._dragged is None else [self._dragged]
         self._dragged = None
-        self._emit("offsets", points, "drag")
+        self.notify("offsets", points, "drag")
 
     # ------------------------------------------------------------------ offsets from code and panels
     def update(self, changed: Any = None) -> None:
@@ -283,10 +284,10 @@ class EditingSession(SurfaceDragging):
         todo = np.unique(np.vstack([moved, hint]), axis=0)
         if changed is None and not len(todo):
             self.deformed_points = self.deformer.update(None)
-            self._emit("offsets", None, "code")
+            self.notify("offsets", None, "code")
         else:
             self.deformed_points = self.deformer.update([tuple(v) for v in todo])
-            self._emit("offsets", np.ravel_multi_index(tuple(todo.T), lat.shape), "code")
+            self.notify("offsets", np.ravel_multi_index(tuple(todo.T), lat.shape), "code")
 
     def move_control_point(self, ijk: ArrayLike, displacement: ArrayLike) -> None:
         """Set the offset of control point ``ijk`` to ``displacement`` (world units; one undo step)."""
@@ -313,13 +314,15 @@ class EditingSession(SurfaceDragging):
         before = self.lattice.offsets[idx].copy()
         self.lattice.offsets[idx] = values
         self.history.record(points, before, self.lattice.offsets[idx], label=label)
-        self._write_rows(idx, label)
+        self.commit_rows(idx, label)
 
-    def _write_rows(self, idx: tuple[NDArray[np.intp], ...], label: str) -> None:
-        """Offsets at ``idx`` were written: commit them, update the deformer, tell the views."""
+    def commit_rows(
+        self, idx: tuple[NDArray[np.intp], ...], label: str, *, kind: str = "offsets", started: float | None = None
+    ) -> None:
+        """Offsets at ``idx`` were written: commit them, update the deformer, tell the views (a ``kind`` change)."""
         self._committed[idx] = self.lattice.offsets[idx]
         self.deformed_points = self.deformer.update(list(zip(*(i.tolist() for i in idx), strict=True)))
-        self._emit("offsets", np.ravel_multi_index(idx, self.lattice.shape), label)
+        self.notify(kind, np.ravel_multi_index(idx, self.lattice.shape), label, started)
 
     # ------------------------------------------------------------------ selection
     def select(self, ijk: ArrayLike | None) -> None:
@@ -328,7 +331,7 @@ class EditingSession(SurfaceDragging):
 
     def _select(self, ijk: tuple[int, int, int] | None, label: str) -> None:
         self.selected = ijk
-        self._emit("select", None, label)
+        self.notify("select", None, label)
 
     # ------------------------------------------------------------------ undo / redo
     def undo(self) -> bool:
@@ -349,7 +352,7 @@ class EditingSession(SurfaceDragging):
         else:
             idx = tuple(step.ijk.T)
             self.lattice.offsets[idx] = step.after if forward else step.before
-            self._write_rows(idx, label)
+            self.commit_rows(idx, label)
         return True
 
     # ------------------------------------------------------------------ lattice and basis
@@ -409,14 +412,14 @@ class EditingSession(SurfaceDragging):
         self.colors_shown = bool(show)
         if show and not self.has_colors:
             self.info("this mesh has no per-vertex colours")
-        self._emit("display", None, "colors")
+        self.notify("display", None, "colors")
 
     def set_field(self, field: str | None) -> None:
         """Color the mesh by a deformation field: None, ``"displacement"`` or ``"jacobian"`` (folding)."""
         if field not in FIELDS:
             raise ValueError(f"field must be one of {FIELDS}, got {field!r}")
         self.field = field
-        self._emit("display", None, "field")
+        self.notify("display", None, "field")
         if field == "jacobian":
             n = int(self.field_values().sum())
             self.info(f"folding (det J <= 0) at {n} of {self.mesh.n_points} vertices")
@@ -434,9 +437,9 @@ class EditingSession(SurfaceDragging):
         self._bind_mesh(mesh, deformer, source=None if new_document else self.source_mesh)
         if not new_lattice:
             self.selected = selected
-        self._emit("mesh", None, label)
+        self.notify("mesh", None, label)
         if new_lattice:
-            self._emit("lattice", None, label)
+            self.notify("lattice", None, label)
 
     def _bind_mesh(self, mesh: Any, deformer: Deformer, source: Any = None) -> None:
         """Use ``mesh`` (rest shape) with ``deformer`` (its FFD bound to ``mesh.points``)."""
@@ -454,7 +457,7 @@ class EditingSession(SurfaceDragging):
         self.selected = None
         self._dragged = None
         if label is not None:
-            self._emit("lattice", None, label)
+            self.notify("lattice", None, label)
 
     def __repr__(self) -> str:
         return (

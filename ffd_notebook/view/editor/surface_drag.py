@@ -92,13 +92,13 @@ class SurfaceDragging:
         if mode not in MODES:
             raise ValueError(f"interaction mode must be one of {MODES}, got {mode!r}")
         self.interaction_mode = mode
-        self._emit("display", None, "mode")
+        self.notify("display", None, "mode")
 
     def pin(self, vertex_or_point: Any) -> int:
         """Pin a point of the mesh (a vertex id, or a ``(3,)`` rest position); returns the pin's index."""
         point = self.rest_point(vertex_or_point)
         self._pins = np.vstack([self._pin_array(), point[None, :]])
-        self._emit("display", None, "pins")
+        self.notify("display", None, "pins")
         return len(self._pins) - 1
 
     def unpin(self, index: int) -> None:
@@ -107,12 +107,12 @@ class SurfaceDragging:
         if not isinstance(index, (int, np.integer)) or not 0 <= index < len(pins):
             raise ValueError(f"no pin {index!r}: there are {len(pins)} pins")
         self._pins = np.delete(pins, int(index), axis=0)
-        self._emit("display", None, "pins")
+        self.notify("display", None, "pins")
 
     def clear_pins(self) -> None:
         """Remove every pin."""
         self._pins = np.empty((0, 3))
-        self._emit("display", None, "pins")
+        self.notify("display", None, "pins")
 
     def rest_point(self, vertex_or_point: Any) -> NDArray[np.float64]:
         """A vertex id or a ``(3,)`` position as a ``(3,)`` rest position; a ValueError otherwise.
@@ -166,9 +166,7 @@ class SurfaceDragging:
         after = offsets[drag.idx]
         ijk = np.column_stack(drag.idx)
         self.history.record(ijk, drag.start, after, key=drag.key, label="surface drag")
-        self._committed[drag.idx] = after
-        self.deformed_points = self.deformer.update([tuple(v) for v in ijk.tolist()])
-        self._emit("drag", drag.flat, "surface drag", started)
+        self.commit_rows(drag.idx, "surface drag", kind="drag", started=started)
 
     def end_surface_drag(self) -> None:
         """The mesh was released: the drag's undo step is closed (nothing happens outside a drag)."""
@@ -176,7 +174,7 @@ class SurfaceDragging:
         if drag is None:
             return
         self.history.close()
-        self._emit("offsets", drag.flat if drag.lattice is self.lattice else None, "surface drag")
+        self.notify("offsets", drag.flat if drag.lattice is self.lattice else None, "surface drag")
 
 
 def ray_hit(
