@@ -28,6 +28,7 @@ __all__ = [
     "CONTROLS",
     "FIELD_CHOICES",
     "N_MESSAGES",
+    "POINTS_CHOICES",
     "Control",
     "by_key",
     "editor_state",
@@ -149,6 +150,7 @@ class Control:
 BASIS_CHOICES = tuple((b, b) for b in BASES)
 # ipywidgets shows a ``None`` value as an empty dropdown: the panels use "none" for "no field"
 FIELD_CHOICES = (("none", "mesh colours"), ("displacement", "|displacement|"), ("jacobian", "folding (det J <= 0)"))
+POINTS_CHOICES = (("all", "all"), ("near", "near the selected"), ("hull", "hull"))
 _IJK, _XYZ = ("sel_i", "sel_j", "sel_k"), ("dx", "dy", "dz")
 
 
@@ -293,6 +295,16 @@ CONTROLS: tuple[Control, ...] = (
         choices=FIELD_CHOICES,
         parse=lambda v: (None if v[0] in (None, "none") else v[0],),
     ),
+    Control(
+        "points_shown",
+        "choice",
+        "control points",
+        "Display",
+        state=("points_shown",),
+        command="show_points",
+        choices=POINTS_CHOICES,
+        tooltip="Dense lattices: draw every control point, those near the selected one, or the hull",
+    ),
     Control("reduction", "slider", "decimate", "Display", default=0.5, row=1),
     Control(
         "decimate",
@@ -343,6 +355,7 @@ def editor_state(editor: Editor) -> dict[str, Any]:
         "colors": editor.colors_shown,
         "has_colors": editor.has_colors,
         "field": editor.field or "none",
+        "points_shown": editor.points_shown,
         "can_undo": editor.can_undo,
         "can_redo": editor.can_redo,
         "has_selection": editor.selected is not None,

@@ -199,6 +199,11 @@ class Editor:
         return self.session.field
 
     @property
+    def points_shown(self) -> str:
+        """Which control points are drawn: ``"all"``, ``"near"`` (the selection's) or ``"hull"``."""
+        return self.session.points_shown
+
+    @property
     def colors_shown(self) -> bool:
         """Whether per-vertex colors are shown (when the mesh has them and no field is shown)."""
         return self.session.colors_shown
@@ -266,6 +271,10 @@ class Editor:
     def show_colors(self, show: bool = True) -> None:
         """Show per-vertex colors: :meth:`EditingSession.show_colors`."""
         self.session.show_colors(show)
+
+    def show_points(self, which: str) -> None:
+        """Draw all control points, those near the selection, or the hull: :meth:`EditingSession.show_points`."""
+        self.session.show_points(which)
 
     def attempt(self, action: Callable[..., Any], *args: Any) -> bool:
         """Run an action for a user interface, failures as messages: :meth:`EditingSession.attempt`.

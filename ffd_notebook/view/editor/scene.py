@@ -89,13 +89,18 @@ class EditorScene:
             if change.label == "load mesh":
                 self.plotter.reset_camera(render=False)
         elif kind == "select":
-            selected = self.session.selected
-            self.lattice_actor.highlight(None if selected is None else self.session.flat_index(selected))
+            self.lattice_actor.highlight(self._selected_index())
+        elif kind == "display" and change.label == "points":
+            self.lattice_actor.show_points(self.session.points_shown, self._selected_index())
         elif kind == "display":
             self._write_field()
             self._recolor()
         if kind != "drag" and change.label != "drag":
             self.render()
+
+    def _selected_index(self) -> int | None:
+        selected = self.session.selected
+        return None if selected is None else self.session.flat_index(selected)
 
     def _move_points(self, points: NDArray[np.intp] | None, widgets: bool) -> None:
         """Session -> view: deformed mesh points, lattice lines, (widget centres), field colors."""
@@ -122,10 +127,16 @@ class EditorScene:
         self._recolor()
 
     def _build_lattice(self) -> None:
-        """New widgets and lines for the session's lattice."""
+        """New glyphs, lines and handle for the session's lattice."""
         if self.lattice_actor is not None:
             self.lattice_actor.remove()
-        self.lattice_actor = LatticeActor(self.plotter, self.session.lattice, *self._callbacks)
+        self.lattice_actor = LatticeActor(
+            self.plotter,
+            self.session.lattice,
+            *self._callbacks,
+            points_shown=self.session.points_shown,
+            selected=self._selected_index(),
+        )
         self._move_points(None, widgets=True)
 
     # ------------------------------------------------------------------ coloring

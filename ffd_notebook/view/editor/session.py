@@ -35,10 +35,12 @@ from .changes import Change, Subscribers
 from .history import History, LatticeSwap, OffsetEdit
 from .message_log import MessageLog
 
-__all__ = ["FIELDS", "EditingSession", "MeshIO", "copy_ffd", "fitted_lattice"]
+__all__ = ["FIELDS", "POINTS_SHOWN", "EditingSession", "MeshIO", "copy_ffd", "fitted_lattice"]
 
 #: what the mesh can be colored by: nothing (its own colors), |displacement|, folding (det J <= 0)
 FIELDS = (None, "displacement", "jacobian")
+#: which control points the view draws: all, those near the selection, the lattice's hull (dense lattices)
+POINTS_SHOWN = ("all", "near", "hull")
 
 
 def fitted_lattice(mesh: Any, shape: tuple[int, int, int], basis: str) -> Lattice:
@@ -113,6 +115,7 @@ class EditingSession:
         self.history = History()
         self.field: str | None = None
         self.colors_shown = True
+        self.points_shown = "all"
         self.selected: tuple[int, int, int] | None = None
         self._subscribers = Subscribers(self.messages.append)
         self._dragged: int | None = None
@@ -417,6 +420,14 @@ class EditingSession:
         if field == "jacobian":
             n = int(self.field_values().sum())
             self.info(f"folding (det J <= 0) at {n} of {self.mesh.n_points} vertices")
+
+    def show_points(self, which: str) -> None:
+        """Which control points the view draws (:data:`POINTS_SHOWN`): ``"all"``, ``"near"`` (those
+        within two index steps of the selection) or ``"hull"`` (the lattice's boundary)."""
+        if which not in POINTS_SHOWN:
+            raise ValueError(f"points shown must be one of {POINTS_SHOWN}, got {which!r}")
+        self.points_shown = which
+        self._emit("display", None, "points")
 
     # ------------------------------------------------------------------ binding the model
     def replace_mesh(self, mesh: Any, deformer: Deformer, *, label: str, new_document: bool) -> None:
