@@ -112,6 +112,7 @@ class EditorApp(AppFilesMixin):
             ("ffd_save_mesh", self.save_mesh),
             ("ffd_download_ffd", self.download_ffd),
             ("ffd_download_mesh", self.download_mesh),
+            ("ffd_rebuild", self.rebuild),
         ):
             self.server.controller.trigger(name_)(method)
         self.layout, self.view = build_layout(self)

@@ -170,6 +170,7 @@ CONTROLS: tuple[Control, ...] = (
         command="set_shape",
         args=("nx", "ny", "nz"),
         parse=lambda v: (numbers(v, "lattice size", int),),
+        app_trigger="ffd_rebuild",
         tooltip="Fit a new lattice of this size around the mesh",
     ),
     Control("basis", "choice", "basis", "Lattice", state=("basis",), command="set_basis", choices=BASIS_CHOICES, row=1),

@@ -49,6 +49,9 @@ LINE_COLOR = "dimgray"
 NEAR_RINGS = 2
 #: the parked handle's radius, as a fraction of the glyph radius: nothing to see or to grab
 _PARKED = 1e-6
+#: lattices with more control points than this draw 1-px lines: wide lines cost fill (software rendering)
+#: and a dense lattice's wide lines cover the mesh
+THIN_LINES_ABOVE = 1000
 #: the handle is a polygon sphere: a little larger than the true sphere so it covers every pixel the glyph does
 _HANDLE_SCALE = 1.04
 
@@ -141,7 +144,12 @@ class LatticeActor:
         self.lines = pv.PolyData(positions.copy(), lines=_line_cells(self._edges))
         self._positions = self.lines.points  # a NumPy view of the VTK points: written in place
         self.line_actor = plotter.add_mesh(
-            self.lines, color=LINE_COLOR, line_width=2, pickable=False, reset_camera=False, render=False
+            self.lines,
+            color=LINE_COLOR,
+            line_width=1 if len(positions) > THIN_LINES_ABOVE else 2,
+            pickable=False,
+            reset_camera=False,
+            render=False,
         )
         self.glyphs = pv.PolyData(positions.copy())
         self.glyphs.point_data["rgb"] = np.zeros((len(positions), 3), dtype=np.uint8)
