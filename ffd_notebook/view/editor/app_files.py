@@ -178,8 +178,8 @@ class AppFilesMixin:
             shape = numbers(list(values), "lattice size", int)
             ffd = session.fitted_ffd(shape)  # checks the size (a message if it cannot be built)
         except ValueError as exc:
-            if not str(session.messages[-1]).endswith(str(exc)):
-                session.error(str(exc))
+            if not session.messages or not session.messages[-1].endswith(str(exc)):
+                session.error(str(exc))  # a typing error (fitted_ffd has said why it cannot fit)
             self.sync()
             return
         mesh, name = session.mesh, "x".join(map(str, shape))

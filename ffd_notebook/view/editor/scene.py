@@ -108,6 +108,7 @@ class EditorScene:
         self.mesh_actor: Any = None
         self.lattice_actor: LatticeActor | None = None
         self._offered: PreparedDisplay | None = None
+        self._shown_lattice: Any = None
         self._build_mesh()
         self._build_lattice()
         self._unsubscribe = session.subscribe(self.follow)
@@ -125,7 +126,9 @@ class EditorScene:
         elif kind == "mesh":
             self._build_mesh()
             if change.label == "load mesh":
-                self.plotter.reset_camera(render=False)
+                self.plotter.renderer.reset_camera(render=False)  # (the plotter's own renders anyway)
+            if self.session.lattice is not self._shown_lattice:
+                return  # a "lattice" change follows (a lattice fitted to the new mesh): render once, then
         elif kind == "select":
             self.lattice_actor.highlight(self._selected_index())
         elif kind == "display" and change.label == "points":
@@ -140,10 +143,9 @@ class EditorScene:
         selected = self.session.selected
         return None if selected is None else self.session.flat_index(selected)
 
-    def _move_points(self, points: NDArray[np.intp] | None, widgets: bool) -> None:
-        """Session -> view: deformed mesh points, lattice lines, (widget centres), field colors."""
-        self.display_points[:] = self.session.deformed_points
-        self.display.GetPoints().Modified()
+    def _move_points(self, points: NDArray[np.intp] | None, widgets: bool, only_if_changed: bool = False) -> None:
+        """Session -> view: deformed mesh points, lattice lines, (the handle), field colors."""
+        self._write_mesh_points(only_if_changed)
         positions = self.session.control_points()
         self.lattice_actor.set_line_points(positions)
         if widgets:
@@ -167,12 +169,9 @@ class EditorScene:
         self.display = prepared.display
         self.display_points = prepared.display.points  # NumPy view of the plotted VTK points: written in place
         self.mesh_actor = self.plotter.add_mesh(
-            prepared.normals, color="tan", interpolation="phong", reset_camera=False
+            prepared.normals, color="tan", interpolation="phong", reset_camera=False, render=False
         )
-        deformed = self.session.deformed_points
-        if not np.array_equal(self.display_points, deformed.astype(self.display_points.dtype, copy=False)):
-            self.display_points[:] = deformed  # changed since it was prepared
-            self.display.GetPoints().Modified()
+        self._write_mesh_points(only_if_changed=True)
         self._write_field()
         self._recolor()
 
@@ -180,6 +179,7 @@ class EditorScene:
         """New glyphs, lines and handle for the session's lattice."""
         if self.lattice_actor is not None:
             self.lattice_actor.remove()
+        self._shown_lattice = self.session.lattice
         self.lattice_actor = LatticeActor(
             self.plotter,
             self.session.lattice,
@@ -187,7 +187,15 @@ class EditorScene:
             points_shown=self.session.points_shown,
             selected=self._selected_index(),
         )
-        self._move_points(None, widgets=True)
+        self._move_points(None, widgets=True, only_if_changed=True)
+
+    def _write_mesh_points(self, only_if_changed: bool = False) -> None:
+        """The session's deformed points into the plotted mesh (and its normals, at the next render)."""
+        deformed = self.session.deformed_points
+        if only_if_changed and np.array_equal(self.display_points, deformed.astype(self.display_points.dtype)):
+            return  # e.g. a new lattice, or a mesh prepared in a worker: the normals stay valid (0.1 s on 500k)
+        self.display_points[:] = deformed
+        self.display.GetPoints().Modified()
 
     # ------------------------------------------------------------------ coloring
     def _recolor(self) -> None:
