@@ -17,6 +17,7 @@ import shutil
 import subprocess
 import sys
 import time
+import urllib.error
 import urllib.request
 from pathlib import Path
 
@@ -168,7 +169,12 @@ def _settled_kernel(port: int, page) -> str:
     seen: dict = {"ids": None, "since": time.monotonic()}
 
     def settled() -> bool:
-        ids = [k["id"] for k in _kernels(port)]
+        try:
+            ids = [k["id"] for k in _kernels(port)]
+        except urllib.error.HTTPError as exc:  # jupyter_server answers 500 while a kernel it lists is starting
+            if exc.code != 500:
+                raise
+            return False
         if ids != seen["ids"]:
             seen.update(ids=ids, since=time.monotonic())
             return False
