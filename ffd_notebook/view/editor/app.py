@@ -1,7 +1,7 @@
 """The standalone FFD editor: an :class:`~ffd_notebook.view.editor.Editor` in a trame web page.
 
 The page is a Vuetify 3 layout: the plotter's :class:`trame_pyvista.PyVistaRemoteView` (server-side
-rendering, which sphere widgets need) and a side panel with the notebook panel's features. The
+rendering, which the drag handle needs) and a side panel with the notebook panel's features. The
 panel only calls Editor methods; the editor tells the panel what changed through
 :meth:`Editor.observe`, so edits made anywhere (drag, panel, undo) show up in both.
 

@@ -9,7 +9,7 @@
 the notebook widget (``editor.widget``)
     The scene's trame view next to a :class:`~.notebook_panel.ControlPanel`; follows the session too.
 
-Data flows one way: a sphere-widget move -> :meth:`EditingSession.drag` (the lattice's offsets; the
+Data flows one way: a move of the drag handle -> :meth:`EditingSession.drag` (the lattice's offsets; the
 cached :class:`~ffd_notebook.deformer.Deformer` recomputes only the points the moved control point
 influences) -> one :class:`~.changes.Change` naming that control point -> the scene rewrites the
 plotted points and the lattice lines in place -> the next render shows them.
@@ -215,7 +215,7 @@ class Editor:
 
     # ------------------------------------------------------------------ the drag path
     def on_widget_moved(self, center: ArrayLike, index: int) -> None:
-        """Sphere-widget callback: control point ``index`` (flat C order) was dragged to ``center``.
+        """Drag-handle callback: control point ``index`` (flat C order) was dragged to ``center``.
 
         Errors are logged to :attr:`messages` (PyVista would turn them into warnings nobody sees).
         """

@@ -2,9 +2,10 @@
 
 The scene follows an :class:`~.session.EditingSession` (it subscribes to it) and never computes a
 deformation: on a ``"drag"`` or ``"offsets"`` change it copies the session's deformed points into
-the plotted mesh's points array in place and moves the lattice lines (and, for edits not made by
-dragging, the sphere widgets of the changed control points). No actor is created or removed while
-dragging. Rendering and pushing frames to browser views (:class:`~ffd_notebook.view.jupyter.BrowserViews`)
+the plotted mesh's points array in place and moves the lattice lines and control-point spheres
+(and, for edits not made by dragging, the parked drag handle). No actor is created or removed while
+dragging. A loaded mesh's plotted copy and normals may come ready-made from a worker thread
+(:func:`prepare_display`, :meth:`EditorScene.offer_display`). Rendering and pushing frames to browser views (:class:`~ffd_notebook.view.jupyter.BrowserViews`)
 happen after every change except drag events and messages: during a drag, trame renders when it
 sends the image.
 """
