@@ -5,7 +5,8 @@ deformation: on a ``"drag"`` or ``"offsets"`` change it copies the session's def
 the plotted mesh's points array in place and moves the lattice lines and control-point spheres
 (and, for edits not made by dragging, the parked drag handle). No actor is created or removed while
 dragging. A loaded mesh's plotted copy and normals may come ready-made from a worker thread
-(:func:`prepare_display`, :meth:`EditorScene.offer_display`). Rendering and pushing frames to browser views (:class:`~ffd_notebook.view.jupyter.BrowserViews`)
+(:func:`prepare_display`, :meth:`EditorScene.offer_display`).
+Rendering and pushing frames to browser views (:class:`~ffd_notebook.view.jupyter.BrowserViews`)
 happen after every change except drag events and messages: during a drag, trame renders when it
 sends the image.
 """
