@@ -19,12 +19,47 @@ def colored_sphere(resolution: int = 24):
 
 
 def widget_index(editor, ijk) -> int:
-    """Flat index of control point ``ijk`` (the sphere widget's index)."""
+    """Flat index of control point ``ijk`` (the index the drag callbacks get)."""
     return int(np.ravel_multi_index(tuple(ijk), editor.lattice.shape))
 
 
-def widget_centers(editor) -> np.ndarray:
-    return np.array([w.GetCenter() for w in editor.plotter.widgets.sphere_widgets])
+def glyph_centers(editor) -> np.ndarray:
+    """Centres of the drawn control-point spheres (all of them unless a display mode hides some)."""
+    return np.asarray(editor.scene.lattice_actor.glyphs.points, dtype=np.float64)
+
+
+def handle_move(editor, index, center):
+    """Move the drag handle, put on control point ``index``, to ``center`` as VTK does during a drag
+    (the widget moves, then fires InteractionEvent): the editor's callback runs through the handle."""
+    actor = editor.scene.lattice_actor
+    if actor.handle_index != index or actor.handle.GetRadius() < actor.radius:
+        actor.place_handle(index)
+    actor.handle.SetCenter(*center)
+    actor.handle.InvokeEvent("InteractionEvent")
+
+
+def handle_release(editor):
+    """The mouse button released at the end of a handle drag."""
+    editor.scene.lattice_actor.handle.InvokeEvent("EndInteractionEvent")
+
+
+def mouse_drag(editor, start, delta, steps=1):
+    """Press the left button at display ``start`` (pixels, origin bottom-left), move by ``delta`` in
+    ``steps`` and release, through the VTK interactor (what trame's mouse handler does)."""
+    iren = editor.plotter.iren.interactor
+    x, y = (round(v) for v in start)
+    iren.SetEventInformation(x, y, 0, 0, "\0", 0, None)
+    iren.LeftButtonPressEvent()
+    for k in range(1, steps + 1):
+        iren.SetEventInformation(x + round(delta[0] * k / steps), y + round(delta[1] * k / steps), 0, 0, "\0", 0, None)
+        iren.MouseMoveEvent()
+    iren.LeftButtonReleaseEvent()
+
+
+def display_xy(editor, index):
+    """Display position (pixels, origin bottom-left) of control point ``index`` after a render."""
+    editor.screenshot()
+    return editor.scene.lattice_actor.display_positions()[index, :2]
 
 
 def line_points(editor) -> np.ndarray:
@@ -37,9 +72,12 @@ def shown_points(editor) -> np.ndarray:
 
 
 def assert_view_matches_model(editor, atol=1e-5):
-    """Mesh points, lattice lines and widget centres all follow the lattice (FFD.deform as the reference)."""
+    """Mesh points, lattice lines, control-point spheres and the handle all follow the lattice
+    (FFD.deform as the reference)."""
     expected = editor.ffd.deform(editor.mesh.points)
     np.testing.assert_allclose(shown_points(editor), expected, atol=atol)
     control = editor.lattice.control_points(deformed=True).reshape(-1, 3)
     np.testing.assert_allclose(line_points(editor), control, atol=1e-6)
-    np.testing.assert_allclose(widget_centers(editor), control, atol=1e-6)
+    actor = editor.scene.lattice_actor
+    np.testing.assert_allclose(glyph_centers(editor), control[actor.shown], atol=1e-6)
+    np.testing.assert_allclose(actor.handle.GetCenter(), control[actor.handle_index], atol=1e-6)

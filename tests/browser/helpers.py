@@ -223,7 +223,7 @@ def pick_widget(
         return all(1 <= v <= n - 2 for v, n in zip(ijk, shape, strict=True))
 
     def room(p: tuple[int, float, float, float]) -> float:
-        # overlapping sphere widgets do not pick by depth: any of them may take the click
+        # a press takes the sphere nearest the camera; one clear of the others is also clear to drag
         return min(math.hypot(p[1] - q[1], p[2] - q[2]) for q in positions if q[0] != p[0])
 
     candidates = [

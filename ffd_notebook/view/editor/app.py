@@ -1,7 +1,7 @@
 """The standalone FFD editor: an :class:`~ffd_notebook.view.editor.Editor` in a trame web page.
 
 The page is a Vuetify 3 layout: the plotter's :class:`~ffd_notebook.view.remote_view.RemoteView` (server-side
-rendering, which sphere widgets need) and a side panel with the notebook panel's features. The
+rendering, which the drag handle needs) and a side panel with the notebook panel's features. The
 panel only calls Editor methods; the editor tells the panel what changed through
 :meth:`Editor.observe`, so edits made anywhere (drag, panel, undo) show up in both.
 
@@ -112,6 +112,7 @@ class EditorApp(AppFilesMixin):
             ("ffd_save_mesh", self.save_mesh),
             ("ffd_download_ffd", self.download_ffd),
             ("ffd_download_mesh", self.download_mesh),
+            ("ffd_rebuild", self.rebuild),
         ):
             self.server.controller.trigger(name_)(method)
         self.layout, self.view = build_layout(self)

@@ -1,4 +1,5 @@
-"""The standalone app's file actions: paths inside its root folder, browser uploads and downloads, off the event loop.
+"""The standalone app's file actions and lattice rebuilds: paths inside its root folder, browser uploads and
+downloads, slow work off the event loop.
 
 Every typed path goes through :class:`~ffd_notebook.view.file_root.FileRoot` (inside the root,
 regular files of bounded size, the right extension to write) and every message the page shows goes
@@ -9,8 +10,11 @@ browser and the lattice and the deformed mesh downloaded to it.
 
 Reading and writing files run in a worker thread (:meth:`AppFilesMixin._in_background`) so the
 event loop keeps answering (HTTP, other clients, the page's own messages) and the page shows a
-progress bar; only installing the result in the editor (VTK objects) runs on the loop. Without a
-running event loop (scripts, unit tests) the same work runs synchronously.
+progress bar. The worker also does the slow parts of installing: binding the lattice to a loaded
+mesh (the deformer's weights and first evaluation), the plotted copy of the mesh and its normals
+(:func:`~.scene.prepare_display`), and binding a rebuilt lattice (:meth:`AppFilesMixin.rebuild`);
+only swapping the result into the editor (VTK actors) runs on the loop. Without a running event
+loop (scripts, unit tests) the same work runs synchronously.
 """
 
 from __future__ import annotations
@@ -30,6 +34,8 @@ from ..file_root import (
     client_message,
     refuse_special_or_oversize,
 )
+from .controls import numbers
+from .scene import prepare_display
 from .session import copy_ffd
 
 __all__ = ["MESH_FORMATS", "AppFilesMixin", "upload_bytes"]
@@ -152,8 +158,39 @@ class AppFilesMixin:
                             lambda result: self.editor.use_ffd(*result, shown), shown, "load")  # fmt: skip
 
     def _read_mesh(self, path: Path, shown: str) -> None:
-        self._in_background(f"reading {shown}", lambda: self.editor.read_mesh_file(path),
-                            lambda result: self.editor.use_mesh(*result, shown), shown, "load")  # fmt: skip
+        def work() -> tuple[Any, Any, Any]:
+            mesh, deformer = self.editor.read_mesh_file(path)
+            return mesh, deformer, prepare_display(mesh, deformer.current())
+
+        def done(result: tuple[Any, Any, Any]) -> None:
+            mesh, deformer, prepared = result
+            self.editor.scene.offer_display(prepared)
+            self.editor.use_mesh(mesh, deformer, shown)
+
+        self._in_background(f"reading {shown}", work, done, shown, "load")
+
+    # ------------------------------------------------------------------ lattice
+    def rebuild(self, *values: Any) -> None:
+        """Fit a lattice of the typed size (``nx, ny, nz``) around the mesh; binding it to the mesh
+        (seconds on a big mesh) runs in a worker thread."""
+        session = self.editor.session
+        try:
+            shape = numbers(list(values), "lattice size", int)
+            ffd = session.fitted_ffd(shape)  # checks the size (a message if it cannot be built)
+        except ValueError as exc:
+            if not session.messages or not session.messages[-1].endswith(str(exc)):
+                session.error(str(exc))  # a typing error (fitted_ffd has said why it cannot fit)
+            self.sync()
+            return
+        mesh, name = session.mesh, "x".join(map(str, shape))
+
+        def done(deformer: Any) -> None:
+            if session.mesh is not mesh:
+                raise ValueError("the mesh changed meanwhile; rebuild again")
+            session.set_shape(shape, deformer)
+
+        self._in_background(f"fitting a {name} lattice", lambda: ffd.bind(mesh.points), done,
+                            f"the {name} lattice", "rebuild")  # fmt: skip
 
     def load_ffd(self, path: str) -> None:
         """Load a lattice file (.ffd, ITK, PyGeM .prm) from a path in the app's folder."""

@@ -34,7 +34,7 @@ class Change:
         One of :data:`KINDS`.
     points : numpy.ndarray or None
         For ``"drag"`` and ``"offsets"``: flat C-order indices of the control points whose offsets
-        changed (the row of ``lattice.offsets.reshape(-1, 3)``, the sphere widget's index); ``None``
+        changed (the row of ``lattice.offsets.reshape(-1, 3)``, the index the drag callbacks get); ``None``
         means all of them.
     label : str
         The command (``"drag"``, ``"move"``, ``"reset"``, ``"code"``, ``"undo"``, ``"load mesh"``...).

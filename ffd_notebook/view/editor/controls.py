@@ -30,6 +30,7 @@ __all__ = [
     "FIELD_CHOICES",
     "MODE_CHOICES",
     "N_MESSAGES",
+    "POINTS_CHOICES",
     "Control",
     "by_key",
     "editor_state",
@@ -152,6 +153,7 @@ BASIS_CHOICES = tuple((b, b) for b in BASES)
 # ipywidgets shows a ``None`` value as an empty dropdown: the panels use "none" for "no field"
 FIELD_CHOICES = (("none", "mesh colours"), ("displacement", "|displacement|"), ("jacobian", "folding (det J <= 0)"))
 MODE_CHOICES = tuple(zip(MODES, ("control points", "the mesh surface"), strict=True))
+POINTS_CHOICES = (("all", "all"), ("near", "near the selected"), ("hull", "hull"))
 _IJK, _XYZ = ("sel_i", "sel_j", "sel_k"), ("dx", "dy", "dz")
 
 
@@ -171,6 +173,7 @@ CONTROLS: tuple[Control, ...] = (
         command="set_shape",
         args=("nx", "ny", "nz"),
         parse=lambda v: (numbers(v, "lattice size", int),),
+        app_trigger="ffd_rebuild",
         tooltip="Fit a new lattice of this size around the mesh",
     ),
     Control("basis", "choice", "basis", "Lattice", state=("basis",), command="set_basis", choices=BASIS_CHOICES, row=1),
@@ -317,6 +320,16 @@ CONTROLS: tuple[Control, ...] = (
         choices=FIELD_CHOICES,
         parse=lambda v: (None if v[0] in (None, "none") else v[0],),
     ),
+    Control(
+        "points_shown",
+        "choice",
+        "control points",
+        "Display",
+        state=("points_shown",),
+        command="show_points",
+        choices=POINTS_CHOICES,
+        tooltip="Dense lattices: draw every control point, those near the selected one, or the hull",
+    ),
     Control("reduction", "slider", "decimate", "Display", default=0.5, row=1),
     Control(
         "decimate",
@@ -367,6 +380,7 @@ def editor_state(editor: Editor) -> dict[str, Any]:
         "colors": editor.colors_shown,
         "has_colors": editor.has_colors,
         "field": editor.field or "none",
+        "points_shown": editor.points_shown,
         "can_undo": editor.can_undo,
         "can_redo": editor.can_redo,
         "has_selection": editor.selected is not None,

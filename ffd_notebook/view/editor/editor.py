@@ -9,7 +9,7 @@
 the notebook widget (``editor.widget``)
     The scene's trame view next to a :class:`~.notebook_panel.ControlPanel`; follows the session too.
 
-Data flows one way: a sphere-widget move -> :meth:`EditingSession.drag` (the lattice's offsets; the
+Data flows one way: a move of the drag handle -> :meth:`EditingSession.drag` (the lattice's offsets; the
 cached :class:`~ffd_notebook.deformer.Deformer` recomputes only the points the moved control point
 influences) -> one :class:`~.changes.Change` naming that control point -> the scene rewrites the
 plotted points and the lattice lines in place -> the next render shows them.
@@ -199,6 +199,11 @@ class Editor:
         return self.session.field
 
     @property
+    def points_shown(self) -> str:
+        """Which control points are drawn: ``"all"``, ``"near"`` (the selection's) or ``"hull"``."""
+        return self.session.points_shown
+
+    @property
     def colors_shown(self) -> bool:
         """Whether per-vertex colors are shown (when the mesh has them and no field is shown)."""
         return self.session.colors_shown
@@ -210,7 +215,7 @@ class Editor:
 
     # ------------------------------------------------------------------ the drag path
     def on_widget_moved(self, center: ArrayLike, index: int) -> None:
-        """Sphere-widget callback: control point ``index`` (flat C order) was dragged to ``center``.
+        """Drag-handle callback: control point ``index`` (flat C order) was dragged to ``center``.
 
         Errors are logged to :attr:`messages` (PyVista would turn them into warnings nobody sees).
         """
@@ -274,6 +279,10 @@ class Editor:
     def clear_pins(self) -> None:
         """Unpin every pinned mesh point: :meth:`EditingSession.clear_pins`."""
         self.session.clear_pins()
+
+    def show_points(self, which: str) -> None:
+        """Draw all control points, those near the selection, or the hull: :meth:`EditingSession.show_points`."""
+        self.session.show_points(which)
 
     def attempt(self, action: Callable[..., Any], *args: Any) -> bool:
         """Run an action for a user interface, failures as messages: :meth:`EditingSession.attempt`.

@@ -1,10 +1,31 @@
-"""The lattice on screen: one line dataset for all lattice edges and one sphere widget per control point.
+"""The lattice on screen: one line dataset, one glyph actor for all control points, and ONE drag handle.
 
-The lines are a single :class:`pyvista.PolyData` (points = control points, one line cell per
-lattice edge) drawn by one actor; moving control points rewrites its points array in place, so
-a drag never creates or removes an actor. The sphere widgets are VTK ``vtkSphereWidget``\\ s made
-by :meth:`pyvista.Plotter.add_sphere_widget`; their flat index is the control point's C-order
-index ``(i * ny + j) * nz + k``, like ``lattice.offsets.reshape(-1, 3)``.
+Every control point is drawn by a single actor: a :class:`pyvista.PolyData` of the shown control
+points, drawn by VTK's ``vtkPointGaussianMapper`` as shaded spheres of a radius in world units
+(:func:`widget_radius`), coloured per point (the selected one in :data:`SELECTED_COLOR`). The
+lattice edges are one line dataset. Moving control points rewrites both points arrays in place, so
+neither a drag nor a new lattice creates an actor per control point.
+
+Measured on the 53k-face sample at 800x600 (software rendering, frame medians; the mesh alone
+costs 8-11 ms): sprites of a fixed pixel size (``render_points_as_spheres``) 6-7 ms at 5^3 and 13-20
+ms at 20^3; ``vtkGlyph3DMapper`` with an 8x5 sphere 12 ms and 90 ms (a 12x8 sphere: 33 and 276 ms);
+the Gaussian-point spheres 7 ms and 15-20 ms. Fixed-pixel sprites do not keep their size when the
+camera zooms (the handle, a real sphere, would not match them), glyph meshes cost vertices the
+software renderer pays for, so the spheres are Gaussian points.
+
+Dragging goes through one ``vtkSphereWidget``, the *handle*, so a drag feels like before (VTK moves
+the grabbed sphere in the view plane): an interactor observer with a higher priority than the
+widget's sees each left-button press first, finds the control point under the cursor
+(:meth:`LatticeActor.index_at`: the shown points projected with the camera's composite matrix in
+NumPy, the hit nearest to the camera within each sphere's on-screen radius) and moves the handle
+there, at the glyph's radius, before the widget picks. Between drags the handle is parked (a
+vanishing radius at its control point), so a press on no sphere starts no drag: the camera turns.
+The callbacks get the control point's flat C-order index ``(i * ny + j) * nz + k``, like
+``lattice.offsets.reshape(-1, 3)``.
+
+Dense lattices can show all control points, only those near the selection, or only the hull
+(:data:`POINTS_SHOWN`); the lines follow the same subset (the edges between shown points), since a
+line to a hidden point leads nowhere one can grab and costs as much to draw as the points.
 """
 
 from __future__ import annotations
@@ -17,16 +38,26 @@ import pyvista as pv
 from numpy.typing import ArrayLike, NDArray
 
 from ...lattice import Lattice
+from .session import POINTS_SHOWN
 
-__all__ = ["LatticeActor", "widget_radius"]
+__all__ = ["NEAR_RINGS", "LatticeActor", "shown_indices", "widget_radius"]
 
 WIDGET_COLOR = "royalblue"
 SELECTED_COLOR = "gold"
 LINE_COLOR = "dimgray"
+#: "near" shows the control points at most this many index steps (along every axis) from the selection
+NEAR_RINGS = 2
+#: the parked handle's radius, as a fraction of the glyph radius: nothing to see or to grab
+_PARKED = 1e-6
+#: lattices with more control points than this draw 1-px lines: wide lines cost fill (software rendering)
+#: and a dense lattice's wide lines cover the mesh
+THIN_LINES_ABOVE = 1000
+#: the handle is a polygon sphere: a little larger than the true sphere so it covers every pixel the glyph does
+_HANDLE_SCALE = 1.04
 
 
 def widget_radius(lattice: Lattice, fraction: float = 0.07) -> float:
-    """Sphere-widget radius for a lattice: a fraction of its smallest spacing.
+    """Control-point sphere radius for a lattice: a fraction of its smallest spacing.
 
     Examples
     --------
@@ -36,24 +67,62 @@ def widget_radius(lattice: Lattice, fraction: float = 0.07) -> float:
     return float(fraction * np.min(lattice.spacing))
 
 
-def _line_cells(lattice: Lattice) -> NDArray[np.int64]:
-    edges = lattice.edges()
+def shown_indices(shape: tuple[int, int, int], mode: str, selected: int | None = None) -> NDArray[np.int64]:
+    """Flat indices of the control points drawn in display ``mode`` (see :data:`POINTS_SHOWN`).
+
+    ``"near"`` shows the points within :data:`NEAR_RINGS` index steps of ``selected`` (the hull
+    while nothing is selected: somewhere to start); ``"hull"`` the boundary points. The selected
+    point is always shown.
+
+    Examples
+    --------
+    >>> len(shown_indices((5, 5, 5), "all")), len(shown_indices((5, 5, 5), "hull"))
+    (125, 98)
+    >>> len(shown_indices((20, 20, 20), "near", selected=0)), len(shown_indices((20, 20, 20), "near", 4210))
+    (27, 125)
+    >>> shown_indices((3, 3, 3), "hull", selected=13)[13 - 1 : 13 + 1].tolist()  # the centre, selected
+    [12, 13]
+    """
+    if mode not in POINTS_SHOWN:
+        raise ValueError(f"points shown must be one of {POINTS_SHOWN}, got {mode!r}")
+    n = int(np.prod(shape))
+    if mode == "all":
+        return np.arange(n, dtype=np.int64)
+    ijk = np.indices(shape).reshape(3, -1).T
+    if mode == "near" and selected is not None:
+        keep = np.all(np.abs(ijk - np.unravel_index(int(selected), shape)) <= NEAR_RINGS, axis=1)
+    else:
+        keep = np.any((ijk == 0) | (ijk == np.asarray(shape) - 1), axis=1)
+    if selected is not None:
+        keep[int(selected)] = True
+    return np.flatnonzero(keep).astype(np.int64)
+
+
+def _line_cells(edges: NDArray[np.int64]) -> NDArray[np.int64]:
     return np.column_stack([np.full(len(edges), 2), edges]).ravel()
 
 
+def _matrix(vtk_matrix: Any) -> NDArray[np.float64]:
+    return np.array([[vtk_matrix.GetElement(i, j) for j in range(4)] for i in range(4)])
+
+
 class LatticeActor:
-    """Lattice lines and control-point widgets of one lattice in one plotter.
+    """Lattice lines, control-point glyphs and the drag handle of one lattice in one plotter.
 
     Parameters
     ----------
     plotter : pyvista.Plotter
-        Where to draw; the sphere widgets attach to its interactor.
+        Where to draw; the handle attaches to its interactor.
     lattice : Lattice
         The lattice shown (its deformed control points).
     on_move : callable
-        ``on_move(center, index)``, called on every widget move (``interaction_event="always"``).
+        ``on_move(center, index)``, called on every move of the handle while it is dragged.
     on_start, on_end : callable, optional
-        ``f(index)``, called when the mouse grabs / releases a widget.
+        ``f(index)``, called when the mouse grabs / releases a control point.
+    points_shown : str
+        One of :data:`POINTS_SHOWN`.
+    selected : int, optional
+        The selected control point's flat index (highlighted; the centre of ``"near"``).
     """
 
     def __init__(
@@ -63,129 +132,222 @@ class LatticeActor:
         on_move: Callable[[Any, int], None],
         on_start: Callable[[int], None] | None = None,
         on_end: Callable[[int], None] | None = None,
+        *,
+        points_shown: str = "all",
+        selected: int | None = None,
     ) -> None:
         self.plotter = plotter
         self.shape = lattice.shape
-        positions = lattice.control_points(deformed=True).reshape(-1, 3)
-        self.lines = pv.PolyData(positions.copy(), lines=_line_cells(lattice))
-        self.line_actor = plotter.add_mesh(
-            self.lines, color=LINE_COLOR, line_width=2, pickable=False, reset_camera=False, render=False
-        )
-        self._line_points = self.lines.points  # a NumPy view of the VTK points: written in place
         self.radius = widget_radius(lattice)
-        # coarser spheres for big lattices (an 11x12x11 .ffd has 1452): they are drawn every frame
-        theta, phi = (16, 12) if len(positions) <= 500 else (10, 8)
-        widgets = plotter.add_sphere_widget(
-            on_move,
-            center=positions,
-            radius=self.radius,
-            color=[WIDGET_COLOR] * len(positions),
-            selected_color=SELECTED_COLOR,
-            interaction_event="always",
-            test_callback=False,
-            theta_resolution=theta,
-            phi_resolution=phi,
+        self._edges = lattice.edges()
+        positions = lattice.control_points(deformed=True).reshape(-1, 3)
+        self.lines = pv.PolyData(positions.copy(), lines=_line_cells(self._edges))
+        self._positions = self.lines.points  # a NumPy view of the VTK points: written in place
+        self.line_actor = plotter.add_mesh(
+            self.lines,
+            color=LINE_COLOR,
+            line_width=1 if len(positions) > THIN_LINES_ABOVE else 2,
+            pickable=False,
+            reset_camera=False,
+            render=False,
         )
-        self.widgets: list[Any] = list(widgets)
-        for index, widget in enumerate(self.widgets):
-            widget.AddObserver("StartInteractionEvent", lambda *_: self._restore_pickable())
-            if on_start is not None:
-                widget.AddObserver("StartInteractionEvent", lambda *_, i=index: on_start(i))
-            if on_end is not None:
-                widget.AddObserver("EndInteractionEvent", lambda *_, i=index: on_end(i))
-        self._highlighted: int | None = None
-        self._restricted = False  # only the sphere under the last click is pickable
-        self._sphere_actors = self._find_sphere_actors()
-        self._actor_index = {a.__this__: i for i, a in enumerate(self._sphere_actors) if a is not None}
-        self._picker: Any = None
-        # before the widgets see a click (higher priority), make only the nearest sphere under it pickable
-        iren = plotter.iren.interactor if plotter.iren is not None else None
-        self._tags = []
+        self.glyphs = pv.PolyData(positions.copy())
+        self.glyphs.point_data["rgb"] = np.zeros((len(positions), 3), dtype=np.uint8)
+        self.glyph_actor = plotter.add_mesh(
+            self.glyphs,
+            scalars="rgb",
+            rgb=True,
+            style="points_gaussian",
+            render_points_as_spheres=True,
+            emissive=False,
+            pickable=False,
+            reset_camera=False,
+            render=False,
+        )
+        self.glyph_actor.mapper.SetScaleFactor(self.radius)  # world units (PyVista's point_size is relative)
+        self.points_shown = "all"
+        self.shown = np.arange(len(positions), dtype=np.int64)
+        self._selected = selected
+        self._callbacks = (on_move, on_start, on_end)
+        self.handle_index = 0 if selected is None else int(selected)
+        self.handle = self._make_handle()
+        self._dragging = False
+        self._tags: list[int] = []
+        iren = self._interactor()
         if iren is not None:
-            self._tags.append(iren.AddObserver("LeftButtonPressEvent", self._grab_nearest, 10.0))
-            self._tags.append(iren.AddObserver("LeftButtonReleaseEvent", lambda *_: self._restore_pickable(), 10.0))
+            # before the handle sees a press (it has priority 0.5), put it on the control point under the cursor
+            self._tags.append(iren.AddObserver("LeftButtonPressEvent", self._grab, 10.0))
+        self.show_points(points_shown, selected)
 
-    def _find_sphere_actors(self) -> list[Any]:
-        """Each widget's sphere actor (VTK does not expose it; it is the actor drawn with the widget's property)."""
-        by_property = {}
-        for actor in self.plotter.renderer.GetActors():
-            by_property[actor.GetProperty().__this__] = actor
-        return [by_property.get(w.GetSphereProperty().__this__) for w in self.widgets]
+    # ------------------------------------------------------------------ the handle
+    def _interactor(self) -> Any:
+        return self.plotter.iren.interactor if self.plotter.iren is not None else None
 
-    def nearest_widget_at(self, x: float, y: float) -> int | None:
-        """Index of the nearest sphere under display position ``(x, y)`` (pixels, origin bottom-left), or None.
+    def _make_handle(self) -> Any:
+        from vtkmodules.vtkInteractionWidgets import vtkSphereWidget
 
-        Uses a ``vtkCellPicker`` over the sphere actors only, the geometry the widgets pick with
-        themselves, and takes the hit nearest to the camera.
+        handle = vtkSphereWidget()
+        handle.SetRepresentationToSurface()
+        handle.ScaleOff()  # the right button would resize it
+        handle.SetThetaResolution(16)
+        handle.SetPhiResolution(12)
+        for prop in (handle.GetSphereProperty(), handle.GetSelectedSphereProperty()):
+            prop.SetColor(pv.Color(SELECTED_COLOR).float_rgb)
+        handle.SetCenter(*self._positions[self.handle_index])
+        handle.SetRadius(self.radius * _PARKED)
+        iren = self._interactor()
+        if iren is not None:
+            handle.SetInteractor(iren)
+            handle.SetCurrentRenderer(self.plotter.renderer)
+            handle.On()
+        handle.AddObserver("StartInteractionEvent", self._started)
+        handle.AddObserver("InteractionEvent", self._moved)
+        handle.AddObserver("EndInteractionEvent", self._ended)
+        return handle
+
+    def _grab(self, iren: Any, _event: str) -> None:
+        """Left-button press: the handle onto the control point under the cursor (or stay parked)."""
+        index = self.index_at(*iren.GetEventPosition())
+        if index is not None:
+            self.place_handle(index)
+
+    def place_handle(self, index: int) -> None:
+        """Put the handle, at the glyphs' radius, on control point ``index`` (flat): the next press there drags it."""
+        self.handle_index = int(index)
+        self.handle.SetCenter(*self._positions[self.handle_index])
+        self.handle.SetRadius(self.radius * _HANDLE_SCALE)
+
+    def park_handle(self) -> None:
+        """Shrink the handle to nothing at its control point: no press grabs it until :meth:`place_handle`."""
+        self.handle.SetRadius(self.radius * _PARKED)
+        self.handle.SetCenter(*self._positions[self.handle_index])
+
+    def _started(self, *_: Any) -> None:
+        self._dragging = True
+        on_start = self._callbacks[1]
+        if on_start is not None:
+            on_start(self.handle_index)
+
+    def _moved(self, *_: Any) -> None:
+        self._callbacks[0](self.handle.GetCenter(), self.handle_index)
+
+    def _ended(self, *_: Any) -> None:
+        self._dragging = False
+        self.park_handle()
+        on_end = self._callbacks[2]
+        if on_end is not None:
+            on_end(self.handle_index)
+
+    # ------------------------------------------------------------------ picking
+    def display_positions(self) -> NDArray[np.float64]:
+        """Every control point on screen: ``(N, 4)`` display ``x, y`` (pixels, origin bottom-left), depth
+        ``z`` in [0, 1] (as ``vtkRenderer.WorldToDisplay``) and the sphere's radius in pixels.
+
+        One matrix product: the camera's composite projection matrix (world -> clip coordinates).
         """
-        from vtkmodules.vtkRenderingCore import vtkCellPicker
+        ren = self.plotter.renderer
+        width, height = ren.GetSize()
+        x0, y0 = ren.GetOrigin()
+        camera = ren.GetActiveCamera()
+        aspect = ren.GetTiledAspectRatio()
+        composite = _matrix(camera.GetCompositeProjectionTransformMatrix(aspect, -1.0, 1.0))
+        projection = _matrix(camera.GetProjectionTransformMatrix(aspect, -1.0, 1.0))
+        points = np.asarray(self._positions, dtype=np.float64)
+        clip = points @ composite[:3, :3].T + composite[:3, 3]
+        w = points @ composite[3, :3] + composite[3, 3]
+        ndc = clip / w[:, None]
+        out = np.empty((len(points), 4))
+        out[:, 0] = x0 + (ndc[:, 0] + 1.0) * width / 2.0
+        out[:, 1] = y0 + (ndc[:, 1] + 1.0) * height / 2.0
+        out[:, 2] = (ndc[:, 2] + 1.0) / 2.0
+        out[:, 3] = self.radius * abs(projection[1, 1]) * height / 2.0 / np.abs(w)
+        return out
 
-        if self._picker is None:
-            self._picker = vtkCellPicker()
-            self._picker.SetTolerance(0.0005)
-            self._picker.PickFromListOn()
-            for actor in self._sphere_actors:
-                if actor is not None:
-                    self._picker.AddPickList(actor)
-        if not self._picker.Pick(x, y, 0.0, self.plotter.renderer):
+    def index_at(self, x: float, y: float) -> int | None:
+        """Flat index of the shown control point under display position ``(x, y)`` (pixels, origin
+        bottom-left) nearest to the camera, or None when the position is on no sphere.
+
+        Examples
+        --------
+        >>> import pyvista as pv
+        >>> from ffd_notebook.view import Editor
+        >>> editor = Editor(pv.Sphere(), shape=(3, 3, 3), window_size=(200, 150))
+        >>> actor = editor.scene.lattice_actor
+        >>> x, y, depth, radius = actor.display_positions()[26]
+        >>> actor.index_at(x, y), actor.index_at(x + 1.5 * radius, y) in (None, 26)
+        (26, False)
+        >>> editor.close()
+        """
+        screen = self.display_positions()[self.shown]
+        hit = np.hypot(screen[:, 0] - x, screen[:, 1] - y) <= screen[:, 3]
+        hit &= (screen[:, 2] >= 0.0) & (screen[:, 2] <= 1.0)  # in front of the camera, within the clipping range
+        if not hit.any():
             return None
-        return self._actor_index.get(self._picker.GetActor().__this__)
+        candidates = np.flatnonzero(hit)
+        return int(self.shown[candidates[np.argmin(screen[candidates, 2])]])
 
-    def _grab_nearest(self, iren: Any, _event: str) -> None:
-        """VTK hands a click to the first widget (in creation order) whose sphere is under the cursor, even
-        one hidden behind another; leaving only the nearest sphere pickable makes the visible one move."""
-        nearest = self.nearest_widget_at(*iren.GetEventPosition())
-        if nearest is None:
-            return
-        for index, actor in enumerate(self._sphere_actors):
-            if actor is not None:
-                actor.SetPickable(index == nearest)
-        self._restricted = True
+    # ------------------------------------------------------------------ what is shown
+    def show_points(self, mode: str, selected: int | None = None) -> None:
+        """Draw the control points (and the lines between them) of display ``mode`` (:data:`POINTS_SHOWN`),
+        with ``selected`` (a flat index, or None) highlighted."""
+        shown = shown_indices(self.shape, mode, selected)
+        self.points_shown, self._selected = mode, selected
+        if not np.array_equal(shown, self.shown) or self.glyphs.n_points != len(shown):
+            self.shown = shown
+            mask = np.zeros(len(self._positions), dtype=bool)
+            mask[shown] = True
+            edges = self._edges if len(shown) == len(mask) else self._edges[mask[self._edges].all(axis=1)]
+            self.lines.lines = _line_cells(edges)
+            glyphs = pv.PolyData(np.asarray(self._positions)[shown])
+            glyphs.point_data["rgb"] = np.zeros((len(shown), 3), dtype=np.uint8)
+            self.glyphs.copy_from(glyphs)  # the same dataset (the actor's input), new size
+        self._color_glyphs()
+        if not self._dragging and self.handle_index not in set(shown.tolist()):
+            self.handle_index = int(shown[0]) if len(shown) else 0
+            self.park_handle()
 
-    def _restore_pickable(self) -> None:
-        """Every sphere pickable again (once the press has been handed to a widget, or the button released)."""
-        if self._restricted:
-            for actor in self._sphere_actors:
-                if actor is not None:
-                    actor.PickableOn()
-            self._restricted = False
-
-    def set_line_points(self, positions: ArrayLike) -> None:
-        """Write all ``(N, 3)`` control-point positions into the line dataset, in place."""
-        self._line_points[:] = positions
-        self.lines.GetPoints().Modified()
-
-    def set_widget_centers(self, positions: ArrayLike, indices: ArrayLike | None = None) -> None:
-        """Move widgets (all, or those of the flat ``indices``) to ``positions`` (``(N, 3)`` for all)."""
-        pos = np.asarray(positions, dtype=np.float64).reshape(-1, 3)
-        which = range(len(self.widgets)) if indices is None else np.asarray(indices, dtype=np.int64).ravel()
-        for i in which:
-            self.widgets[int(i)].SetCenter(*pos[int(i)])
+    def _color_glyphs(self) -> None:
+        rgb = self.glyphs.point_data["rgb"]
+        rgb[:] = pv.Color(WIDGET_COLOR).int_rgb
+        if self._selected is not None:
+            rgb[self.shown == self._selected] = pv.Color(SELECTED_COLOR).int_rgb
+        self.glyphs.point_data.GetArray("rgb").Modified()
 
     def highlight(self, index: int | None) -> None:
-        """Draw widget ``index`` in the selection colour (and the previous one normally again)."""
-        if self._highlighted is not None and self._highlighted < len(self.widgets):
-            self.widgets[self._highlighted].GetSphereProperty().SetColor(pv.Color(WIDGET_COLOR).float_rgb)
-        if index is not None:
-            self.widgets[index].GetSphereProperty().SetColor(pv.Color(SELECTED_COLOR).float_rgb)
-        self._highlighted = index
+        """Draw control point ``index`` (flat) in the selection colour, the others normally; in ``"near"``
+        mode the shown points follow it."""
+        if self.points_shown == "near" or (self.points_shown == "hull" and index is not None):
+            self.show_points(self.points_shown, index)
+        else:
+            self._selected = index
+            self._color_glyphs()
+
+    # ------------------------------------------------------------------ moving
+    def set_line_points(self, positions: ArrayLike) -> None:
+        """Write all ``(N, 3)`` control-point positions into the lines and the glyphs, in place."""
+        self._positions[:] = positions
+        self.lines.GetPoints().Modified()
+        self.glyphs.points[:] = self._positions[self.shown]
+        self.glyphs.GetPoints().Modified()
+
+    def set_widget_centers(self, positions: ArrayLike, indices: ArrayLike | None = None) -> None:
+        """Control points moved by an edit other than a drag: keep the (parked) handle on its point."""
+        if not self._dragging:
+            self.handle.SetCenter(*np.asarray(positions, dtype=np.float64).reshape(-1, 3)[self.handle_index])
 
     def remove(self) -> None:
-        """Remove the widgets and the line actor from the plotter."""
-        for widget in self.widgets:
-            widget.RemoveAllObservers()
+        """Remove the handle, the glyphs and the line actor from the plotter."""
+        iren = self._interactor()
         for tag in self._tags:
-            self.plotter.iren.interactor.RemoveObserver(tag)
+            iren.RemoveObserver(tag)
         self._tags = []
-        # each widget's Off() asks the interactor to render: N renders for N widgets unless disabled
-        iren = self.plotter.iren.interactor if self.plotter.iren is not None else None
-        enabled = iren.GetEnableRender() if iren is not None else None
+        self.handle.RemoveAllObservers()
         if iren is not None:
-            iren.EnableRenderOff()
-        try:
-            self.plotter.widgets.clear_sphere_widgets()
-        finally:
-            if iren is not None:
+            enabled = iren.GetEnableRender()
+            iren.EnableRenderOff()  # Off() would render
+            try:
+                self.handle.Off()
+            finally:
                 iren.SetEnableRender(enabled)
-        self.widgets = []
-        self.plotter.remove_actor(self.line_actor, reset_camera=False, render=False)
+        self.handle.SetInteractor(None)
+        self.plotter.remove_actor([self.line_actor, self.glyph_actor], reset_camera=False, render=False)

@@ -2,9 +2,11 @@
 
 The scene follows an :class:`~.session.EditingSession` (it subscribes to it) and never computes a
 deformation: on a ``"drag"`` or ``"offsets"`` change it copies the session's deformed points into
-the plotted mesh's points array in place and moves the lattice lines (and, for edits not made by
-dragging, the sphere widgets of the changed control points). No actor is created or removed while
-dragging. Rendering and pushing frames to browser views (:class:`~ffd_notebook.view.jupyter.BrowserViews`)
+the plotted mesh's points array in place and moves the lattice lines and control-point spheres
+(and, for edits not made by dragging, the parked drag handle). No actor is created or removed while
+dragging. A loaded mesh's plotted copy and normals may come ready-made from a worker thread
+(:func:`prepare_display`, :meth:`EditorScene.offer_display`).
+Rendering and pushing frames to browser views (:class:`~ffd_notebook.view.jupyter.BrowserViews`)
 happen after every change except drag events and messages: during a drag, trame renders when it
 sends the image.
 """
@@ -17,7 +19,7 @@ from typing import Any
 
 import numpy as np
 import pyvista as pv
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from ...meshing import color_array_name
 from ..camera import frame_camera
@@ -28,10 +30,47 @@ from .lattice_actor import LatticeActor
 from .session import EditingSession
 from .surface_handle import SurfaceHandle
 
-__all__ = ["EditorScene"]
+__all__ = ["EditorScene", "PreparedDisplay", "prepare_display"]
 
 #: where the camera looks from (towards the mesh): the front (+z), a little right and above
 FRONT = (0.3, 0.2, 1.0)
+
+
+class PreparedDisplay:
+    """The plotted copy of a mesh and its point-normals filter, made by :func:`prepare_display`."""
+
+    def __init__(self, source: Any, display: pv.PolyData, normals: Any) -> None:
+        self.source, self.display, self.normals = source, display, normals
+
+
+def prepare_display(mesh: pv.PolyData, points: ArrayLike) -> PreparedDisplay:
+    """What the scene plots for ``mesh`` at ``points``: a deep copy (its points written in place while
+    dragging) and a ``vtkPolyDataNormals`` filter on it, already run.
+
+    Only new objects: safe in a worker thread, so the app's loads do the copy and the normals (0.1 s
+    on a 500k-point mesh) there and its event loop only swaps the actor. The normals are VTK's,
+    without reorienting faces consistently (PyVista's ``smooth_shading`` does, 7x slower, again at
+    every frame after a drag), as the mesh's own faces say.
+
+    Examples
+    --------
+    >>> prepared = prepare_display(pv.Sphere(), pv.Sphere().points * 2)
+    >>> prepared.normals.GetOutput().GetPointData().GetNormals().GetNumberOfTuples() == prepared.display.n_points
+    True
+    """
+    from vtkmodules.vtkFiltersCore import vtkPolyDataNormals
+
+    display = mesh.copy(deep=True)
+    display.points[:] = points
+    normals = vtkPolyDataNormals()
+    normals.SetInputData(display)
+    normals.ComputePointNormalsOn()
+    normals.ComputeCellNormalsOff()
+    normals.SplittingOff()
+    normals.ConsistencyOff()
+    normals.AutoOrientNormalsOff()
+    normals.Update()
+    return PreparedDisplay(mesh, display, normals)
 
 
 class EditorScene:
@@ -71,6 +110,8 @@ class EditorScene:
         self.views.on_error = lambda text: session.messages.append(f"Error: {text}")
         self.mesh_actor: Any = None
         self.lattice_actor: LatticeActor | None = None
+        self._offered: PreparedDisplay | None = None
+        self._shown_lattice: Any = None
         self._build_mesh()
         self._build_lattice()
         self.surface_handle = SurfaceHandle(self)  # surface mode: the mouse on the mesh itself, pins
@@ -90,10 +131,13 @@ class EditorScene:
         elif kind == "mesh":
             self._build_mesh()
             if change.label == "load mesh":
-                self.plotter.reset_camera(render=False)
+                self.plotter.renderer.reset_camera(render=False)  # (the plotter's own renders anyway)
+            if self.session.lattice is not self._shown_lattice:
+                return  # a "lattice" change follows (a lattice fitted to the new mesh): render once, then
         elif kind == "select":
-            selected = self.session.selected
-            self.lattice_actor.highlight(None if selected is None else self.session.flat_index(selected))
+            self.lattice_actor.highlight(self._selected_index())
+        elif kind == "display" and change.label == "points":
+            self.lattice_actor.show_points(self.session.points_shown, self._selected_index())
         elif kind == "display":
             self._write_field()
             self._recolor()
@@ -101,10 +145,13 @@ class EditorScene:
         if kind != "drag" and change.label != "drag":
             self.render()
 
-    def _move_points(self, points: NDArray[np.intp] | None, widgets: bool) -> None:
-        """Session -> view: deformed mesh points, lattice lines, (widget centres), field colors."""
-        self.display_points[:] = self.session.deformed_points
-        self.display.GetPoints().Modified()
+    def _selected_index(self) -> int | None:
+        selected = self.session.selected
+        return None if selected is None else self.session.flat_index(selected)
+
+    def _move_points(self, points: NDArray[np.intp] | None, widgets: bool, only_if_changed: bool = False) -> None:
+        """Session -> view: deformed mesh points, lattice lines, (the handle), field colors."""
+        self._write_mesh_points(only_if_changed)
         positions = self.session.control_points()
         self.lattice_actor.set_line_points(positions)
         if widgets:
@@ -113,24 +160,48 @@ class EditorScene:
             self._write_field()
 
     # ------------------------------------------------------------------ building
+    def offer_display(self, prepared: PreparedDisplay) -> None:
+        """Use ``prepared`` (from :func:`prepare_display`, e.g. in a worker thread) when the session's mesh
+        becomes ``prepared.source``, instead of copying it and computing normals then."""
+        self._offered = prepared
+
     def _build_mesh(self) -> None:
         """Show the session's mesh (a copy whose points are written in place); replaces any previous actor."""
-        display = self.session.mesh.copy(deep=True)
+        prepared, self._offered = self._offered, None
+        if prepared is None or prepared.source is not self.session.mesh:
+            prepared = prepare_display(self.session.mesh, self.session.deformed_points)
         if self.mesh_actor is not None:
             self.plotter.remove_actor(self.mesh_actor, reset_camera=False, render=False)
-        self.display = display
-        self.display_points = display.points  # NumPy view of the plotted VTK points: written in place
-        self.mesh_actor = self.plotter.add_mesh(display, color="tan", smooth_shading=True, reset_camera=False)
-        self.display_points[:] = self.session.deformed_points
+        self.display = prepared.display
+        self.display_points = prepared.display.points  # NumPy view of the plotted VTK points: written in place
+        self.mesh_actor = self.plotter.add_mesh(
+            prepared.normals, color="tan", interpolation="phong", reset_camera=False, render=False
+        )
+        self._write_mesh_points(only_if_changed=True)
         self._write_field()
         self._recolor()
 
     def _build_lattice(self) -> None:
-        """New widgets and lines for the session's lattice."""
+        """New glyphs, lines and handle for the session's lattice."""
         if self.lattice_actor is not None:
             self.lattice_actor.remove()
-        self.lattice_actor = LatticeActor(self.plotter, self.session.lattice, *self._callbacks)
-        self._move_points(None, widgets=True)
+        self._shown_lattice = self.session.lattice
+        self.lattice_actor = LatticeActor(
+            self.plotter,
+            self.session.lattice,
+            *self._callbacks,
+            points_shown=self.session.points_shown,
+            selected=self._selected_index(),
+        )
+        self._move_points(None, widgets=True, only_if_changed=True)
+
+    def _write_mesh_points(self, only_if_changed: bool = False) -> None:
+        """The session's deformed points into the plotted mesh (and its normals, at the next render)."""
+        deformed = self.session.deformed_points
+        if only_if_changed and np.array_equal(self.display_points, deformed.astype(self.display_points.dtype)):
+            return  # e.g. a new lattice, or a mesh prepared in a worker: the normals stay valid (0.1 s on 500k)
+        self.display_points[:] = deformed
+        self.display.GetPoints().Modified()
 
     # ------------------------------------------------------------------ coloring
     def _recolor(self) -> None:

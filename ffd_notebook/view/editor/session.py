@@ -36,10 +36,12 @@ from .history import History, LatticeSwap, OffsetEdit
 from .message_log import MessageLog
 from .surface_drag import SurfaceDragging
 
-__all__ = ["FIELDS", "EditingSession", "MeshIO", "copy_ffd", "fitted_lattice"]
+__all__ = ["FIELDS", "POINTS_SHOWN", "EditingSession", "MeshIO", "copy_ffd", "fitted_lattice"]
 
 #: what the mesh can be colored by: nothing (its own colors), |displacement|, folding (det J <= 0)
 FIELDS = (None, "displacement", "jacobian")
+#: which control points the view draws: all, those near the selection, the lattice's hull (dense lattices)
+POINTS_SHOWN = ("all", "near", "hull")
 
 
 def fitted_lattice(mesh: Any, shape: tuple[int, int, int], basis: str) -> Lattice:
@@ -116,6 +118,7 @@ class EditingSession(SurfaceDragging):
         self.history = History()
         self.field: str | None = None
         self.colors_shown = True
+        self.points_shown = "all"
         self.selected: tuple[int, int, int] | None = None
         self._subscribers = Subscribers(self.messages.append)
         self._dragged: int | None = None
@@ -370,11 +373,12 @@ class EditingSession(SurfaceDragging):
         # validates (e.g. a B-spline lattice needs 4 points per axis) before any change
         self.swap_ffd(FFD(lattice, self.basis if basis is None else basis), label=label, source=source)
 
-    def swap_ffd(self, ffd: FFD, *, label: str, source: str) -> None:
+    def swap_ffd(self, ffd: FFD, *, label: str, source: str, deformer: Deformer | None = None) -> None:
         """Install ``ffd`` (its lattice, basis, border, affine part, ``only_inside``) as one undo step.
 
         ``source`` (how the lattice was made: ``"fit"``, ``"given"``, ``"ffd-placed"``, ``"ffd-min"``,
-        ``"file"``) decides what loading a mesh does with it, and is undone with it.
+        ``"file"``) decides what loading a mesh does with it, and is undone with it. ``deformer``:
+        ``ffd`` already bound to the mesh's points (e.g. in a worker thread), else it is bound here.
         """
         if not isinstance(ffd, FFD):
             raise TypeError(f"ffd must be an FFD, got {type(ffd).__name__}")
@@ -382,17 +386,32 @@ class EditingSession(SurfaceDragging):
         before = (copy_ffd(self.ffd), self.lattice_source)
         self.lattice_source = source
         self.history.record_lattice(before, (copy_ffd(ffd), source), label=label)
-        self._bind_lattice(ffd.bind(self.mesh.points), label)
+        self._bind_lattice(ffd.bind(self.mesh.points) if deformer is None else deformer, label)
 
-    def set_shape(self, shape: ArrayLike) -> None:
-        """Fit a new lattice with ``shape`` control points per axis around the mesh (undoable)."""
+    def fitted_ffd(self, shape: ArrayLike) -> FFD:
+        """The FFD of a new lattice with ``shape`` control points per axis fitted around the mesh; changes
+        nothing (a message and a ValueError if it cannot be built).
+
+        Binding it to the mesh (``ffd.bind(session.mesh.points)``, seconds on a 500k-point mesh) is
+        the slow part of :meth:`set_shape`: a worker thread may do it and hand the deformer over.
+        """
         try:
-            lattice = fitted_lattice(self.mesh, tuple(int(s) for s in np.ravel(shape)), self.basis)
+            return FFD(fitted_lattice(self.mesh, tuple(int(s) for s in np.ravel(shape)), self.basis), self.basis)
         except (ValueError, TypeError) as exc:
             self.error(f"cannot build a {shape!r} lattice: {exc}")
             raise
-        self.swap_lattice(lattice, None, label="shape", source="fit")
-        self.info(f"new {'x'.join(map(str, lattice.shape))} lattice around the mesh")
+
+    def set_shape(self, shape: ArrayLike, deformer: Deformer | None = None) -> None:
+        """Fit a new lattice with ``shape`` control points per axis around the mesh (undoable).
+
+        ``deformer``: :meth:`fitted_ffd` of this shape, already bound to the current mesh's points.
+        """
+        if deformer is None:
+            deformer = self.fitted_ffd(shape).bind(self.mesh.points)
+        elif deformer.ffd.lattice.shape != tuple(np.ravel(shape)) or len(deformer.points) != len(self.rest_points):
+            raise ValueError(f"the deformer is not a {shape!r} lattice bound to this mesh")
+        self.swap_ffd(deformer.ffd, label="shape", source="fit", deformer=deformer)
+        self.info(f"new {'x'.join(map(str, deformer.ffd.lattice.shape))} lattice around the mesh")
 
     def set_basis(self, basis: str) -> None:
         """Switch the basis; refits the lattice around the mesh for it (offsets start at zero; undoable)."""
@@ -424,6 +443,14 @@ class EditingSession(SurfaceDragging):
             n = int(self.field_values().sum())
             self.info(f"folding (det J <= 0) at {n} of {self.mesh.n_points} vertices")
 
+    def show_points(self, which: str) -> None:
+        """Which control points the view draws (:data:`POINTS_SHOWN`): ``"all"``, ``"near"`` (those
+        within two index steps of the selection) or ``"hull"`` (the lattice's boundary)."""
+        if which not in POINTS_SHOWN:
+            raise ValueError(f"points shown must be one of {POINTS_SHOWN}, got {which!r}")
+        self.points_shown = which
+        self._emit("display", None, "points")
+
     # ------------------------------------------------------------------ binding the model
     def replace_mesh(self, mesh: Any, deformer: Deformer, *, label: str, new_document: bool) -> None:
         """Use another mesh with ``deformer`` (its lattice bound to ``mesh.points``; made by
@@ -453,7 +480,7 @@ class EditingSession(SurfaceDragging):
         self.deformer = deformer
         self._rest_control = deformer.ffd.lattice.control_points().reshape(-1, 3)
         self._committed = deformer.ffd.lattice.offsets.copy()
-        self.deformed_points = deformer.update()
+        self.deformed_points = deformer.current()  # bound in a worker thread: evaluated there already
         self.selected = None
         self._dragged = None
         if label is not None:

@@ -47,7 +47,7 @@ def test_displacement_field_follows_drags(editor):
     shown = editor.scene.display.point_data[fields.DISPLACEMENT_ARRAY]
     assert not shown.any() and mapper(editor).GetArrayName() == fields.DISPLACEMENT_ARRAY
     index = int(np.ravel_multi_index((2, 2, 3), editor.lattice.shape))
-    center = np.array(editor.plotter.widgets.sphere_widgets[index].GetCenter()) + (0, 0, 0.5)
+    center = editor.session.control_points()[index] + (0, 0, 0.5)
     editor.on_widget_moved(center, index)
     shown = editor.scene.display.point_data[fields.DISPLACEMENT_ARRAY]
     expected = np.linalg.norm(editor.ffd.deform(editor.mesh.points) - editor.mesh.points, axis=1)
@@ -79,13 +79,12 @@ def test_folding_view_follows_drags(editor):
     """During a drag the folding view is recomputed through the deformer; it equals the FFD's own evaluation."""
     editor.set_shape((8, 8, 8))  # a control point then reaches only part of the sphere
     editor.set_field("jacobian")
-    widgets = editor.plotter.widgets.sphere_widgets
     spacing = float(editor.lattice.spacing[0])
     folds = []
     # a single control point must move ~5 spacings to fold a cubic B-spline; then it comes back
     for ijk, delta in [((1, 3, 3), (-6 * spacing, 0, 0)), ((5, 4, 4), (0, 0, 0.3)), ((1, 3, 3), (5.5 * spacing, 0, 0))]:
         index = int(np.ravel_multi_index(ijk, editor.lattice.shape))
-        center = np.array(widgets[index].GetCenter()) + delta
+        center = editor.session.control_points()[index] + delta
         editor.on_widget_moved(center, index)
         shown = editor.scene.display.point_data[fields.FOLDING_ARRAY] > 0.5
         np.testing.assert_array_equal(shown, editor.ffd.jacobian_determinant(editor.mesh.points) <= 0)

@@ -7,19 +7,26 @@ import json
 import numpy as np
 import pytest
 from editor_instrument import Instrument
-from editor_testing import assert_view_matches_model, line_points, shown_points, widget_centers, widget_index
+from editor_testing import (
+    assert_view_matches_model,
+    glyph_centers,
+    handle_move,
+    handle_release,
+    line_points,
+    mouse_drag,
+    shown_points,
+    widget_index,
+)
 
 from ffd_notebook import FFD, Lattice
 from ffd_notebook.view.editor import Editor
 
 
 def drag(editor, ijk, delta):
-    """Simulate a sphere-widget move of control point ``ijk`` by ``delta`` (as VTK would call back)."""
+    """Simulate a handle move of control point ``ijk`` by ``delta`` (as VTK would move it and call back)."""
     index = widget_index(editor, ijk)
-    widget = editor.plotter.widgets.sphere_widgets[index]
-    center = np.array(widget.GetCenter()) + delta
-    widget.SetCenter(*center)  # VTK moves the widget before calling back
-    editor.on_widget_moved(tuple(center), index)
+    center = editor.session.control_points()[index] + delta
+    handle_move(editor, index, center)
     return center
 
 
@@ -53,8 +60,7 @@ def test_one_undo_step_per_drag(editor):
     drag(editor, (1, 2, 2), (0.2, 0, 0))
     drag(editor, (3, 2, 2), (0, 0.2, 0))  # another sphere: a new step
     assert len(editor.history) == 2
-    widget = editor.plotter.widgets.sphere_widgets[widget_index(editor, (3, 2, 2))]
-    widget.InvokeEvent("EndInteractionEvent")  # mouse released
+    handle_release(editor)  # mouse released
     drag(editor, (3, 2, 2), (0, 0.2, 0))  # grabbed again: a new step
     assert len(editor.history) == 3
     editor.undo()
@@ -134,7 +140,7 @@ def test_set_shape_and_basis_are_undoable(editor):
     n_actors = editor.plotter.renderer.GetActors().GetNumberOfItems()
     editor.set_shape((4, 5, 6))
     assert editor.lattice.shape == (4, 5, 6) and not editor.lattice.offsets.any()
-    assert len(editor.plotter.widgets.sphere_widgets) == 120
+    assert editor.scene.lattice_actor.glyphs.n_points == 120
     assert line_points(editor).shape == (120, 3)
     assert editor.scene.lattice_actor.lines.n_cells == len(editor.lattice.edges())
     assert_view_matches_model(editor)
@@ -148,7 +154,7 @@ def test_set_shape_and_basis_are_undoable(editor):
     editor.undo()  # the shape
     assert editor.lattice.shape == (5, 5, 5)
     np.testing.assert_allclose(editor.lattice.offsets[2, 2, 2], (0, 0.3, 0))
-    assert len(editor.plotter.widgets.sphere_widgets) == 125
+    assert editor.scene.lattice_actor.glyphs.n_points == 125
     assert editor.plotter.renderer.GetActors().GetNumberOfItems() == n_actors  # no stale actors
     assert_view_matches_model(editor)
 
@@ -220,7 +226,7 @@ def test_trace_file_records_each_callback(sphere, tmp_path):
         assert [r["index"] for r in records] == [62, 61]
         assert records[1]["ijk"] == [2, 2, 1] and records[1]["ev"] == "cb"
         assert records[1]["checksum"] == pytest.approx(fingerprint(shown_points(editor)), rel=1e-9)
-        np.testing.assert_allclose(records[1]["center"], widget_centers(editor)[61])
+        np.testing.assert_allclose(records[1]["center"], glyph_centers(editor)[61])
         assert records[0]["ms"] > 0 and records[0]["t"] > 1e9
     finally:
         editor.close()
@@ -238,7 +244,7 @@ def test_widget_display_positions_and_triggers(editor):
     w, h = editor.plotter.window_size
     matrix = camera.GetCompositeProjectionTransformMatrix(w / h, -1, 1)
     m = np.array([[matrix.GetElement(r, c) for c in range(4)] for r in range(4)])
-    for p, center in zip(positions, widget_centers(editor), strict=True):
+    for p, center in zip(positions, glyph_centers(editor), strict=True):
         ndc = m @ np.append(center, 1.0)
         ndc = ndc[:3] / ndc[3]
         assert p["u"] == pytest.approx((ndc[0] + 1) / 2, abs=1e-3)
@@ -266,17 +272,6 @@ def test_observers_follow_changes(editor):
     assert "lattice" in events
 
 
-def mouse_drag(editor, start, delta):
-    """Press, move and release the left button through the VTK interactor (what trame's mouse handler does)."""
-    iren = editor.plotter.iren.interactor
-    x, y = (round(v) for v in start)
-    iren.SetEventInformation(x, y, 0, 0, "\0", 0, None)
-    iren.LeftButtonPressEvent()
-    iren.SetEventInformation(x + delta[0], y + delta[1], 0, 0, "\0", 0, None)
-    iren.MouseMoveEvent()
-    iren.LeftButtonReleaseEvent()
-
-
 @pytest.mark.parametrize("from_below", [False, True])
 def test_a_click_grabs_the_nearest_sphere(editor, from_below):
     """Looking straight down a lattice column every sphere of the column is under the cursor; the nearest
@@ -293,11 +288,11 @@ def test_a_click_grabs_the_nearest_sphere(editor, from_below):
         u = [positions[c]["u"] for c in column]
         v = [positions[c]["v"] for c in column]
         assert np.ptp(u) * w < 0.01 and np.ptp(v) * h < 0.01  # the column's spheres overlap exactly on screen
-        assert editor.scene.lattice_actor.nearest_widget_at(u[0] * w, v[0] * h) == column[nearest_k]
+        assert editor.scene.lattice_actor.index_at(u[0] * w, v[0] * h) == column[nearest_k]
         mouse_drag(editor, (u[0] * w, v[0] * h), (4, 0))
         assert editor.selected == (i, j, nearest_k)
         moved = np.flatnonzero(np.any(editor.lattice.offsets.reshape(-1, 3) != 0, axis=1))
         assert moved.tolist() == [column[nearest_k]] and editor.lattice.offsets[i, j, nearest_k, 0] != 0
         editor.undo()
-    # every sphere is pickable again after the drags (other pickers are not affected)
-    assert all(actor.GetPickable() for actor in editor.scene.lattice_actor._sphere_actors)
+    # between drags the handle is parked: nothing to see or grab
+    assert editor.scene.lattice_actor.handle.GetRadius() < 1e-3 * editor.scene.lattice_actor.radius

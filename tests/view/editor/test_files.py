@@ -37,7 +37,7 @@ def snapshot(editor):
         len(editor.history),
         editor.can_redo,
         shown_points(editor).copy(),
-        len(editor.plotter.widgets.sphere_widgets),
+        editor.scene.lattice_actor.glyphs.n_points,
     )
 
 
@@ -48,7 +48,7 @@ def assert_unchanged(editor, snap):
     assert editor.lattice == lattice and editor.basis == basis
     assert len(editor.history) == n_hist and editor.can_redo == can_redo
     np.testing.assert_array_equal(shown_points(editor), shown)
-    assert len(editor.plotter.widgets.sphere_widgets) == n_widgets
+    assert editor.scene.lattice_actor.glyphs.n_points == n_widgets
 
 
 def test_ffd_round_trip_and_undo(editor, tmp_path):
@@ -78,7 +78,7 @@ def test_real_registration_ffd_keeps_its_placement(shared_data):
         np.testing.assert_allclose(lat.origin, (90, -126, -72))
         np.testing.assert_allclose(lat.rotation, np.diag([-1.0, 1.0, 1.0]), atol=1e-12)
         np.testing.assert_allclose(lat.offsets[1, 0, 0], (-0.191950, -0.152277, -0.006144))
-        assert len(editor.plotter.widgets.sphere_widgets) == 1452
+        assert editor.scene.lattice_actor.glyphs.n_points == 1452
         assert_view_matches_model(editor)
         assert np.abs(shown_points(editor) - face.points).max() > 0.01  # the registration moves the face
     finally:

@@ -55,7 +55,7 @@ server = view.viewer.server
 Instrument(editor).register_triggers(server)  # the tests' own triggers, installed by test code
 state0 = server.controller.trigger_fn("ffd_state")()
 index = 21
-center = [c + 0.3 for c in editor.plotter.widgets.sphere_widgets[index].GetCenter()]
+center = [c + 0.3 for c in editor.session.control_points()[index]]
 editor.on_widget_moved(center, index)
 state1 = server.controller.trigger_fn("ffd_state")()
 pv.global_theme.trame.server_proxy_enabled = True

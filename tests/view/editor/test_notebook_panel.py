@@ -45,7 +45,7 @@ def test_apply_reset_undo_redo(panel, editor):
 
 def test_dragging_selects_the_point_in_the_panel(panel, editor):
     index = widget_index(editor, (3, 1, 2))
-    center = np.array(editor.plotter.widgets.sphere_widgets[index].GetCenter()) + (0.0, 0.25, 0.0)
+    center = editor.session.control_points()[index] + (0.0, 0.25, 0.0)
     editor.on_widget_moved(center, index)
     assert [w.value for w in panel.ijk] == [3, 1, 2]
     np.testing.assert_allclose([w.value for w in panel.xyz], (0.0, 0.25, 0.0), atol=1e-9)
@@ -56,7 +56,7 @@ def test_lattice_size_and_basis(panel, editor):
     for w, v in zip(panel.shape, (4, 6, 5), strict=True):
         w.value = v
     panel.rebuild_button.click()
-    assert editor.lattice.shape == (4, 6, 5) and len(editor.plotter.widgets.sphere_widgets) == 120
+    assert editor.lattice.shape == (4, 6, 5) and editor.scene.lattice_actor.glyphs.n_points == 120
     assert [w.max for w in panel.ijk] == [3, 5, 4]
     panel.basis.value = "bernstein"
     assert editor.basis == "bernstein"

@@ -6,8 +6,9 @@ Memory is measured two ways:
   one-off allocations (OpenGL buffers, caches, malloc arenas) are not counted;
 - ``tracemalloc`` for Python-side growth (for example an undo history that never stops growing).
 VTK has no object counter in release builds, so the scene is checked object by object: the same
-number of actors, view props and sphere widgets, and the very same VTK points arrays of the mesh
-and of the lattice lines (their C++ addresses), i.e. nothing was re-created.
+number of actors and view props, the very same glyph actor and drag handle, and the very same VTK
+points arrays of the mesh, the control-point glyphs and the lattice lines (their C++ addresses), i.e.
+nothing was re-created. Lattice rebuilds (5^3 -> 20^3 -> 5^3) keep the number of actors.
 """
 
 from __future__ import annotations
@@ -36,7 +37,9 @@ def scene_objects(editor) -> dict:
     return {
         "actors": ren.GetActors().GetNumberOfItems(),
         "props": ren.GetViewProps().GetNumberOfItems(),
-        "widgets": len(editor.plotter.widgets.sphere_widgets),
+        "glyphs": editor.scene.lattice_actor.glyph_actor.__this__,
+        "glyph_points": editor.scene.lattice_actor.glyphs.GetPoints().GetData().__this__,
+        "handle": editor.scene.lattice_actor.handle.__this__,
         "mesh_input": editor.mesh_actor.GetMapper().GetInput().__this__,
         "mesh_points": editor.mesh_actor.GetMapper().GetInput().GetPoints().GetData().__this__,
         "line_points": editor.scene.lattice_actor.lines.GetPoints().GetData().__this__,
@@ -44,20 +47,23 @@ def scene_objects(editor) -> dict:
 
 
 def drag_events(editor, n, rng):
-    """``n`` widget callbacks: drags of random control points along small random paths."""
+    """``n`` handle callbacks: drags of random control points along small random paths (through the
+    handle's own events, as VTK fires them)."""
     shape = editor.lattice.shape
     rest = editor.lattice.control_points().reshape(-1, 3)
     step = 0.02 * float(editor.lattice.spacing.min())
-    widgets = editor.plotter.widgets.sphere_widgets
+    actor = editor.scene.lattice_actor
+    handle = actor.handle
     for start in range(0, n, PER_DRAG):
         index = int(rng.integers(np.prod(shape)))
-        widgets[index].InvokeEvent("StartInteractionEvent")
-        center = np.array(widgets[index].GetCenter())
+        actor.place_handle(index)  # what a press on that sphere does
+        handle.InvokeEvent("StartInteractionEvent")
+        center = np.array(handle.GetCenter())
         for _ in range(min(PER_DRAG, n - start)):
             center = rest[index] + np.clip(center - rest[index] + rng.normal(0, step, 3), -0.3, 0.3)
-            widgets[index].SetCenter(*center)
-            editor.on_widget_moved(tuple(center), index)
-        widgets[index].InvokeEvent("EndInteractionEvent")
+            handle.SetCenter(*center)
+            handle.InvokeEvent("InteractionEvent")
+        handle.InvokeEvent("EndInteractionEvent")
         if start % (20 * PER_DRAG) == 0:
             editor.plotter.render_window.Render()  # let VTK upload the moved points now and then
 
@@ -88,5 +94,11 @@ def test_ten_thousand_drag_events_leak_nothing():
         drags = (1000 + EVENTS) // PER_DRAG
         assert len(editor.history) == min(drags, editor.history.limit)  # one step per drag, bounded
         assert_view_matches_model(editor, atol=1e-4)
+        # a rebuild replaces the lattice's actors, one for one, whatever its size
+        n_actors, n_props = objects["actors"], objects["props"]
+        for shape in ((20, 20, 20), (5, 5, 5)):
+            editor.set_shape(shape)
+            editor.screenshot()
+            assert scene_objects(editor)["actors"] == n_actors and scene_objects(editor)["props"] == n_props
     finally:
         editor.close()
