@@ -449,7 +449,7 @@ class EditingSession(SurfaceDragging):
         if which not in POINTS_SHOWN:
             raise ValueError(f"points shown must be one of {POINTS_SHOWN}, got {which!r}")
         self.points_shown = which
-        self._emit("display", None, "points")
+        self.notify("display", None, "points")
 
     # ------------------------------------------------------------------ binding the model
     def replace_mesh(self, mesh: Any, deformer: Deformer, *, label: str, new_document: bool) -> None:
