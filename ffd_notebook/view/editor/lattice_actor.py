@@ -1,17 +1,20 @@
 """The lattice on screen: one line dataset, one glyph actor for all control points, and ONE drag handle.
 
 Every control point is drawn by a single actor: a :class:`pyvista.PolyData` of the shown control
-points, drawn by VTK's ``vtkPointGaussianMapper`` as shaded spheres of a radius in world units
-(:func:`widget_radius`), coloured per point (the selected one in :data:`SELECTED_COLOR`). The
-lattice edges are one line dataset. Moving control points rewrites both points arrays in place, so
-neither a drag nor a new lattice creates an actor per control point.
+points, drawn as shaded sphere sprites (``render_points_as_spheres``), coloured per point (the
+selected one in :data:`SELECTED_COLOR`). Sprites have a size in pixels; before every render the
+scene's renderer sets it from the spheres' world radius (:func:`widget_radius`) seen at the shown
+points' median depth, so the spheres keep their size in the world when the camera zooms and match
+the drag handle. The lattice edges are one line dataset. Moving control points rewrites both points
+arrays in place, so neither a drag nor a new lattice creates an actor per control point.
 
 Measured on the 53k-face sample at 800x600 (software rendering, frame medians; the mesh alone
-costs 8-11 ms): sprites of a fixed pixel size (``render_points_as_spheres``) 6-7 ms at 5^3 and 13-20
-ms at 20^3; ``vtkGlyph3DMapper`` with an 8x5 sphere 12 ms and 90 ms (a 12x8 sphere: 33 and 276 ms);
-the Gaussian-point spheres 7 ms and 15-20 ms. Fixed-pixel sprites do not keep their size when the
-camera zooms (the handle, a real sphere, would not match them), glyph meshes cost vertices the
-software renderer pays for, so the spheres are Gaussian points.
+costs 8-11 ms): sprites 6-7 ms at 5^3 and 13-20 ms at 20^3; ``vtkGlyph3DMapper`` with an 8x5 sphere
+12 ms and 90 ms (a 12x8 sphere: 33 and 276 ms); ``vtkPointGaussianMapper`` spheres 7 ms and 15-20 ms,
+but with Mesa's software renderer a later render of another actor crashed (SIGSEGV in
+``swrast_dri.so`` inside ``vtkOpenGLPolyDataMapper::RenderPieceDraw``) once editors had been opened
+and closed in the same process (``tests/view/editor/test_app.py`` then ``test_display.py``), so
+sprites it is.
 
 Dragging goes through one ``vtkSphereWidget``, the *handle*, so a drag feels like before (VTK moves
 the grabbed sphere in the view plane): an interactor observer with a higher priority than the
@@ -157,14 +160,12 @@ class LatticeActor:
             self.glyphs,
             scalars="rgb",
             rgb=True,
-            style="points_gaussian",
+            style="points",
             render_points_as_spheres=True,
-            emissive=False,
             pickable=False,
             reset_camera=False,
             render=False,
         )
-        self.glyph_actor.mapper.SetScaleFactor(self.radius)  # world units (PyVista's point_size is relative)
         self.points_shown = "all"
         self.shown = np.arange(len(positions), dtype=np.int64)
         self._selected = selected
@@ -173,6 +174,7 @@ class LatticeActor:
         self.handle = self._make_handle()
         self._dragging = False
         self._tags: list[int] = []
+        self._size_tag = plotter.renderer.AddObserver("StartEvent", lambda *_: self.fit_point_size())
         iren = self._interactor()
         if iren is not None:
             # before the handle sees a press (it has priority 0.5), put it on the control point under the cursor
@@ -263,6 +265,18 @@ class LatticeActor:
         out[:, 3] = self.radius * abs(projection[1, 1]) * height / 2.0 / np.abs(w)
         return out
 
+    def fit_point_size(self) -> float:
+        """Set the sprites' size (pixels) to the spheres' on-screen diameter at the shown points' median depth.
+
+        Called before every render of the plotter's renderer; returns the size set.
+        """
+        radii = self.display_positions()[self.shown, 3] if len(self.shown) else np.ones(1)
+        size = float(max(2.0, 2.0 * np.median(radii)))
+        prop = self.glyph_actor.GetProperty()
+        if prop.GetPointSize() != size:
+            prop.SetPointSize(size)
+        return size
+
     def index_at(self, x: float, y: float) -> int | None:
         """Flat index of the shown control point under display position ``(x, y)`` (pixels, origin
         bottom-left) nearest to the camera, or None when the position is on no sphere.
@@ -350,4 +364,5 @@ class LatticeActor:
             finally:
                 iren.SetEnableRender(enabled)
         self.handle.SetInteractor(None)
+        self.plotter.renderer.RemoveObserver(self._size_tag)
         self.plotter.remove_actor([self.line_actor, self.glyph_actor], reset_camera=False, render=False)
