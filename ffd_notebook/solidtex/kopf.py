@@ -22,14 +22,7 @@ transferring before every step lets each step repair the structure at the right 
 after the final transfer, same histogram distance). Measured per step, the energy falls at
 every step of the finer levels; at the coarsest it rises slightly after the first step, which
 the histogram matching causes (without it, it falls and then stays flat): matching the colours
-costs some neighbourhood fit. The final transfer is partial by default (``color_transfer``).
-
-What limits the fit: the optimised volume is smooth where the image has pixel-scale grain (5x5
-windows with a colour standard deviation of 3-8 against the image's 7-19), and grain cannot be
-consistent across three orientations at once, so averaging the proposals keeps their mean. The
-image itself blurred by a Gaussian of 1 pixel is as far from its own windows (5.2) as the
-optimised volume; reaching 4.9 (0.7x the extrusion) would take the sharpness of a 0.85-pixel
-blur along every slice.
+costs some neighbourhood fit.
 
 The volume wraps around (its neighbourhoods are taken periodically), so the result tiles, and it
 is the exemplar :func:`~ffd_notebook.solidtex.synthesize` grows larger volumes from. Hand-written
@@ -177,11 +170,10 @@ def exemplar_from_image(
     image: Any,
     size: int = 64,
     *,
-    levels: int = 4,
+    levels: int = 3,
     neighbourhood: int = 5,
-    iterations: tuple[int, ...] = (4, 4, 3, 3),
+    iterations: tuple[int, ...] = (4, 3, 3),
     pca_dims: int = 16,
-    color_transfer: float = 0.5,
     rng: RNGLike = 0,
     progress: bool = False,
     seed: int | None = None,
@@ -196,26 +188,13 @@ def exemplar_from_image(
     size : int
         Edge of the result; a multiple of ``2**(levels - 1)``.
     levels : int
-        Pyramid levels (coarse to fine; each halves the size and the image). The coarse levels
-        settle the layout of the features: at 64^3 from the notebook's 128-pixel image, the
-        mean slice-neighbourhood distance before the final colour transfer is 5.34 with 3 levels
-        and 5.08 with 4 (more iterations at the finest level, exact nearest neighbours, larger
-        coarse neighbourhoods, coherent candidates or per-voxel robust weights each changed it by
-        less than 0.05).
+        Pyramid levels (coarse to fine; each halves the size and the image).
     neighbourhood : int
         Edge of the slice neighbourhoods compared (odd).
     iterations : tuple of int
         Search/optimise steps per level, coarsest first (the last value repeats if short).
     pca_dims : int
         Dimensions the neighbourhoods are reduced to for the nearest-neighbour search.
-    color_transfer : float
-        Strength of the final colour transfer, from 0 (none) to 1 (the image's joint colour
-        distribution exactly): the result is ``(1 - t) * volume + t * transferred``. The
-        optimisation's averaging narrows the colours, and the transfer's stretching adds back
-        contrast the slice neighbourhoods do not have: a trade between the two measures. At 64^3
-        from the notebook's image: neighbourhood distance 5.08, 5.13, 5.20, 5.39 and histogram
-        distance 0.032, 0.025, 0.018, 0.011 at 0, 0.25, 0.5, 1 (the sheared extrusion: 7.0 and
-        0.025).
     rng : int or numpy.random.Generator
         The result is the same for the same int. The optimisation needs an integer root seed (its
         colour transfers are seeded ``seed + iteration``): a Generator gives one 63-bit draw
@@ -246,8 +225,6 @@ def exemplar_from_image(
         raise ValueError(f"size {size} must be a multiple of {scale} and at least {neighbourhood * scale}")
     if min(img.shape[:2]) // scale < neighbourhood + 1:
         raise ValueError(f"the image ({img.shape[0]}x{img.shape[1]}) is too small for {levels} levels")
-    if not 0.0 <= color_transfer <= 1.0:
-        raise ValueError(f"color_transfer must be between 0 and 1, got {color_transfer}")
     if seed is not None:
         rng = renamed_keyword({"seed": seed}, "seed", "rng", rng, "exemplar_from_image")
     seed = integer_seed(rng)
@@ -278,6 +255,5 @@ def exemplar_from_image(
                     volume = _transfer_colours(volume, level_img, 5, seed + it)
                 volume = _optimise(volume.astype(np.float32), index, target_hist, 2, it)
                 bar.update()
-    if color_transfer > 0:
-        volume = color_transfer * _transfer_colours(volume, img, 20, seed) + (1.0 - color_transfer) * volume
+    volume = _transfer_colours(volume, img, 20, seed)
     return np.clip(np.rint(volume), 0, 255).astype(np.uint8)

@@ -38,9 +38,9 @@ def test_every_slice_orientation_looks_like_the_image(image, solid):
     rng = np.random.default_rng(0)
     start = image.reshape(-1, 3)[rng.integers(0, 64 * 64, 32**3)].reshape(32, 32, 32, 3)  # shuffled pixels
     extruded = volume_from_slices(sliding_crops(image, 32, 32, step=(1, 1)))
-    # the optimisation lowers its energy far below the shuffled start (0.39 measured; 0.54 when the
+    # the optimisation lowers its energy far below the shuffled start (0.41 measured; 0.54 when the
     # colours were transferred only at the end), and the colour transfers give it the image's joint
-    # colours (0.031 measured with the default half-strength final transfer; the extrusion: 0.11)
+    # colours (0.005 measured; the extrusion: 0.11)
     assert neighbourhood_distance(solid, image) < 0.5 * neighbourhood_distance(start, image)
     assert histogram_distance(solid, image) < 0.5 * histogram_distance(extruded, image)
     # alike along all three axes (1.11 measured), unlike the sheared extrusion, whose z slices are
@@ -60,15 +60,3 @@ def test_deterministic_and_checks_its_input(image, solid):
         exemplar_from_image(image, 32, neighbourhood=4)
     with pytest.raises(ValueError, match="too small"):
         exemplar_from_image(image[:12, :12], 32, levels=3)
-
-
-def test_color_transfer_trades_histogram_against_neighbourhoods(image):
-    kw = {"levels": 2, "iterations": (3, 3)}
-    none, full = (exemplar_from_image(image, 32, color_transfer=t, **kw) for t in (0.0, 1.0))
-    half = exemplar_from_image(image, 32, **kw)  # the default, 0.5
-    hist = [histogram_distance(v, image) for v in (none, half, full)]
-    nbhd = [neighbourhood_distance(v, image) for v in (none, half, full)]
-    # the transfer gives the image's colours and stretches contrast the neighbourhoods lack
-    assert hist[2] < hist[1] < hist[0] and nbhd[0] < nbhd[1] < nbhd[2]
-    with pytest.raises(ValueError, match="color_transfer"):
-        exemplar_from_image(image, 32, color_transfer=1.5, **kw)
