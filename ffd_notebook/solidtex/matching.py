@@ -7,13 +7,18 @@ source volume and compares the overlap of every random candidate with what is al
 The best-fitting block is not always the one the volume needs: blocks of smooth, common texture
 fit overlaps more easily than blocks with rare features, so a synthesis that only minimises the
 mismatch over-uses them, and over a region-doubling growth its colour histogram drifts from the
-exemplar's (measured with cut seams, whose thicker overlaps weigh the fit more: histogram
-distance 0.08 at 128^3 without a correction, against 0.04 for feathering). :class:`HistogramTerm`
-is Kopf et al.'s (2007) histogram matching moved from voxels to blocks: it counts the colours of
-the blocks placed so far, and a candidate's cost is multiplied by ``1 + weight * over``, ``over``
-being how over-represented, relative to the *original* exemplar, the colours it would add already
-are (Kopf divides a voxel's weight by ``1 + sum max(0, H_s - H_e)``). The histogram is the one
-:func:`~ffd_notebook.solidtex.histogram_distance` compares (8 bins per channel, joint RGB).
+exemplar's (measured with cut seams, whose thick overlaps weigh the fit more: histogram distance
+0.08 at 128^3 without ``match_statistics``, against 0.04 for feathering). :class:`HistogramTerm`
+is in the spirit of Kopf et al.'s (2007) histogram matching, moved from voxels to blocks: it counts
+the colours of the blocks placed so far, and a candidate's cost is multiplied by
+``exp(weight * cos)``, ``cos`` being the cosine between the candidate's colour histogram minus the
+exemplar's and the output's minus the exemplar's: positive when the block would add colours the
+output already has too many of, negative when it brings ones the output lacks. The histogram is
+the one :func:`~ffd_notebook.solidtex.histogram_distance` compares (8 bins per channel, joint
+RGB), against the *original* exemplar at every stage of the growth, and the cosine follows that
+L2 distance's gradient. (Kopf's own per-bin relative over-use, ``sum max(0, H_s - H_e) / H_e``,
+was tried first: it weighs rare colours most, which the L2 distance hardly sees, and made the
+notebook's exemplar's histogram distance worse, 0.048 against 0.039 without a term.)
 """
 
 from __future__ import annotations
@@ -43,14 +48,14 @@ def colour_codes(volume: NDArray[np.floating]) -> NDArray[np.int16]:
 
 
 class HistogramTerm:
-    """How much a candidate block would over-use colours the output already has more of than the exemplar.
+    """Whether a candidate block moves the output's colour histogram away from the exemplar's (> 0) or towards it.
 
     Parameters
     ----------
     exemplar : numpy.ndarray
         The original ``(Z, Y, X, 3)`` exemplar: its histogram is the target at every stage.
     weight : float
-        ``cost * (1 + weight * over)``; 0 switches the term off.
+        ``cost * exp(weight * cos)``; 0 switches the term off.
 
     Examples
     --------
@@ -58,7 +63,7 @@ class HistogramTerm:
     >>> term = HistogramTerm(ex, weight=1.0)
     >>> term.add(ex, (0, 0, 0), 2)  # a white block is placed: white is now over-represented
     >>> term.over(ex, np.array([[0, 0, 0], [2, 0, 0]]), 2).round(2).tolist()  # a white, a black candidate
-    [1.0, 0.0]
+    [1.0, -1.0]
     """
 
     def __init__(self, exemplar: NDArray, weight: float) -> None:
@@ -77,12 +82,24 @@ class HistogramTerm:
         return codes[z[:, :, None, None], y[:, None, :, None], x[:, None, None, :]].reshape(len(corners), -1)
 
     def over(self, source: NDArray, corners: NDArray[np.int64], block: int) -> NDArray[np.float64]:
-        """Per candidate: the mean, over its voxels, of how over-represented their bin is (0 if none is)."""
+        """Per candidate: the cosine between its step and the output's histogram error (-1 to 1; 0 before any block).
+
+        Adding a candidate moves the output's histogram ``P`` towards the candidate's own ``h``;
+        the squared L2 distance to the exemplar's ``E`` changes, to first order, by
+        ``2 a (h - E) . (P - E)`` (``a`` the candidate's share). The cosine of those two vectors
+        is positive when the candidate adds colours the output already has too many of, negative
+        when it brings ones it lacks.
+        """
         total = self.counts.sum()
         if total == 0:
             return np.zeros(len(corners))
-        excess = np.maximum(self.counts / total - self.target, 0.0) / (self.target + 1.0 / _BINS**3)
-        return excess[self._block_codes(source, corners, block)].mean(axis=1)
+        error = self.counts / total - self.target
+        codes = self._block_codes(source, corners, block)
+        h = np.zeros((len(corners), _BINS**3))
+        np.add.at(h, (np.arange(len(corners))[:, None], codes), 1.0 / codes.shape[1])
+        step = h - self.target
+        norms = np.linalg.norm(step, axis=1) * np.linalg.norm(error)
+        return (step @ error) / np.maximum(norms, 1e-12)
 
     def add(self, source: NDArray, corner: tuple[int, int, int], block: int) -> None:
         """Count the colours of the block placed at ``corner``."""
@@ -144,7 +161,7 @@ class BlockMatcher:
         cost = np.einsum("ij,ij->i", feats, feats) - 2.0 * (feats @ target)
         if self.histogram is not None and self.histogram.weight > 0:
             cost = np.maximum(cost + float(target @ target), 0.0)  # the whole SSD, to scale it
-            cost *= 1.0 + self.histogram.weight * self.histogram.over(self.source, corners, self.block)
+            cost *= np.exp(self.histogram.weight * self.histogram.over(self.source, corners, self.block))
         return corners[int(np.argmin(cost))]
 
     def placed(self, corner) -> None:

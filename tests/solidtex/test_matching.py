@@ -26,6 +26,7 @@ def test_over_use_follows_what_was_placed():
     np.testing.assert_array_equal(term.over(ex, corners, 8), [0.0, 0.0])  # nothing placed: no preference
     term.add(ex, (0, 0, 0), 8)
     dark, bright = term.over(ex, corners, 8)
-    assert dark > 0.5 and bright == 0.0  # dark is now over-represented, bright is not
+    assert dark > 0.5 and bright < -0.5  # dark is now over-represented: another dark block is penalised
     term.add(ex, (8, 0, 0), 8)
-    assert max(term.over(ex, corners, 8)) < 0.3 * dark  # balanced again (up to the noise within each half)
+    error = term.counts / term.counts.sum() - term.target
+    assert np.abs(error).sum() < 0.2  # both halves placed: the counted histogram is the exemplar's
