@@ -32,7 +32,7 @@ has pixel-scale grain (5x5 windows with a colour standard deviation of 3-8 again
 kept: 4 levels (5.39, but features laid out 8x larger: washed-out blobs), a half-strength final
 transfer (5.44, low contrast), per-voxel robust weights (sharper, 5.9), more finest-level
 iterations (5.53 after 6 instead of 3), exact nearest neighbours in 32 PCA dimensions, 7x7 coarse
-neighbourhoods, k-coherence candidates, sparser or denser proposal grids (each within 0.05).
+neighbourhoods, k-coherence candidates, sparser or denser proposal grids (each by less than 0.1).
 
 The volume wraps around (its neighbourhoods are taken periodically), so the result tiles, and it
 is the exemplar :func:`~ffd_notebook.solidtex.synthesize` grows larger volumes from. Hand-written
