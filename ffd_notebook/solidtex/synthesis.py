@@ -42,7 +42,7 @@ from .seeding import RNGLike
 __all__ = ["DEFAULT_HISTOGRAM_WEIGHT", "DEFAULT_OVERLAP", "Stage", "plan_stages", "synthesize"]
 
 DEFAULT_OVERLAP = {"feather": 1 / 6, "cut": 1 / 3}  # synthesize's overlap for each kind of seam (see there)
-DEFAULT_HISTOGRAM_WEIGHT = {"feather": 0.0, "cut": 1.0}  # and its histogram_weight
+DEFAULT_HISTOGRAM_WEIGHT = {"feather": 0.0, "cut": 0.5}  # and its histogram_weight
 
 
 @dataclass(frozen=True)
@@ -297,11 +297,13 @@ def synthesize(
         a candidate's overlap mismatch is multiplied by ``exp(weight * cos)``, ``cos`` (-1 to 1)
         saying whether its colours would move the output's histogram away from the exemplar's or
         towards it; 0 ranks by mismatch alone. Default (:data:`DEFAULT_HISTOGRAM_WEIGHT`): 0 when
-        feathering (the paper's method), 1 with cuts, whose thick overlaps otherwise favour
-        easy-to-fit blocks. Measured at 128^3 with reuse, 3 seeds, histogram distance of cuts
-        from the benchmark's sheared extrusion: 0.044 without the term, 0.023 at weight 1, 0.036
-        at 3 (feathering: 0.039); from the notebook's optimised exemplar 0.039, 0.045 and 0.036
-        (feathering: 0.033): there it does not help, and cuts stay behind feathering.
+        feathering (the paper's method), 0.5 with cuts, whose thick overlaps otherwise favour
+        easy-to-fit blocks. Measured at 128^3, 3 seeds, cuts from the benchmark's sheared
+        extrusion: with reuse, histogram distance 0.027 at weight 0.5, 0.023 at 1 (0.046 with no
+        term and 1/4 overlaps; feathering 0.039) and seam energy 0.62x feathering's at both; with
+        fixed blocks, 0.021 and 0.014 (feathering 0.031) at seam energy 0.66x and 0.71x. From the
+        notebook's optimised exemplar (reuse) it does not help: 0.039 with no term, 0.045 at 1
+        (feathering 0.033).
     stats : dict, optional
         Filled with ``"seam_mismatch"``: per stage, the seam energy in the sense of Efros-Freeman
         and Kwatra et al.: the squared colour difference between overlapping blocks where the

@@ -234,7 +234,7 @@ def seams(ex, quick):
             f"  time ratio cut / feather, {size}^3 {growth}", res["cut"][:, 0].mean() / res["feather"][:, 0].mean(), "x"
         )
     print("  (means over the seeds, ± their standard error; overlaps: 1/6 of the block feathered (the paper's),")
-    print("   1/3 cut, with the histogram term of weight 1 (synthesize's defaults); seam energy: squared colour")
+    print("   1/3 cut, with the histogram term of weight 0.5 (synthesize's defaults); seam energy: squared colour")
     print("   difference of overlapping blocks where the result passes from one to the other, per voxel of overlap")
     print("   face, relative to two unrelated voxels")
     print("   (1 = blocks joined at random), final stage; histogram: the same seeds paired, 'equal' when the mean")
