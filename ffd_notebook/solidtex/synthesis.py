@@ -301,7 +301,8 @@ def synthesize(
         easy-to-fit blocks. Measured at 128^3, 3 seeds, cuts from the benchmark's sheared
         extrusion: with reuse, histogram distance 0.027 at weight 0.5, 0.023 at 1 (0.046 with no
         term and 1/4 overlaps; feathering 0.039) and seam energy 0.62x feathering's at both; with
-        fixed blocks, 0.021 and 0.014 (feathering 0.031) at seam energy 0.66x and 0.71x. From the
+        fixed blocks, 0.021 and 0.014 (feathering 0.031) at seam energy 0.66x and 0.71x; 256^3 with
+        reuse at 0.5: 0.029 (feathering 0.045) at 0.58x. From the
         notebook's optimised exemplar (reuse) it does not help: 0.039 with no term, 0.045 at 1
         (feathering 0.033).
     stats : dict, optional
