@@ -55,6 +55,7 @@ from ffd_notebook.solidtex import (
     synthesize,
     volume_from_slices,
 )
+from ffd_notebook.solidtex.synthesis import DEFAULT_OVERLAP
 from ffd_notebook.view.solidtex import CutViewer, TexturedOrgan
 
 
@@ -207,7 +208,7 @@ def seams(ex, quick):
                     ),
                     1,
                 )
-                overlap = 1 / 4 if method == "cut" else 1 / 6  # synthesize's default for each
+                overlap = DEFAULT_OVERLAP[method]  # synthesize's default for each
                 last = plan_stages(ex.shape, (size,) * 3, block, overlap, reuse=reuse)[-1]
                 runs.append(
                     (
@@ -233,8 +234,9 @@ def seams(ex, quick):
             f"  time ratio cut / feather, {size}^3 {growth}", res["cut"][:, 0].mean() / res["feather"][:, 0].mean(), "x"
         )
     print("  (means over the seeds, ± their standard error; overlaps: 1/6 of the block feathered (the paper's),")
-    print("   1/4 cut (synthesize's defaults); seam energy: squared colour difference of overlapping blocks where")
-    print("   the result passes from one to the other, per voxel of overlap face, relative to two unrelated voxels")
+    print("   1/3 cut, with the histogram term of weight 0.5 (synthesize's defaults); seam energy: squared colour")
+    print("   difference of overlapping blocks where the result passes from one to the other, per voxel of overlap")
+    print("   face, relative to two unrelated voxels")
     print("   (1 = blocks joined at random), final stage; histogram: the same seeds paired, 'equal' when the mean")
     print("   difference is within twice its standard error (one seed's histogram distance varies by ~0.009);")
     print("   grad. ratio: the older seam_energy, gradient energy in the overlap bands over everywhere, 1 = as")
