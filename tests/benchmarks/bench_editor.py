@@ -150,7 +150,7 @@ def lattice_size_figures(repeat: int, frames: int) -> None:
           f"target <= {TARGET_OPEN_20_MB:.0f} MB)  {verdict}")  # fmt: skip
     editor = Editor(FACE, shape=(5, 5, 5), window_size=(800, 600))
     try:
-        for mode in ("all", "near", "hull"):
+        for mode in ("auto", "all", "near", "hull"):
             editor.show_points(mode)
             cost = {}
             for n in (5, 20):

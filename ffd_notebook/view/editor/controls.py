@@ -153,7 +153,7 @@ BASIS_CHOICES = tuple((b, b) for b in BASES)
 # ipywidgets shows a ``None`` value as an empty dropdown: the panels use "none" for "no field"
 FIELD_CHOICES = (("none", "mesh colours"), ("displacement", "|displacement|"), ("jacobian", "folding (det J <= 0)"))
 MODE_CHOICES = tuple(zip(MODES, ("control points", "the mesh surface"), strict=True))
-POINTS_CHOICES = (("all", "all"), ("near", "near the selected"), ("hull", "hull"))
+POINTS_CHOICES = (("auto", "all (hull above 1000)"), ("all", "all"), ("near", "near the selected"), ("hull", "hull"))
 _IJK, _XYZ = ("sel_i", "sel_j", "sel_k"), ("dx", "dy", "dz")
 
 
@@ -328,7 +328,8 @@ CONTROLS: tuple[Control, ...] = (
         state=("points_shown",),
         command="show_points",
         choices=POINTS_CHOICES,
-        tooltip="Dense lattices: draw every control point, those near the selected one, or the hull",
+        tooltip="Dense lattices: draw every control point, those near the selected one, or the hull "
+        "(auto: all up to 1000 control points, else the hull)",
     ),
     Control("reduction", "slider", "decimate", "Display", default=0.5, row=1),
     Control(

@@ -43,7 +43,7 @@ from numpy.typing import ArrayLike, NDArray
 from ...lattice import Lattice
 from .session import POINTS_SHOWN
 
-__all__ = ["NEAR_RINGS", "LatticeActor", "shown_indices", "widget_radius"]
+__all__ = ["AUTO_ALL_UP_TO", "NEAR_RINGS", "LatticeActor", "shown_indices", "widget_radius"]
 
 WIDGET_COLOR = "royalblue"
 SELECTED_COLOR = "gold"
@@ -55,6 +55,8 @@ _PARKED = 1e-6
 #: lattices with more control points than this draw 1-px lines: wide lines cost fill (software rendering)
 #: and a dense lattice's wide lines cover the mesh
 THIN_LINES_ABOVE = 1000
+#: display "auto" shows every control point of lattices up to this size, the hull of denser ones
+AUTO_ALL_UP_TO = 1000
 #: the handle is a polygon sphere: a little larger than the true sphere so it covers every pixel the glyph does
 _HANDLE_SCALE = 1.04
 
@@ -74,13 +76,17 @@ def shown_indices(shape: tuple[int, int, int], mode: str, selected: int | None =
     """Flat indices of the control points drawn in display ``mode`` (see :data:`POINTS_SHOWN`).
 
     ``"near"`` shows the points within :data:`NEAR_RINGS` index steps of ``selected`` (the hull
-    while nothing is selected: somewhere to start); ``"hull"`` the boundary points. The selected
+    while nothing is selected: somewhere to start); ``"hull"`` the boundary points; ``"auto"`` all
+    of them up to :data:`AUTO_ALL_UP_TO` control points, the hull of a denser lattice (whose inner
+    spheres and lines would hide the mesh and cost a third more per frame at 20^3). The selected
     point is always shown.
 
     Examples
     --------
     >>> len(shown_indices((5, 5, 5), "all")), len(shown_indices((5, 5, 5), "hull"))
     (125, 98)
+    >>> len(shown_indices((10, 10, 10), "auto")), len(shown_indices((11, 10, 10), "auto"))
+    (1000, 524)
     >>> len(shown_indices((20, 20, 20), "near", selected=0)), len(shown_indices((20, 20, 20), "near", 4210))
     (27, 125)
     >>> shown_indices((3, 3, 3), "hull", selected=13)[13 - 1 : 13 + 1].tolist()  # the centre, selected
@@ -89,6 +95,8 @@ def shown_indices(shape: tuple[int, int, int], mode: str, selected: int | None =
     if mode not in POINTS_SHOWN:
         raise ValueError(f"points shown must be one of {POINTS_SHOWN}, got {mode!r}")
     n = int(np.prod(shape))
+    if mode == "auto":
+        mode = "all" if n <= AUTO_ALL_UP_TO else "hull"
     if mode == "all":
         return np.arange(n, dtype=np.int64)
     ijk = np.indices(shape).reshape(3, -1).T
@@ -330,7 +338,7 @@ class LatticeActor:
     def highlight(self, index: int | None) -> None:
         """Draw control point ``index`` (flat) in the selection colour, the others normally; in ``"near"``
         mode the shown points follow it."""
-        if self.points_shown == "near" or (self.points_shown == "hull" and index is not None):
+        if self.points_shown == "near" or (self.points_shown in ("hull", "auto") and index is not None):
             self.show_points(self.points_shown, index)
         else:
             self._selected = index

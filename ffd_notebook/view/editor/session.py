@@ -41,7 +41,7 @@ __all__ = ["FIELDS", "POINTS_SHOWN", "EditingSession", "MeshIO", "copy_ffd", "fi
 #: what the mesh can be colored by: nothing (its own colors), |displacement|, folding (det J <= 0)
 FIELDS = (None, "displacement", "jacobian")
 #: which control points the view draws: all, those near the selection, the lattice's hull (dense lattices)
-POINTS_SHOWN = ("all", "near", "hull")
+POINTS_SHOWN = ("auto", "all", "near", "hull")
 
 
 def fitted_lattice(mesh: Any, shape: tuple[int, int, int], basis: str) -> Lattice:
@@ -118,7 +118,7 @@ class EditingSession(SurfaceDragging):
         self.history = History()
         self.field: str | None = None
         self.colors_shown = True
-        self.points_shown = "all"
+        self.points_shown = "auto"
         self.selected: tuple[int, int, int] | None = None
         self._subscribers = Subscribers(self.messages.append)
         self._dragged: int | None = None
@@ -445,7 +445,8 @@ class EditingSession(SurfaceDragging):
 
     def show_points(self, which: str) -> None:
         """Which control points the view draws (:data:`POINTS_SHOWN`): ``"all"``, ``"near"`` (those
-        within two index steps of the selection) or ``"hull"`` (the lattice's boundary)."""
+        within two index steps of the selection), ``"hull"`` (the lattice's boundary) or ``"auto"`` (the
+        default: all of them up to 1000 control points, the hull of a denser lattice)."""
         if which not in POINTS_SHOWN:
             raise ValueError(f"points shown must be one of {POINTS_SHOWN}, got {which!r}")
         self.points_shown = which

@@ -39,7 +39,7 @@ def test_the_loop_answers_while_a_big_mesh_loads_and_a_big_lattice_is_rebuilt(tm
     try:
         (_, load_stall), (_, rebuild_stall) = asyncio.run(scenario())
         assert editor.mesh.n_points == big.n_points, list(editor.messages)
-        assert editor.scene.lattice_actor.glyphs.n_points == 8000 and editor.can_undo
+        assert editor.scene.lattice_actor.glyphs.n_points == 8000 - 18**3 and editor.can_undo
         assert load_stall < MAX_STALL_S, f"loading blocked the loop for {load_stall:.2f} s"
         assert rebuild_stall < MAX_STALL_S, f"the rebuild blocked the loop for {rebuild_stall:.2f} s"
         editor.undo()  # the rebuild is one undo step

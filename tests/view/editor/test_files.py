@@ -78,6 +78,8 @@ def test_real_registration_ffd_keeps_its_placement(shared_data):
         np.testing.assert_allclose(lat.origin, (90, -126, -72))
         np.testing.assert_allclose(lat.rotation, np.diag([-1.0, 1.0, 1.0]), atol=1e-12)
         np.testing.assert_allclose(lat.offsets[1, 0, 0], (-0.191950, -0.152277, -0.006144))
+        assert editor.scene.lattice_actor.glyphs.n_points == 1452 - 9 * 10 * 9  # "auto": a dense lattice's hull
+        editor.show_points("all")
         assert editor.scene.lattice_actor.glyphs.n_points == 1452
         assert_view_matches_model(editor)
         assert np.abs(shown_points(editor) - face.points).max() > 0.01  # the registration moves the face
