@@ -84,16 +84,24 @@ class Instrument:
         return fingerprint(self.editor.scene.shown_points())
 
     def widget_display_positions(self) -> list[dict[str, float]]:
-        """Where each control point is on screen: ``{"index", "u", "v", "z"}``, normalised, origin bottom-left."""
+        """Where each drawn control point is on screen: ``{"index", "u", "v", "z"}``, normalised, origin
+        bottom-left (the points the display setting hides are left out: nobody can grab them)."""
         plotter = self.editor.plotter
         ren = plotter.renderer
         w, h = plotter.render_window.GetSize()
+        shown = set(self.editor.scene.lattice_actor.shown.tolist())
+        from ffd_notebook.fit import control_weights
+
+        index, weight = control_weights(self.editor.ffd, self.editor.session.rest_points)
+        moving = set(np.unique(index[weight != 0]).tolist())  # the control points that move some vertex
         out = []
         for i, center in enumerate(self.editor.session.control_points()):
+            if i not in shown:
+                continue
             ren.SetWorldPoint(*center, 1.0)
             ren.WorldToDisplay()
             x, y, z = ren.GetDisplayPoint()
-            out.append({"index": i, "u": x / w, "v": y / h, "z": z})
+            out.append({"index": i, "u": x / w, "v": y / h, "z": z, "moves_mesh": i in moving})
         return out
 
     def surface(self, probe: list[list[float]] | None = None) -> dict[str, Any]:

@@ -212,11 +212,13 @@ def pick_widget(
 ) -> tuple[int, float, float]:
     """A widget to drag and a drag vector.
 
-    The widget is the inner control point of the ``shape`` lattice (outer ones may influence no vertex of
-    the mesh) in the view's middle that is farthest on screen from every other sphere.
+    The widget is the inner control point of the ``shape`` lattice that moves some vertex of the mesh
+    (``moves_mesh`` in the answer; outer ones, or those of a big lattice far from the mesh, may move none)
+    in the view's middle that is farthest on screen from every other sphere.
     The direction (of ``distance`` px) keeps farthest from the other widgets and inside the view.
     """
     positions = [(w["index"], *widget_xy(info, box, w["index"]), w["z"]) for w in info["widgets"]]
+    moves_mesh = {w["index"]: w.get("moves_mesh", True) for w in info["widgets"]}
 
     def inner(index: int) -> bool:
         ijk = np.unravel_index(index, shape)
@@ -228,7 +230,7 @@ def pick_widget(
 
     candidates = [
         p for p in positions
-        if inner(p[0]) and 0.15 < (p[1] - box["x"]) / box["width"] < 0.85
+        if inner(p[0]) and moves_mesh[p[0]] and 0.15 < (p[1] - box["x"]) / box["width"] < 0.85
         and 0.15 < (p[2] - box["y"]) / box["height"] < 0.85
     ]  # fmt: skip
     assert candidates, "no inner control point in the view"

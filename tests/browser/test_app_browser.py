@@ -7,6 +7,7 @@ which are also written to ``test-artifacts/browser_metrics.json`` with before/af
 from __future__ import annotations
 
 import re
+import shutil
 import subprocess
 import sys
 import time
@@ -164,3 +165,38 @@ def test_drag_save_and_upload_in_the_app(app, tmp_path: Path):
             context.close()
     metrics["test_s"] = round(time.monotonic() - t0, 1)
     record_metrics("standalone_app", metrics)
+
+
+def test_open_the_real_registration_lattice_and_drag(app, tmp_path: Path, shared_data: Path):
+    """A user opens the real 11x12x11 registration .ffd through the panel (1452 control points: the
+    "auto" display draws its hull), asks for all control points, and drags an inner one."""
+    url, trace, _ = app
+    shutil.copy(shared_data / "seed-lineage" / "registration_11x12x11.FFD", tmp_path / "registration.ffd")
+    with sync_playwright() as pw:
+        context = launch_browser(pw, tmp_path / "profile")
+        try:
+            page = context.new_page()
+            errors: list[str] = []
+            page.on("pageerror", lambda e: errors.append(str(e)))
+            page.goto(url, wait_until="load")
+            view = page.locator("#ffd-view img").first
+            view.wait_for(state="visible", timeout=60_000)
+            wait_for(lambda: image_frames(page.main_frame), 60, "the first image")
+            page.fill("#ffd-path", "registration.ffd")  # relative to the app's root folder
+            page.click("#ffd-load")
+            wait_for(lambda: len(trigger(page, "ffd_widget_px")["widgets"]) == 1452 - 9 * 10 * 9, 60,
+                     "the 11x12x11 lattice, its hull drawn")  # fmt: skip
+            loaded = trigger(page, "ffd_state")
+            assert loaded["offsets_abs_sum"] > 0  # a registration result: its offsets came with it
+            page.click(".v-select:has(#ffd-points-shown) .v-field")  # open the select, pick the option
+            page.get_by_role("option", name="all", exact=True).click()
+            wait_for(lambda: len(trigger(page, "ffd_widget_px")["widgets"]) == 1452, 30, "every control point drawn")
+            metrics = drag_and_measure(page, page.main_frame, view, trace, shape=(11, 12, 11))
+            page.screenshot(path=ARTIFACTS / "app_registration_after_drag.png")
+            state, records = settled_drag_state(page, trace, loaded["n_callbacks"])
+            assert records and {r["index"] for r in records} == {metrics["widget"]}
+            assert state["offsets_abs_sum"] != loaded["offsets_abs_sum"]
+            assert state["checksum"] != loaded["checksum"], "the mesh did not change"
+            assert not errors, errors
+        finally:
+            context.close()
