@@ -201,6 +201,19 @@ def image_frames(frame: Any, t_from: float | None = None, t_to: float | None = N
     return [m for m in frames if (t_from is None or m["t"] >= t_from) and (t_to is None or m["t"] < t_to)]
 
 
+def open_app_page(context: Any, url: str) -> tuple[Any, Any, list[str]]:
+    """Open the app at ``url`` in a new page of ``context`` and wait for its first image; returns
+    ``(page, view, errors)``: the view's ``<img>`` locator and the page's JavaScript errors (filled as they come)."""
+    page = context.new_page()
+    errors: list[str] = []
+    page.on("pageerror", lambda e: errors.append(str(e)))
+    page.goto(url, wait_until="load")
+    view = page.locator("#ffd-view img").first
+    view.wait_for(state="visible", timeout=60_000)
+    wait_for(lambda: image_frames(page.main_frame), 60, "the first image")
+    return page, view, errors
+
+
 def widget_xy(info: dict[str, Any], box: dict[str, float], index: int) -> tuple[float, float]:
     """Page coordinates of widget ``index`` from an ``ffd_widget_px`` answer and the view's bounding box."""
     w = next(w for w in info["widgets"] if w["index"] == index)

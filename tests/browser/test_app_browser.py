@@ -20,8 +20,8 @@ from browser.helpers import (
     ARTIFACTS,
     drag_and_measure,
     free_port,
-    image_frames,
     launch_browser,
+    open_app_page,
     record_metrics,
     server_env,
     settled_drag_state,
@@ -84,13 +84,7 @@ def test_drag_save_and_upload_in_the_app(app, tmp_path: Path):
     with sync_playwright() as pw:
         context = launch_browser(pw, tmp_path / "profile")
         try:
-            page = context.new_page()
-            errors: list[str] = []
-            page.on("pageerror", lambda e: errors.append(str(e)))
-            page.goto(url, wait_until="load")
-            view = page.locator("#ffd-view img").first
-            view.wait_for(state="visible", timeout=60_000)
-            wait_for(lambda: image_frames(page.main_frame), 60, "the first image")
+            page, view, errors = open_app_page(context, url)
             metrics["first_image_s"] = round(time.monotonic() - t0, 1)
             time.sleep(1.0)
             page.screenshot(path=ARTIFACTS / "app_before_drag.png")
@@ -175,13 +169,7 @@ def test_open_the_real_registration_lattice_and_drag(app, tmp_path: Path, shared
     with sync_playwright() as pw:
         context = launch_browser(pw, tmp_path / "profile")
         try:
-            page = context.new_page()
-            errors: list[str] = []
-            page.on("pageerror", lambda e: errors.append(str(e)))
-            page.goto(url, wait_until="load")
-            view = page.locator("#ffd-view img").first
-            view.wait_for(state="visible", timeout=60_000)
-            wait_for(lambda: image_frames(page.main_frame), 60, "the first image")
+            page, view, errors = open_app_page(context, url)
             page.fill("#ffd-path", "registration.ffd")  # relative to the app's root folder
             page.click("#ffd-load")
             wait_for(lambda: len(trigger(page, "ffd_widget_px")["widgets"]) == 1452 - 9 * 10 * 9, 60,

@@ -12,7 +12,7 @@ import time
 
 import numpy as np
 import pytest
-from browser.helpers import ARTIFACTS, image_frames, launch_browser, wait_for
+from browser.helpers import ARTIFACTS, image_frames, launch_browser, open_app_page, wait_for
 from browser.test_app_browser import app  # noqa: F401  (the instrumented app fixture)
 from playwright.sync_api import sync_playwright
 
@@ -46,13 +46,7 @@ def test_drag_the_face_itself_in_the_app(app, tmp_path):  # noqa: F811
     with sync_playwright() as pw:
         context = launch_browser(pw, tmp_path / "profile")
         try:
-            page = context.new_page()
-            errors: list[str] = []
-            page.on("pageerror", lambda e: errors.append(str(e)))
-            page.goto(url, wait_until="load")
-            view = page.locator("#ffd-view img").first
-            view.wait_for(state="visible", timeout=60_000)
-            wait_for(lambda: image_frames(page.main_frame), 60, "the first image")
+            page, view, errors = open_app_page(context, url)
 
             # the mode control, as a user would: open the select, pick the option
             page.click(".v-select:has(#ffd-mode) .v-field")
