@@ -160,7 +160,7 @@ class AppFilesMixin:
     def _read_mesh(self, path: Path, shown: str) -> None:
         def work() -> tuple[Any, Any, Any]:
             mesh, deformer = self.editor.read_mesh_file(path)
-            return mesh, deformer, prepare_display(mesh, deformer.current())
+            return mesh, deformer, prepare_display(mesh, deformer.current(), self.editor.scene.interactive_cells)
 
         def done(result: tuple[Any, Any, Any]) -> None:
             mesh, deformer, prepared = result

@@ -33,6 +33,7 @@ from ...meshing import as_surface, color_array_name, decimate_keeping_colors, de
 from . import session_files
 from .history import History
 from .message_log import MessageLog
+from .proxy import INTERACTIVE_CELLS
 from .scene import EditorScene
 from .session import EditingSession, MeshIO
 
@@ -86,6 +87,10 @@ class Editor:
         Render window size in pixels.
     off_screen : bool, optional
         Render off-screen (the default: images go to the notebook view, the app or screenshots).
+    interactive_cells : int or None
+        While a mouse button is held (a drag, a camera turn), a mesh with at least twice as many
+        cells is drawn from a copy with about this many, at the view's reduced drag size; the
+        release brings back the full mesh. None always draws the full mesh.
 
     Examples
     --------
@@ -111,6 +116,7 @@ class Editor:
         basis: str = "bspline",
         window_size: tuple[int, int] = (800, 600),
         off_screen: bool | None = None,
+        interactive_cells: int | None = INTERACTIVE_CELLS,
     ) -> None:
         self.session = EditingSession(
             _surface_of(mesh_or_path), mesh_io=PYVISTA_MESH_IO, lattice=lattice, shape=shape, basis=basis
@@ -122,6 +128,7 @@ class Editor:
             on_end=lambda _index: self.session.end_drag(),
             window_size=window_size,
             off_screen=True if off_screen is None else bool(off_screen),
+            interactive_cells=interactive_cells,
         )
         self.last_callback_ms = 0.0
         self._widget: Any = None

@@ -5,7 +5,8 @@ deformation: on a ``"drag"`` or ``"offsets"`` change it copies the session's def
 the plotted mesh's points array in place and moves the lattice lines and control-point spheres
 (and, for edits not made by dragging, the parked drag handle). No actor is created or removed while
 dragging. A loaded mesh's plotted copy and normals may come ready-made from a worker thread
-(:func:`prepare_display`, :meth:`EditorScene.offer_display`).
+(:func:`prepare_display`, :meth:`EditorScene.offer_display`). While a mouse button is held, a large
+mesh is drawn from a lighter copy (:mod:`.proxy`).
 Rendering and pushing frames to browser views (:class:`~ffd_notebook.view.jupyter.BrowserViews`)
 happen after every change except drag events and messages: during a drag, trame renders when it
 sends the image.
@@ -27,6 +28,7 @@ from ..jupyter import views_of
 from . import coloring
 from .changes import Change
 from .lattice_actor import LatticeActor
+from .proxy import INTERACTIVE_CELLS, InteractiveProxy, point_normals, simplified
 from .session import EditingSession
 from .surface_handle import SurfaceHandle
 
@@ -37,40 +39,37 @@ FRONT = (0.3, 0.2, 1.0)
 
 
 class PreparedDisplay:
-    """The plotted copy of a mesh and its point-normals filter, made by :func:`prepare_display`."""
+    """The plotted copy of a mesh, its point-normals filter and its interactive copy's geometry
+    (:func:`~.proxy.simplified` with ``cells``), made by :func:`prepare_display`."""
 
-    def __init__(self, source: Any, display: pv.PolyData, normals: Any) -> None:
+    def __init__(self, source: Any, display: pv.PolyData, normals: Any, proxy: Any, cells: int | None) -> None:
         self.source, self.display, self.normals = source, display, normals
+        self.proxy, self.cells = proxy, cells
 
 
-def prepare_display(mesh: pv.PolyData, points: ArrayLike) -> PreparedDisplay:
+def prepare_display(
+    mesh: pv.PolyData, points: ArrayLike, interactive_cells: int | None = INTERACTIVE_CELLS
+) -> PreparedDisplay:
     """What the scene plots for ``mesh`` at ``points``: a deep copy (its points written in place while
-    dragging) and a ``vtkPolyDataNormals`` filter on it, already run.
+    dragging), a ``vtkPolyDataNormals`` filter on it, already run (:func:`~.proxy.point_normals`),
+    and the vertices and faces of the lighter copy drawn while a button is held (None for a mesh
+    under twice ``interactive_cells`` cells).
 
-    Only new objects: safe in a worker thread, so the app's loads do the copy and the normals (0.1 s
-    on a 500k-point mesh) there and its event loop only swaps the actor. The normals are VTK's,
-    without reorienting faces consistently (PyVista's ``smooth_shading`` does, 7x slower, again at
-    every frame after a drag), as the mesh's own faces say.
+    Only new objects: safe in a worker thread, so the app's loads do the copy, the normals (0.1 s
+    on a 500k-point mesh) and the clustering there and its event loop only swaps the actors.
 
     Examples
     --------
     >>> prepared = prepare_display(pv.Sphere(), pv.Sphere().points * 2)
     >>> prepared.normals.GetOutput().GetPointData().GetNormals().GetNumberOfTuples() == prepared.display.n_points
     True
+    >>> prepared.proxy is None  # 1680 triangles: drawn as they are
+    True
     """
-    from vtkmodules.vtkFiltersCore import vtkPolyDataNormals
-
     display = mesh.copy(deep=True)
     display.points[:] = points
-    normals = vtkPolyDataNormals()
-    normals.SetInputData(display)
-    normals.ComputePointNormalsOn()
-    normals.ComputeCellNormalsOff()
-    normals.SplittingOff()
-    normals.ConsistencyOff()
-    normals.AutoOrientNormalsOff()
-    normals.Update()
-    return PreparedDisplay(mesh, display, normals)
+    proxy = simplified(display, interactive_cells)
+    return PreparedDisplay(mesh, display, point_normals(display), proxy, interactive_cells)
 
 
 class EditorScene:
@@ -86,6 +85,9 @@ class EditorScene:
         Render window size in pixels.
     off_screen : bool
         Render off-screen.
+    interactive_cells : int or None
+        While a mouse button is held, a mesh with at least twice as many cells is drawn from a copy
+        with about this many (:mod:`.proxy`); None always draws the full mesh.
     """
 
     def __init__(
@@ -97,8 +99,10 @@ class EditorScene:
         on_end: Callable[[int], None],
         window_size: tuple[int, int] = (800, 600),
         off_screen: bool = True,
+        interactive_cells: int | None = INTERACTIVE_CELLS,
     ) -> None:
         self.session = session
+        self.interactive_cells = interactive_cells
         self._callbacks = (on_move, on_start, on_end)
         self.plotter = pv.Plotter(off_screen=off_screen, window_size=window_size)
         if off_screen and self.plotter.iren is not None:
@@ -109,6 +113,9 @@ class EditorScene:
         self.views = views_of(self.plotter)
         self.views.on_error = lambda text: session.messages.append(f"Error: {text}")
         self.mesh_actor: Any = None
+        self.proxy: InteractiveProxy | None = None
+        self.interacting = False
+        self._button_tags = self._watch_buttons()
         self.lattice_actor: LatticeActor | None = None
         self._offered: PreparedDisplay | None = None
         self._shown_lattice: Any = None
@@ -168,8 +175,11 @@ class EditorScene:
     def _build_mesh(self) -> None:
         """Show the session's mesh (a copy whose points are written in place); replaces any previous actor."""
         prepared, self._offered = self._offered, None
-        if prepared is None or prepared.source is not self.session.mesh:
-            prepared = prepare_display(self.session.mesh, self.session.deformed_points)
+        if prepared is None or prepared.source is not self.session.mesh or prepared.cells != self.interactive_cells:
+            prepared = prepare_display(self.session.mesh, self.session.deformed_points, self.interactive_cells)
+        if self.proxy is not None:
+            self.proxy.remove()
+            self.proxy = None
         if self.mesh_actor is not None:
             self.plotter.remove_actor(self.mesh_actor, reset_camera=False, render=False)
         self.display = prepared.display
@@ -177,9 +187,30 @@ class EditorScene:
         self.mesh_actor = self.plotter.add_mesh(
             prepared.normals, color="tan", interpolation="phong", reset_camera=False, render=False
         )
+        if prepared.proxy is not None:
+            self.proxy = InteractiveProxy(self.plotter, self.display, self.mesh_actor, prepared.proxy)
+            self.proxy.interacting = self.interacting
         self._write_mesh_points(only_if_changed=True)
         self._write_field()
         self._recolor()
+
+    def _watch_buttons(self) -> list[int]:
+        """Observe the interactor's button presses and releases: :attr:`interacting` while one is held."""
+        iren = self.plotter.iren.interactor if self.plotter.iren is not None else None
+        if iren is None:
+            return []
+        tags = []
+        for button in ("Left", "Middle", "Right"):
+            # before any widget or style observer (which may abort the event), without aborting it
+            tags.append(iren.AddObserver(f"{button}ButtonPressEvent", lambda *_: self.set_interacting(True), 100.0))
+            tags.append(iren.AddObserver(f"{button}ButtonReleaseEvent", lambda *_: self.set_interacting(False), 100.0))
+        return tags
+
+    def set_interacting(self, interacting: bool) -> None:
+        """Whether a mouse button is held: renders draw the mesh's lighter copy (if it has one) until released."""
+        self.interacting = bool(interacting)
+        if self.proxy is not None:
+            self.proxy.interacting = self.interacting
 
     def _build_lattice(self) -> None:
         """New glyphs, lines and handle for the session's lattice."""
@@ -272,6 +303,11 @@ class EditorScene:
         """Stop following the session; release the widgets and the plotter."""
         self._unsubscribe()
         self.views.clear()
+        if self.plotter.iren is not None:
+            for tag in self._button_tags:
+                self.plotter.iren.interactor.RemoveObserver(tag)
+        if self.proxy is not None:
+            self.proxy.remove()
         self.surface_handle.remove()
         if self.lattice_actor is not None and self.plotter.render_window is not None:
             self.lattice_actor.remove()
