@@ -19,7 +19,6 @@ from __future__ import annotations
 import atexit
 import os
 import socket
-import time
 from collections.abc import Callable
 from typing import Any
 
@@ -28,14 +27,11 @@ from ..web_security import AccessPolicy, new_token, protect, url_with_token
 from . import controls as panel_controls
 from .app_files import MESH_FORMATS, AppFilesMixin
 from .app_layout import build_layout
-from .changes import Change
+from .changes import Change, DragSync
 from .controls import by_key, editor_state, run
 from .editor import Editor
 
 __all__ = ["EditorApp", "run_app"]
-
-# while a sphere is dragged, the panel's X/Y/Z follow at most this often (each sync is a websocket message)
-DRAG_SYNC_S = 0.25
 
 
 class EditorApp(AppFilesMixin):
@@ -88,7 +84,7 @@ class EditorApp(AppFilesMixin):
         self.files = FileRoot(os.getcwd() if root is None else root, max_bytes=max_file_bytes)
         self.token = new_token() if token is None else token
         self.url: str | None = None
-        self._last_drag_sync = 0.0
+        self._drag_sync = DragSync()
         self._scratch = None
         self._tasks: set[Any] = set()
         self.controls = [c for c in panel_controls.CONTROLS if "app" in c.panels]
@@ -137,12 +133,8 @@ class EditorApp(AppFilesMixin):
             self.state.update(self._editor_values())
 
     def _on_editor_change(self, change: Change) -> None:
-        if change.kind == "drag":  # every mouse move: keep the page cheap to update
-            now = time.monotonic()
-            if now - self._last_drag_sync < DRAG_SYNC_S:
-                return
-            self._last_drag_sync = now
-        self.sync()
+        if self._drag_sync.wanted(change):  # drags: at most every DRAG_SYNC_S (each sync is a websocket message)
+            self.sync()
 
     # ------------------------------------------------------------------ page -> editor
     def _input_handler(self, control: Any) -> Any:

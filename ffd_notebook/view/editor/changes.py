@@ -15,13 +15,17 @@ from typing import Literal
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["KINDS", "Change", "Subscribers"]
+__all__ = ["DRAG_SYNC_S", "KINDS", "Change", "DragSync", "Subscribers"]
 
 Kind = Literal["drag", "offsets", "lattice", "mesh", "select", "display", "message"]
 #: ``"drag"``: offsets changed while a handle is held (the handle is already where the mouse is);
 #: ``"offsets"``: a finished offsets edit; ``"lattice"``: a new lattice (or basis); ``"mesh"``: a new
 #: mesh; ``"select"``: the selected control point; ``"display"``: coloring; ``"message"``: a new message.
 KINDS: tuple[str, ...] = ("drag", "offsets", "lattice", "mesh", "select", "display", "message")
+
+#: while something is dragged, the panels follow at most this often: each sync is messages to the page
+#: (in JupyterLab, widget updates that Lab's page handles on the same thread as the view's frames)
+DRAG_SYNC_S = 0.25
 
 
 @dataclass(frozen=True)
@@ -99,3 +103,30 @@ class Subscribers:
     def clear(self) -> None:
         """Unsubscribe everybody (the editor is closing)."""
         self._callbacks.clear()
+
+
+class DragSync:
+    """Which changes a panel follows: every change, but ``"drag"`` changes at most every ``period`` seconds.
+
+    The change that ends a drag is an ``"offsets"`` one, so the panel shows the final state.
+
+    Examples
+    --------
+    >>> sync = DragSync(period=10.0)
+    >>> [sync.wanted(Change(kind)) for kind in ("drag", "drag", "offsets", "drag")]
+    [True, False, True, False]
+    """
+
+    def __init__(self, period: float = DRAG_SYNC_S) -> None:
+        self.period = period
+        self._last = -float("inf")
+
+    def wanted(self, change: Change) -> bool:
+        """Whether to sync the panel for ``change``."""
+        if change.kind != "drag":
+            return True
+        now = time.monotonic()
+        if now - self._last < self.period:
+            return False
+        self._last = now
+        return True

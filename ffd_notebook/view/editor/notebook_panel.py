@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING, Any
 import ipywidgets as widgets
 
 from . import controls as panel_controls
-from .changes import Change
+from .changes import Change, DragSync
 from .controls import Control, editor_state, run
 
 if TYPE_CHECKING:
@@ -89,6 +89,7 @@ class ControlPanel(widgets.VBox):
             children += [widgets.HBox(row) for (s, _), row in rows.items() if s == section]
         super().__init__(children, layout=widgets.Layout(padding="0 0 0 12px", width=PANEL_WIDTH, flex="0 0 auto"))
         self.add_class("ffd-panel")
+        self._drag_sync = DragSync()
         editor.session.subscribe(self._follow)
         self.sync()
 
@@ -152,7 +153,7 @@ class ControlPanel(widgets.VBox):
 
     # ------------------------------------------------------------------ following the editor
     def _follow(self, change: Change) -> None:
-        if not self._syncing:
+        if not self._syncing and self._drag_sync.wanted(change):  # drags: at most every DRAG_SYNC_S
             self.sync()
 
     def sync(self) -> None:

@@ -2,11 +2,14 @@
 
 from __future__ import annotations
 
+import time
+
 import numpy as np
 import pytest
 from editor_testing import assert_view_matches_model, shown_points, widget_index
 
 from ffd_notebook.io import load_ffd, read_obj
+from ffd_notebook.view.editor.changes import DRAG_SYNC_S
 from ffd_notebook.view.editor.notebook_panel import ControlPanel
 
 
@@ -50,6 +53,25 @@ def test_dragging_selects_the_point_in_the_panel(panel, editor):
     assert [w.value for w in panel.ijk] == [3, 1, 2]
     np.testing.assert_allclose([w.value for w in panel.xyz], (0.0, 0.25, 0.0), atol=1e-9)
     assert not panel.undo_button.disabled
+
+
+def test_a_long_drag_updates_the_panel_at_a_bounded_rate_and_ends_exact(panel, editor, monkeypatch):
+    """Each panel sync is widget messages that JupyterLab's page handles on the thread that shows the
+    view's frames: a drag syncs at most every DRAG_SYNC_S, and its release shows the final offsets."""
+    syncs, sync = [], panel.sync
+    monkeypatch.setattr(panel, "sync", lambda: (syncs.append(time.monotonic()), sync())[1])
+    index = widget_index(editor, (3, 1, 2))
+    start = editor.session.control_points()[index].copy()
+    editor.session.begin_drag(index)
+    began = time.monotonic()
+    for k in range(1, 61):
+        editor.on_widget_moved(start + (0.0, 0.005 * k, 0.0), index)
+    elapsed = time.monotonic() - began
+    # the first move selects the point (a "select" change) and syncs as a drag; then one per period at most
+    assert 2 <= len(syncs) <= 2 + elapsed / DRAG_SYNC_S + 1e-9
+    editor.session.end_drag()
+    np.testing.assert_allclose([w.value for w in panel.xyz], (0.0, 0.3, 0.0), atol=1e-9)
+    assert [w.value for w in panel.ijk] == [3, 1, 2]
 
 
 def test_lattice_size_and_basis(panel, editor):
