@@ -134,6 +134,7 @@ class Instrument:
             "checksum": self.fingerprint(),
             "offsets_abs_sum": float(np.abs(self.editor.lattice.offsets).sum()),
             "n_callbacks": self.n_drags,
+            "selected": None if self.editor.session.selected is None else list(self.editor.session.selected),
         }
 
     def register_triggers(self, server: Any) -> None:

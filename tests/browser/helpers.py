@@ -160,9 +160,10 @@ def trigger(frame: Any, name: str) -> Any:
 
 
 def settled_drag_state(
-    frame: Any, trace: str | os.PathLike[str], n_before: int, timeout: float = 60
+    frame: Any, trace: str | os.PathLike[str], n_before: int, timeout: float = 60, traced_before: int = 0
 ) -> tuple[Any, list]:
-    """``(ffd_state answer, trace records)`` once every drag event counted since ``n_before`` is also traced.
+    """``(ffd_state answer, trace records)`` once every drag event counted since ``n_before`` is also traced
+    (the records after the first ``traced_before``, those of earlier drags).
 
     Events of a finished drag may still be arriving (the server handles them one by one): read both
     until they agree, never at one instant.
@@ -170,7 +171,7 @@ def settled_drag_state(
 
     def agreed() -> tuple[Any, list] | None:
         state = trigger(frame, "ffd_state")
-        records = callbacks(trace)
+        records = callbacks(trace)[traced_before:]
         return (state, records) if state["n_callbacks"] - n_before == len(records) else None
 
     return wait_for(agreed, timeout, "the trace to record every drag event the editor counted")

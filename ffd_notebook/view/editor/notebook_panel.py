@@ -113,6 +113,8 @@ class ControlPanel(widgets.VBox):
             cls = widgets.BoundedIntText if kind == "ints" else widgets.FloatText
             bounds = {"min": 0 if control.limits else 2, "max": 40} if kind == "ints" else {}
             made: Any = [cls(value=0, layout=widgets.Layout(width=WIDTHS[kind]), **bounds) for _ in control.state]
+            for field in made:
+                field.add_class(css)
             self._fields.update(zip(control.state, made, strict=True))
         elif kind == "choice":
             options = [(label, value) for value, label in control.choices]
@@ -130,7 +132,7 @@ class ControlPanel(widgets.VBox):
             made = widgets.HTML(value="")
         if not isinstance(made, list):
             self._fields[control.state[0] if control.state else control.key] = made
-            if kind == "text":
+            if kind in ("text", "choice"):
                 made.add_class(css)
         setattr(self, control.key, made)
         self._widgets[control.key] = made
