@@ -35,6 +35,7 @@ __all__ = [
     "BrowserViews",
     "backend",
     "execution_count",
+    "fit_to_output",
     "in_kernel",
     "jupyter_server",
     "png_bytes",
@@ -45,6 +46,8 @@ __all__ = [
 ]
 
 STATIC_BACKENDS = ("static", "none")
+#: the narrowest a view gets in a narrow notebook (pixels; see :func:`fit_to_output`)
+MIN_VIEW_WIDTH = 320
 SERVER_NAME = "ffd_notebook_views"  # the package's own trame server for its views (see jupyter_server)
 _tokens: dict[str, str] = {}  # server name -> its session token
 _pages = itertools.count(1)  # page (template) names of the served plotters
@@ -136,10 +139,35 @@ def serve_plotter(plotter: pv.Plotter) -> Any:
         layout.root.style = "width: 100vw; height: 100vh; margin: 0; padding: 0; overflow: hidden;"
         view = RemoteView(plotter, style="width: 100%; height: 100%;")
     src = url_with_token(build_url(server, ui=page), _tokens[SERVER_NAME])
-    width, height = plotter.window_size
-    widget = Widget(view, src, width=f"{width}px", height=f"{height}px")
+    widget = Widget(view, src)
+    fit_to_output(widget, src, *plotter.window_size)
     views_of(plotter).add(view)
     return widget
+
+
+def fit_to_output(widget: Any, src: str, width: int, height: int) -> None:
+    """Make the view's iframe as wide as its row allows, up to ``width`` pixels (at least
+    :data:`MIN_VIEW_WIDTH`), keeping the ``width : height`` proportions: a narrow notebook (JupyterLab
+    with its file browser open on a laptop screen) shrinks the view instead of cutting off what is
+    next to it. The server renders at the iframe's size, so the picture stays sharp and framed.
+
+    Examples
+    --------
+    >>> import ipywidgets
+    >>> widget = ipywidgets.HTML()
+    >>> fit_to_output(widget, "http://127.0.0.1:1/index.html?ui=a&token=b", 800, 600)
+    >>> "aspect-ratio: 800 / 600" in widget.value, "ui=a&amp;token=b" in widget.value, widget.layout.max_width
+    (True, True, '802px')
+    """
+    import html
+
+    import ipywidgets as widgets
+
+    style = f"width: 100%; aspect-ratio: {width} / {height}; border: 1px solid rgb(221,221,221); display: block;"
+    widget.value = f'<iframe src="{html.escape(src)}" class="pyvista" scrolling="no" style="{style}"></iframe>'
+    narrowest = f"{min(width, MIN_VIEW_WIDTH) + 2}px"  # (+ the border)
+    # grows from the narrowest: in a row with a panel, the panel keeps its width and the view takes the rest
+    widget.layout = widgets.Layout(flex=f"1 1 {narrowest}", max_width=f"{width + 2}px", min_width=narrowest)
 
 
 def in_kernel() -> bool:

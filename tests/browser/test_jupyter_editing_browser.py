@@ -38,6 +38,27 @@ REGISTRATION_SHAPE = (11, 12, 11)
 HULL = 11 * 12 * 11 - 9 * 10 * 9  # control points "auto" draws for a lattice over 1000 points
 
 
+# every control of the panel inside the cell's output and showing all of its text
+PANEL_CUT_OFF = r"""() => {
+  const panel = document.querySelector('.ffd-panel');
+  const out = panel.closest('.jp-OutputArea-output').getBoundingClientRect();
+  const cut = [];
+  for (const el of panel.querySelectorAll('input, select, button, .widget-label, .widget-html-content')) {
+    const r = el.getBoundingClientRect();
+    if (r.width && (r.left < out.left - 0.5 || r.right > out.right + 0.5 || el.scrollWidth > el.clientWidth + 1))
+      cut.push(`${el.tagName} "${(el.innerText || el.value || '').slice(0, 40)}" ${r.left}-${r.right}`);
+  }
+  const view = document.querySelector('iframe.pyvista').getBoundingClientRect();
+  return {cut, view: [view.left, view.right, view.width, view.height], panel: panel.getBoundingClientRect().left};
+}"""
+
+
+def spread(info: dict) -> float:
+    """How far apart the drawn control points are on screen (the larger side of their box, in view widths)."""
+    u, v = [w["u"] for w in info["widgets"]], [w["v"] for w in info["widgets"]]
+    return max(max(u) - min(u), max(v) - min(v))
+
+
 def choose(page, control: str, label: str) -> None:
     """Pick ``label`` in the notebook panel's select of ``control`` (its css class ``ffd-<control>``)."""
     select = page.locator(f".ffd-{control} select").first
@@ -53,7 +74,8 @@ def test_surface_drag_then_the_registration_lattice_in_jupyterlab(tmp_path: Path
     trace = tmp_path / "trace.jsonl"
     ARTIFACTS.mkdir(exist_ok=True)
     with start_lab(tmp_path, work, trace) as lab, sync_playwright() as pw:
-        context = launch_browser(pw, tmp_path / "profile", width=1400, height=1000)
+        # a laptop screen, JupyterLab as it opens: its file browser takes a quarter of the width
+        context = launch_browser(pw, tmp_path / "profile", width=1280, height=800)
         try:
             page = context.new_page()
             errors: list[str] = []
@@ -61,6 +83,17 @@ def test_surface_drag_then_the_registration_lattice_in_jupyterlab(tmp_path: Path
             lab.run_notebook(page, "edit.ipynb", lambda: (work / "ready.txt").exists())
             frame = lab.editor_frame(page, "editor = fn.edit(")
             view = frame.locator("img").first
+
+            # the panel fits beside the view: nothing cut off, the view narrower than its 800 px but usable
+            page.locator(".ffd-panel").first.scroll_into_view_if_needed()
+            layout = page.evaluate(PANEL_CUT_OFF)
+            assert not layout["cut"], layout
+            assert 320 <= layout["view"][2] <= 802 and layout["view"][1] <= layout["panel"] + 1, layout
+            assert abs(layout["view"][2] / layout["view"][3] - 4 / 3) < 0.02, layout  # the window's proportions
+            # the server renders at the view's size (not the 800x600 of the window it was made with)
+            width = layout["view"][2] - 2  # (the border)
+            resized = lambda: abs(trigger(frame, "ffd_widget_px")["size"][0] - width) <= 2  # noqa: E731
+            wait_for(resized, 20, "the render window to take the view's size")
 
             # the mesh itself: the panel's mode select, then a pin and a drag in the view
             choose(page, "mode", "the mesh surface")
@@ -81,13 +114,22 @@ def test_surface_drag_then_the_registration_lattice_in_jupyterlab(tmp_path: Path
             loaded = settled_drag_state(frame, trace, 0)[0]
             traced = len(callbacks(trace))
             assert loaded["offsets_abs_sum"] > 0  # a registration result: its offsets came with it
-            # 1452 spheres crowd a 640x440 view: select an inner point by its indices and show those near it
+            # 1452 spheres crowd a 436x328 view: select an inner point by its indices and show those near it
             for field, value in zip(page.locator(".ffd-ijk input").all(), (5, 6, 5), strict=True):
                 field.fill(str(value))
                 field.press("Enter")
             wait_for(lambda: trigger(frame, "ffd_state")["selected"] == [5, 6, 5], 20, "point (5, 6, 5) selected")
             choose(page, "points-shown", "near the selected")
             wait_for(lambda: len(trigger(frame, "ffd_widget_px")["widgets"]) < HULL, 30, "the points near (5, 6, 5)")
+            # they are a small block in the middle of the view: zoom in with the mouse wheel, as a user would
+            view.scroll_into_view_if_needed()
+            box = view.bounding_box()
+            before = spread(trigger(frame, "ffd_widget_px"))
+            page.mouse.move(box["x"] + box["width"] / 2, box["y"] + box["height"] / 2)
+            for _ in range(4):
+                page.mouse.wheel(0, -120)
+                time.sleep(0.15)
+            wait_for(lambda: spread(trigger(frame, "ffd_widget_px")) > 2 * before, 20, "the view to zoom in")
             time.sleep(0.5)
             metrics = drag_and_measure(page, frame, view, trace, shape=REGISTRATION_SHAPE)
             page.screenshot(path=ARTIFACTS / "jupyter_registration_after_drag.png")

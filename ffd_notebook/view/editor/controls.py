@@ -328,10 +328,11 @@ CONTROLS: tuple[Control, ...] = (
         state=("points_shown",),
         command="show_points",
         choices=POINTS_CHOICES,
+        row=1,
         tooltip="Dense lattices: draw every control point, those near the selected one, or the hull "
         "(auto: all up to 1000 control points, else the hull)",
     ),
-    Control("reduction", "slider", "decimate", "Display", default=0.5, row=1),
+    Control("reduction", "slider", "decimate", "Display", default=0.5, row=2),
     Control(
         "decimate",
         "button",
@@ -339,12 +340,12 @@ CONTROLS: tuple[Control, ...] = (
         "Display",
         command="decimate",
         args=("reduction",),
-        row=1,
+        row=2,
         parse=lambda v: (number(v[0], "the reduction"),),
         tooltip="Remove this fraction of the faces, keeping colours (0 restores the mesh)",
     ),
-    Control("mesh_info", "label", "{mesh_info}", "Display", state=("mesh_info",), row=2),
-    Control("message", "messages", "Messages", "Display", state=("messages",), row=3, element_id="ffd-messages"),
+    Control("mesh_info", "label", "{mesh_info}", "Display", state=("mesh_info",), row=3),
+    Control("message", "messages", "Messages", "Display", state=("messages",), row=4, element_id="ffd-messages"),
 )
 
 

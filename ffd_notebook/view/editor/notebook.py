@@ -49,7 +49,8 @@ def editor_widget(editor: Editor) -> Any:
     from .notebook_panel import ControlPanel
 
     view = _static_view(editor) if backend() in STATIC_BACKENDS else serve_plotter(editor.plotter)
-    return widgets.HBox([view, ControlPanel(editor)])
+    # the view shrinks to leave the panel its width; in a notebook narrower than both, the panel goes below
+    return widgets.HBox([view, ControlPanel(editor)], layout=widgets.Layout(flex_flow="row wrap"))
 
 
 class EditorOutput:

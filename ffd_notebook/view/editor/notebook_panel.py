@@ -86,7 +86,8 @@ class ControlPanel(widgets.VBox):
         for section in dict.fromkeys(section for section, _ in rows):
             if SECTION_TITLES.get(section, section):
                 children.append(widgets.HTML(SECTION_TITLES.get(section, f"<b>{section}</b>")))
-            children += [widgets.HBox(row) for (s, _), row in rows.items() if s == section]
+            wrapping = widgets.Layout(flex_flow="row wrap")  # a row wider than the panel continues below
+            children += [widgets.HBox(row, layout=wrapping) for (s, _), row in rows.items() if s == section]
         super().__init__(children, layout=widgets.Layout(padding="0 0 0 12px", width=PANEL_WIDTH, flex="0 0 auto"))
         self.add_class("ffd-panel")
         self._drag_sync = DragSync()
