@@ -156,14 +156,16 @@ def fit_to_output(widget: Any, src: str, width: int, height: int) -> None:
     >>> import ipywidgets
     >>> widget = ipywidgets.HTML()
     >>> fit_to_output(widget, "http://127.0.0.1:1/index.html?ui=a&token=b", 800, 600)
-    >>> "aspect-ratio: 800 / 600" in widget.value, "ui=a&amp;token=b" in widget.value, widget.layout.max_width
+    >>> "aspect-ratio: 802 / 602" in widget.value, "ui=a&amp;token=b" in widget.value, widget.layout.max_width
     (True, True, '802px')
     """
     import html
 
     import ipywidgets as widgets
 
-    style = f"width: 100%; aspect-ratio: {width} / {height}; border: 1px solid rgb(221,221,221); display: block;"
+    # border-box: at its widest the iframe's inside is exactly width x height (the window's size)
+    border = "border: 1px solid rgb(221,221,221); box-sizing: border-box; display: block;"
+    style = f"width: 100%; aspect-ratio: {width + 2} / {height + 2}; {border}"
     widget.value = f'<iframe src="{html.escape(src)}" class="pyvista" scrolling="no" style="{style}"></iframe>'
     narrowest = f"{min(width, MIN_VIEW_WIDTH) + 2}px"  # (+ the border)
     # grows from the narrowest: in a row with a panel, the panel keeps its width and the view takes the rest

@@ -211,6 +211,9 @@ def measure(page: Any, frame: Any, view: Any, trace: Path, frames_trace: Path, s
     """Bare render, then the drag; returns the analysed figures."""
     view.scroll_into_view_if_needed()
     box = view.bounding_box()
+    size = (round(box["width"]), round(box["height"]))
+    if abs(size[0] - VIEW[0]) > 4 or abs(size[1] - VIEW[1]) > 4:  # the view shrinks in a narrow page
+        raise RuntimeError(f"the view is {size[0]}x{size[1]} pixels, not {VIEW[0]}x{VIEW[1]}: widen the browser")
     before = trigger_args(frame, "ffd_bare_render", 30)
     info = trigger(frame, "ffd_widget_px")
     index, _, _ = pick_widget(info, box, SHAPE, distance=60.0)
@@ -230,6 +233,8 @@ def measure(page: Any, frame: Any, view: Any, trace: Path, frames_trace: Path, s
         callbacks(trace),
         bare_ms,
     )
+    if not result["counts"]["callbacks"]:
+        raise RuntimeError("the drag moved no control point (no callback ran): the figures would be of something else")
     result["move_interval_ms"] = round((window["t_end"] - window["t_start"]) / max(1, window["moves"]), 1)
     result["view_px"] = [round(box["width"]), round(box["height"])]
     result["render_window_px"] = before["size"]
@@ -303,7 +308,8 @@ def bench_jupyter(pw: Any, tmp: Path, seconds: float, product: Path) -> dict[str
     nbformat.write(nb, work / "bench.ipynb")
     trace, frames_trace = tmp / "lab_trace.jsonl", tmp / "lab_frames.jsonl"
     with start_lab(tmp, work, trace, frames_trace=frames_trace, pythonpath=product) as lab:
-        context = launch_browser(pw, tmp / "lab_profile", width=1400, height=1000)
+        # wide enough for the 800x600 view beside the panel with Lab's file browser open
+        context = launch_browser(pw, tmp / "lab_profile", width=1800, height=1000)
         try:
             context.add_init_script(DISPLAY_JS)
             page = context.new_page()
