@@ -34,19 +34,19 @@ transfer (5.44, low contrast), per-voxel robust weights (sharper, 5.9), more fin
 iterations (5.53 after 6 instead of 3), exact nearest neighbours in 32 PCA dimensions, 7x7 coarse
 neighbourhoods, k-coherence candidates, sparser or denser proposal grids (each by less than 0.1).
 
-Also measured (issue 14's 0.7x target, 4.9), not the default: ``discrete_sweeps`` (a final
-discrete pass: voxels take real image colours that lower ``sum ||window - match||``) reaches
-0.78-0.79x over 3 seeds (4 sweeps, +15-20 s) but moves the histogram distance from 0.010 to
-0.019-0.021 (the extrusion: 0.025), and most of its gain is that drift: a colour transfer after
-it gives 5.8, worse than without it; dense windows instead of the sparse grid gain 0.02 more at
-3x the time; a histogram penalty on the choice made both worse. Chen and Wang's (2010) position
-and index histograms (over-used image windows penalised in the search and in the weights) gave
-5.68-5.69 against 5.61. The measure has a floor that honest synthesis cannot pass: the image's
-own windows are 8.1 from their nearest window 3 px or more away (6.6 from the nearest other
-window at all), so any slice window that is not a near-copy of the image scores ~6-8 and only
-smooth windows (5.2-5.5 for the image blurred by one pixel) or verbatim copies score less; 4.9
-needs verbatim copies in every orientation at once, which a volume gets only along one axis
-(the extrusion's z slices: 0, its other slices: 10.5).
+Also measured (issue 14's 0.7x target, 4.9), not the default: ``discrete_sweeps`` (a final discrete
+pass: voxels take real image colours that lower ``sum ||window - match||``) reaches 0.78-0.79x over
+3 seeds (4 sweeps, +15-20 s) but moves the histogram distance from 0.010 to 0.019-0.021 (the
+extrusion: 0.025), and most of its gain is that drift: a colour transfer after it gives 5.8, worse
+than without it; dense windows instead of the sparse grid gain 0.02 more at 3x the time; a
+histogram penalty on the choice made both worse; a sweep after every finest-level step instead gave
+5.66. Chen and Wang's (2010) position and index histograms (over-used image windows penalised in
+the search and in the weights) gave 5.68-5.69 against 5.61. The measure has a floor that isotropic
+synthesis does not seem able to pass: the image's own windows are 8.1 from their nearest window 3
+px or more away (6.6 from the nearest other window at all), so any slice window that is not a near-
+copy of the image scores ~6-8 and only smooth windows (5.2-5.5 for the image blurred by one pixel)
+or verbatim copies score less; 4.9 needs verbatim copies in every orientation at once, which a
+volume gets only along one axis (the extrusion's z slices: 0, its other slices: 10.5).
 
 The volume wraps around (its neighbourhoods are taken periodically), so the result tiles, and it
 is the exemplar :func:`~ffd_notebook.solidtex.synthesize` grows larger volumes from. Hand-written
