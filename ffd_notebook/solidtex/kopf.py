@@ -42,11 +42,11 @@ than without it; dense windows instead of the sparse grid gain 0.02 more at 3x t
 histogram penalty on the choice made both worse; a sweep after every finest-level step instead gave
 5.66. Chen and Wang's (2010) position and index histograms (over-used image windows penalised in
 the search and in the weights) gave 5.68-5.69 against 5.61. The measure has a floor that isotropic
-synthesis does not seem able to pass: the image's own windows are 8.1 from their nearest window 3
-px or more away (6.6 from the nearest other window at all), so any slice window that is not a near-
-copy of the image scores ~6-8 and only smooth windows (5.2-5.5 for the image blurred by one pixel)
-or verbatim copies score less; 4.9 needs verbatim copies in every orientation at once, which a
-volume gets only along one axis (the extrusion's z slices: 0, its other slices: 10.5).
+synthesis does not seem able to pass: the image's own windows are 8.1 from their nearest window
+3 px or more away (6.6 from the nearest other window at all), so any slice window that is not a
+near-copy of the image scores ~6-8 and only smooth windows (5.2-5.5 for the image blurred by one
+pixel) or verbatim copies score less; 4.9 needs verbatim copies in every orientation at once, which
+a volume gets only along one axis (the extrusion's z slices: 0, its other slices: 10.5).
 
 The volume wraps around (its neighbourhoods are taken periodically), so the result tiles, and it
 is the exemplar :func:`~ffd_notebook.solidtex.synthesize` grows larger volumes from. Hand-written
