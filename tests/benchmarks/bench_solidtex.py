@@ -181,7 +181,7 @@ def _self_floor(crop, n_queries=1500):
     return float(np.sqrt(np.maximum(d2.min(axis=1), 0)).mean() / np.sqrt(75))
 
 
-def exemplars(quick):
+def exemplars(quick, variants=True):
     n_seeds = int(sys.argv[sys.argv.index("--seeds") + 1]) if "--seeds" in sys.argv else 1
     print(f"-- exemplar from one image, seeds 0-{n_seeds - 1} ({load()})")
     crop = image_crop()
@@ -190,7 +190,7 @@ def exemplars(quick):
     print(f"{'':<52}{'time s':>8}{'nbhd dist':>11}{'hist dist':>11}{'nbhd ratio':>12}")
     print(f"{'sheared extrusion (baseline)':<52}{t_ext:8.2f}{d_ext:11.3f}{h_ext:11.4f}")
     opt = None
-    for sweeps in (0, 4):
+    for sweeps in (0, 4) if variants else (0,):
         name = "exemplar_from_image (Kopf)" + (f", discrete_sweeps={sweeps}" if sweeps else "")
         for seed in range(n_seeds):
             t_opt, vol = timed(lambda s=seed, k=sweeps: exemplar_from_image(crop, 64, rng=s, discrete_sweeps=k), 1)
@@ -365,7 +365,7 @@ def main() -> None:
     only = sys.argv[sys.argv.index("--only") + 1].split(",") if "--only" in sys.argv else None
     wanted = lambda name: only is None or name in only  # noqa: E731
     print(f"solid textures, machine: {os.cpu_count()} shared cores (medians); {load()}\n")
-    opt = exemplars(quick) if wanted("exemplar") or wanted("lazy") else None
+    opt = exemplars(quick, wanted("exemplar")) if wanted("exemplar") or wanted("lazy") else None
     if wanted("seams"):
         seams(extrusion(), quick)
     if wanted("lazy"):
