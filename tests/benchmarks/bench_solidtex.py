@@ -15,9 +15,11 @@ the machine is shared.
 Issue 14 adds, each measured against its baseline in the same run:
 
 * ``exemplar``: the sheared extrusion of the image (sliding crops) against ``exemplar_from_image``
-  (Kopf et al. 2007) at 64^3: time, the mean distance from random axis-aligned slice
-  neighbourhoods to their nearest image neighbourhood (target: optimised <= 0.7x extrusion), and
-  the colour-histogram distance to the image (target: no worse); target <= 60 s;
+  (Kopf et al. 2007) at 64^3, by default and with ``discrete_sweeps=4``, over ``--seeds N`` seeds
+  (default 1): time, the mean distance from random axis-aligned slice neighbourhoods to their
+  nearest image neighbourhood (target: optimised <= 0.7x extrusion), and the colour-histogram
+  distance to the image (target: no worse); target <= 60 s. For context it also prints how far
+  the image's own windows are from their nearest window >= 3 px away;
 * ``seams``: feathered against cut seams at 128^3 and 256^3 over ``--seeds N`` seeds (default 3;
   target: seam energy <= 0.7x at an equal or better histogram distance, the histograms compared
   seed by seed because one seed's distance varies by more than the methods differ);
@@ -55,6 +57,7 @@ from ffd_notebook.solidtex import (
     synthesize,
     volume_from_slices,
 )
+from ffd_notebook.solidtex.neighbourhoods import image_windows
 from ffd_notebook.solidtex.synthesis import DEFAULT_OVERLAP
 from ffd_notebook.view.solidtex import CutViewer, TexturedOrgan
 
@@ -161,25 +164,45 @@ def extrusion():
     return volume_from_slices(sliding_crops(img, 64, 96, step=(1, 1), start=(84, 84)), roi=(16, 80, 16, 80))
 
 
-def exemplars(quick):
-    print(f"-- exemplar from one image ({load()})")
+def _self_floor(crop, n_queries=1500):
+    """Mean distance from the image's own 5x5 windows to their nearest window at least 3 px away.
+
+    Context for the neighbourhood distance, not a target: any window that is not a near-copy of
+    an image window (a new sample of the same texture) is about this far from the image.
+    """
+    windows = image_windows(crop, 5)
+    side = crop.shape[1] - 4
+    rc = np.stack(np.divmod(np.arange(len(windows)), side), axis=1)
+    picks = np.random.default_rng(0).choice(len(windows), n_queries, replace=False)
+    centred = windows - windows.mean(axis=0)
+    sq = np.einsum("ij,ij->i", centred, centred)
+    d2 = sq[None, :] - 2.0 * centred[picks] @ centred.T + sq[picks, None]
+    d2[np.abs(rc[None, :, :] - rc[picks, None, :]).max(axis=2) <= 2] = np.inf
+    return float(np.sqrt(np.maximum(d2.min(axis=1), 0)).mean() / np.sqrt(75))
+
+
+def exemplars(quick, variants=True):
+    n_seeds = int(sys.argv[sys.argv.index("--seeds") + 1]) if "--seeds" in sys.argv else 1
+    print(f"-- exemplar from one image, seeds 0-{n_seeds - 1} ({load()})")
     crop = image_crop()
     t_ext, ext = timed(extrusion, 1)
-    t_opt, opt = timed(lambda: exemplar_from_image(crop, 64), 1)
-    print(f"{'':<34}{'time s':>8}{'nbhd dist':>11}{'hist dist':>11}")
-    figures = {}
-    for name, t, vol in (("sheared extrusion (baseline)", t_ext, ext), ("exemplar_from_image (Kopf)", t_opt, opt)):
-        figures[name] = (neighbourhood_distance(vol, crop), histogram_distance(vol, crop))
-        print(f"{name:<34}{t:8.2f}{figures[name][0]:11.3f}{figures[name][1]:11.4f}")
-    (d_ext, h_ext), (d_opt, h_opt) = figures.values()
-    row(
-        "  neighbourhood distance ratio (optimised / extrusion)",
-        d_opt / d_ext,
-        "x",
-        _ok(d_opt <= 0.7 * d_ext, "<= 0.7"),
-    )
-    row("  histogram distance ratio (optimised / extrusion)", h_opt / h_ext, "x", _ok(h_opt <= h_ext, "<= 1"))
-    row("  time of exemplar_from_image 64^3", t_opt, "s", _ok(t_opt <= 60, "<= 60 s"))
+    d_ext, h_ext = neighbourhood_distance(ext, crop), histogram_distance(ext, crop)
+    print(f"{'':<52}{'time s':>8}{'nbhd dist':>11}{'hist dist':>11}{'nbhd ratio':>12}")
+    print(f"{'sheared extrusion (baseline)':<52}{t_ext:8.2f}{d_ext:11.3f}{h_ext:11.4f}")
+    opt = None
+    for sweeps in (0, 4) if variants else (0,):
+        name = "exemplar_from_image (Kopf)" + (f", discrete_sweeps={sweeps}" if sweeps else "")
+        for seed in range(n_seeds):
+            t_opt, vol = timed(lambda s=seed, k=sweeps: exemplar_from_image(crop, 64, rng=s, discrete_sweeps=k), 1)
+            d_opt, h_opt = neighbourhood_distance(vol, crop), histogram_distance(vol, crop)
+            print(f"{name + f', rng={seed}':<52}{t_opt:8.2f}{d_opt:11.3f}{h_opt:11.4f}{d_opt / d_ext:12.3f}")
+            if sweeps == 0 and seed == 0:
+                opt = vol
+                good = d_opt <= 0.7 * d_ext
+                row("  neighbourhood distance ratio (default, rng=0)", d_opt / d_ext, "x", _ok(good, "<= 0.7"))
+                row("  histogram distance ratio (default, rng=0)", h_opt / h_ext, "x", _ok(h_opt <= h_ext, "<= 1"))
+                row("  time of exemplar_from_image 64^3 (default)", t_opt, "s", _ok(t_opt <= 60, "<= 60 s"))
+    print(f"  image windows to their nearest other window >= 3 px away (context): {_self_floor(crop):.3f}")
     print("  (nbhd dist: RMS colour difference per value, 0-255, from 5x5 windows on random x/y/z slices to the")
     print("   nearest window of the 128x128 image; the extrusion's z slices are crops of the image, distance 0)\n")
     return opt
@@ -342,7 +365,7 @@ def main() -> None:
     only = sys.argv[sys.argv.index("--only") + 1].split(",") if "--only" in sys.argv else None
     wanted = lambda name: only is None or name in only  # noqa: E731
     print(f"solid textures, machine: {os.cpu_count()} shared cores (medians); {load()}\n")
-    opt = exemplars(quick) if wanted("exemplar") or wanted("lazy") else None
+    opt = exemplars(quick, wanted("exemplar")) if wanted("exemplar") or wanted("lazy") else None
     if wanted("seams"):
         seams(extrusion(), quick)
     if wanted("lazy"):

@@ -60,3 +60,19 @@ def test_deterministic_and_checks_its_input(image, solid):
         exemplar_from_image(image, 32, neighbourhood=4)
     with pytest.raises(ValueError, match="too small"):
         exemplar_from_image(image[:12, :12], 32, levels=3)
+
+
+def test_discrete_sweeps_copy_image_colours_and_lower_the_energy(image, solid):
+    swept = exemplar_from_image(image, 32, levels=2, iterations=(3, 3), discrete_sweeps=2)
+
+    def codes(a):
+        return (a.reshape(-1, 3).astype(np.int64) * [65536, 256, 1]).sum(axis=1)
+
+    def copied(v):  # share of voxels whose colour is exactly some image pixel's
+        return np.isin(codes(v), codes(image)).mean()
+
+    # the sweeps replace voxels by colours of the matched image windows (0.15 -> 0.46 measured)
+    # and lower the method's energy (7.47 -> 7.26 measured); the histogram drifts (0.005 -> 0.03)
+    assert copied(swept) > 2 * copied(solid)
+    assert neighbourhood_distance(swept, image) < 0.99 * neighbourhood_distance(solid, image)
+    np.testing.assert_array_equal(swept, exemplar_from_image(image, 32, levels=2, iterations=(3, 3), discrete_sweeps=2))
