@@ -186,3 +186,45 @@ def test_frames_slower_than_the_still_delay_do_not_make_a_still_frame_before_the
     finally:
         editor.close()
     assert qualities == [40, 40, 95]
+
+
+def test_small_images_are_encoded_on_the_loop_and_large_ones_in_the_pool_with_the_same_bytes():
+    pl = pv.Plotter(off_screen=True, window_size=(96, 72))
+    pl.add_mesh(pv.Sphere(), color="tan")
+    threads: list[str] = []
+
+    class Recording:
+        def __init__(self):
+            from trame_rca.encoders import RcaImageEncoder
+
+            self.inner = RcaImageEncoder(ENCODER)
+
+        def encode(self, *args):
+            import threading
+
+            threads.append(threading.current_thread().name)
+            return self.inner.encode(*args)
+
+    async def one_frame(inline_pixels: int) -> bytes:
+        pushed: list[bytes] = []
+        scheduler = FrameScheduler(
+            pl.render_window,
+            push_callback=lambda image, meta: pushed.append(image),
+            encoder=Recording(),
+            still_after=1000,
+        )
+        scheduler.INLINE_PIXELS = inline_pixels
+        scheduler.schedule_render()
+        deadline = time.monotonic() + 10
+        while not pushed and time.monotonic() < deadline:
+            await asyncio.sleep(0.01)
+        await scheduler.close()
+        return pushed[0]
+
+    try:
+        inline = asyncio.run(one_frame(96 * 72))
+        pooled = asyncio.run(one_frame(96 * 72 - 1))
+    finally:
+        pl.close()
+    assert threads[0] == "MainThread" and threads[1].startswith("ffd-view-encode")
+    assert inline == pooled and Image.open(io.BytesIO(inline)).size == (96, 72)
