@@ -228,3 +228,68 @@ def test_small_images_are_encoded_on_the_loop_and_large_ones_in_the_pool_with_th
         pl.close()
     assert threads[0] == "MainThread" and threads[1].startswith("ffd-view-encode")
     assert inline == pooled and Image.open(io.BytesIO(inline)).size == (96, 72)
+
+
+class RecordingArea:
+    """A remote-controlled area (trame-rca's protocol) that records the events it handles and the frames it makes."""
+
+    def __init__(self):
+        self.handled: list[tuple[str, int]] = []
+        self.frames: list[list[tuple[str, int]]] = []  # what had been handled when each frame was rendered
+
+    @property
+    def img_cols_rows(self):
+        self.frames.append(list(self.handled))
+        return np.zeros((24, 32, 3), np.uint8), 32, 24
+
+    def process_resize_event(self, width, height):
+        pass
+
+    def process_interaction_event(self, event):
+        self.handled.append((event["type"], event.get("x", -1)))
+
+    def rendered(self) -> list[list[tuple[str, int]]]:
+        return [f for f in self.frames if f]  # (isinstance on trame-rca's protocol reads img_cols_rows once)
+
+
+async def _coalesced(area: RecordingArea) -> list[tuple[str, int]]:
+    from ffd_notebook.view.remote_view import InteractiveSizeAdapter
+
+    scheduler = FrameScheduler(area, still_after=1000)
+    adapter = InteractiveSizeAdapter(area, "test_area", scheduler=scheduler)
+    scheduler.set_push_callback(lambda image, meta: None)  # (the adapter's needs a browser)
+
+    async def frames(n: int) -> None:
+        deadline = time.monotonic() + 10
+        while len(area.rendered()) < n and time.monotonic() < deadline:
+            await asyncio.sleep(0.005)
+        await asyncio.sleep(0.05)  # and no other frame is asked for
+
+    try:
+        adapter.on_interaction("browser", _mouse("LeftButtonPress", "down"))
+        for x in (170, 180, 190, 200):  # four moves before the loop runs a frame
+            adapter.on_interaction("browser", {**_mouse("MouseMove", "move"), "x": x})
+        handled_before_frame = list(area.handled)
+        await frames(1)
+        adapter.on_interaction("browser", {**_mouse("MouseMove", "move"), "x": 210})
+        adapter.on_interaction("browser", {**_mouse("LeftButtonRelease", "up"), "x": 210})
+        await frames(2)
+    finally:
+        await scheduler.close()
+    return handled_before_frame
+
+
+def test_mouse_moves_are_coalesced_into_the_newest_before_each_frame_in_order():
+    area = RecordingArea()
+    before = asyncio.run(_coalesced(area))
+    assert before == [("LeftButtonPress", 160)]  # the moves wait for the frame
+    rendered = area.rendered()
+    # the first frame saw the press and the newest move only; a release handles the move before it first
+    assert rendered[0] == [("LeftButtonPress", 160), ("MouseMove", 200)]
+    assert area.handled == [
+        ("LeftButtonPress", 160),
+        ("MouseMove", 200),
+        ("MouseMove", 210),
+        ("LeftButtonRelease", 210),
+    ]
+    assert len(rendered) == 2  # one frame for the moves, one for the release: a handled move asks for none
