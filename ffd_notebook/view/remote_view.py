@@ -231,23 +231,24 @@ class InteractiveSizeAdapter(RcaViewAdapter):
     together) JupyterLab's drag went from 13.2-19.8 to 16.2-29.1 frames/s.
     """
 
-    def __init__(self, *args: Any, ratio: float = 1.0, **kwargs: Any) -> None:
-        super().__init__(*args, **kwargs)
+    def __init__(self, window: Any, name: str, *, scheduler: FrameScheduler, ratio: float = 1.0, **kwargs: Any) -> None:
+        # renders are asked for here (a kept move asks without being handled), not by trame-rca on every event
+        super().__init__(window, name, scheduler=scheduler, do_schedule_render_on_interaction=False, **kwargs)
         self.ratio = ratio
         self._move: dict[str, Any] | None = None
-        self._scheduler.before_render = self.flush
+        scheduler.before_render = self.flush
 
     def flush(self) -> None:
         """Handle the mouse move kept for the next frame, if any (without asking for another frame)."""
         move, self._move = self._move, None
         if move is not None:
-            self._rca.process_interaction_event(self._scale_event(move))
+            super().on_interaction(None, move)  # trame-rca scales it to the render size and hands it to VTK
 
     def on_interaction(self, origin: Any, event: dict[str, Any]) -> None:
         kind = event.get("type")
         if kind == "MouseMove":
             self._move = event  # the newest position wins
-            self._scheduler.schedule_render()
+            self.schedule_render()
             return
         self.flush()  # events keep their order: a press or a release after the moves before it
         if kind == "StartInteractionEvent" and self.ratio != 1.0:
@@ -255,6 +256,7 @@ class InteractiveSizeAdapter(RcaViewAdapter):
         super().on_interaction(origin, event)
         if kind == "EndInteractionEvent" and self.scale != 1.0:
             self.scale = 1.0
+        self.schedule_render()
 
 
 def _area_class() -> type:
