@@ -86,6 +86,31 @@ def test_programmatic_edit_and_update(editor):
     assert_view_matches_model(editor)
 
 
+def test_an_edit_from_code_is_rendered_once(editor):
+    """With a browser view attached, the view renders the change (when it reads the image back) and the
+    scene does not render it first; with none, the scene renders it itself."""
+    renders = []
+    editor.plotter.render_window.AddObserver("StartEvent", lambda *_: renders.append(1))
+
+    class View:  # what a browser view does on update(): render the window and read its image
+        updates = 0
+
+        def update(self):
+            View.updates += 1
+            editor.plotter.render_window.Render()
+
+    changes = []
+    editor.session.subscribe(changes.append)
+    editor.move_control_point((2, 2, 3), (0.0, 0.0, 0.5))  # two changes: the offsets, then the selection
+    assert len(changes) == 2 and len(renders) == 2  # no view: the scene renders each
+    editor.scene.views.add(View())
+    renders.clear()
+    editor.move_control_point((2, 2, 3), (0.0, 0.0, 0.8))
+    editor.select((1, 1, 1))
+    assert View.updates == 3 and len(renders) == 3  # the view's renders only
+    assert_view_matches_model(editor)
+
+
 def test_deformed_mesh_is_a_new_mesh_with_point_data(editor, sphere):
     drag(editor, (2, 3, 2), (0.3, 0.0, 0.0))
     out = editor.deformed_mesh
