@@ -41,6 +41,7 @@ __all__ = [
     "png_bytes",
     "push_to_browser",
     "serve_plotter",
+    "show_changes",
     "show_plotter",
     "views_of",
 ]
@@ -219,6 +220,20 @@ def push_to_browser(plotter: pv.Plotter) -> None:
     views_of(plotter).push()
 
 
+def show_changes(plotter: pv.Plotter) -> None:
+    """Show a change of ``plotter``'s scene: its browser views render it and send a new image, or, with
+    none, ``plotter.render()`` (see :meth:`BrowserViews.show_changes`).
+
+    Examples
+    --------
+    >>> import pyvista as pv
+    >>> pl = pv.Plotter(off_screen=True)
+    >>> show_changes(pl)   # not shown in a browser: renders (once the plotter has been shown)
+    >>> pl.close()
+    """
+    views_of(plotter).show_changes(plotter.render)
+
+
 class BrowserViews:
     """The trame viewers (objects with ``.update()``) showing one plotter in browsers.
 
@@ -255,6 +270,29 @@ class BrowserViews:
                 if self.on_error is None:
                     raise
                 self.on_error(f"could not update a browser view: {exc!r}")
+
+    def show_changes(self, render: Callable[[], Any]) -> None:
+        """Show a change of the scene: every viewer renders it and sends a new image (:meth:`push`); with no
+        viewer, ``render()`` now.
+
+        Rendering first and then pushing drew each change made from code twice in a browser (a viewer
+        renders again to read the image back): ~40-50 ms of software rendering per change on a 53k-vertex mesh.
+
+        Examples
+        --------
+        >>> views, renders = BrowserViews(), []
+        >>> views.show_changes(lambda: renders.append("render"))  # no viewer: render now
+        >>> class Viewer:
+        ...     def update(self):
+        ...         renders.append("viewer")
+        >>> views.add(Viewer()); views.show_changes(lambda: renders.append("render"))
+        >>> renders
+        ['render', 'viewer']
+        """
+        if self.viewers:
+            self.push()
+        else:
+            render()
 
     def clear(self) -> None:
         """Forget every viewer (the plotter is closing)."""

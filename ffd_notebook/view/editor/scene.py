@@ -282,15 +282,9 @@ class EditorScene:
 
     def render(self) -> None:
         """Show the change: the browser views render it and send a new image (each view's scheduler renders
-        once for any number of changes); with no browser view, render now.
-
-        Rendering here as well when a view is attached drew every change made from code twice (the view
-        renders again to read the image back): ~40-50 ms of software rendering on the 53k face per edit.
-        """
-        if self.views.viewers:
-            self.views.push()
-        else:
-            self.plotter.render_window.Render()
+        once for any number of changes); with no browser view, render now
+        (:meth:`~ffd_notebook.view.jupyter.BrowserViews.show_changes`)."""
+        self.views.show_changes(self.plotter.render_window.Render)
 
     def shown_points(self) -> NDArray[np.float64]:
         """Points of the plotted mesh (what the renderer draws), float64."""

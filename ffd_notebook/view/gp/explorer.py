@@ -29,7 +29,7 @@ from numpy.typing import ArrayLike, NDArray
 from ...deprecation import renamed_keyword
 from ...gp import ExponentialKernel, GaussianKernel, GaussianProcess, Kernel, LowRankGP, grid_points
 from ...meshing import as_surface
-from ..jupyter import push_to_browser, show_plotter
+from ..jupyter import show_changes, show_plotter
 from ..rendering import configure_rendering
 from .model_modes import (
     VARIANCE_ARRAY,
@@ -391,5 +391,4 @@ class GPExplorer(ModelModes):
             self._variance_stale = False
         self.log_density = self.model.logpdf_of(field)  # under the prior: how plausible the shape is
         self._status.SetText(2, self.status_text())
-        self.plotter.render()
-        push_to_browser(self.plotter)  # changes made from code reach an open notebook view
+        show_changes(self.plotter)  # a change made from code reaches an open notebook view too

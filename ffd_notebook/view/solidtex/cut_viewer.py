@@ -26,7 +26,7 @@ from vtkmodules.vtkCommonCore import vtkUnsignedCharArray
 from ...meshing.organ import REST, organ_surface, rest_points, texture_surface
 from ...solidtex.sampling import SolidTexture, TextureSampler  # noqa: F401  (SolidTexture: the doctests)
 from ..camera import frame_camera, unit_vector, view_direction
-from ..jupyter import push_to_browser, show_plotter
+from ..jupyter import show_changes, show_plotter
 
 __all__ = ["CutViewer", "TexturedOrgan", "add_cut"]
 
@@ -342,8 +342,7 @@ class CutViewer:
         self.face.copy_from(face, deep=False)
         self.rim.copy_from(_rim(face), deep=False)
         self._sync_widget()
-        self.plotter.render()
-        push_to_browser(self.plotter)
+        show_changes(self.plotter)
 
     def look_at_cut(self, elevation: float = 0.4, margin: float = 1.04) -> None:
         """Face the cut (from the side that was cut away), the organ filling the picture.
@@ -356,8 +355,7 @@ class CutViewer:
         if not points:  # the plane cuts everything away: frame the whole organ
             points = [np.asarray(self.organ.surface.points)]
         frame_camera(self.plotter, np.vstack(points), view_direction(self.normal, elevation), margin=margin)
-        self.plotter.render()
-        push_to_browser(self.plotter)
+        show_changes(self.plotter)
 
     def show(self, **kwargs: Any) -> Any:
         """Show the viewer: in Jupyter the server-rendered trame view its plane widget needs.

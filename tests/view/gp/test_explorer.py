@@ -49,6 +49,26 @@ def test_sample_moves_mesh_and_arrows_in_place(explorer, liver):
     assert sum(a is actor for a in explorer.plotter.renderer.actors.values()) == 1
 
 
+def test_a_change_from_code_is_rendered_once_with_a_browser_view(explorer):
+    from ffd_notebook.view.jupyter import views_of
+
+    explorer.screenshot()  # shown once: plotter.render() renders from now on
+    renders = []
+    explorer.plotter.render_window.AddObserver("StartEvent", lambda *_: renders.append(1))
+    explorer.sample(rng=1)
+    assert len(renders) == 1  # no browser view: the explorer renders
+
+    class View:  # a browser view renders when asked for a new image
+        def update(self):
+            explorer.plotter.render_window.Render()
+
+    views_of(explorer.plotter).add(View())
+    renders.clear()
+    explorer.sample(rng=2)
+    explorer.set_sigma(0.5 * explorer.sigma)
+    assert len(renders) == 2  # the view's renders only, one per change
+
+
 def test_kernel_width_sets_smoothness(explorer):
     roughness = []
     for sigma in (0.1 * explorer.size, 0.6 * explorer.size):
