@@ -21,6 +21,7 @@ import time
 from typing import Any
 
 import numpy as np
+from scipy import sparse
 
 __all__ = ["Instrument", "fingerprint", "instrument_notebook_editors"]
 
@@ -85,7 +86,9 @@ class Instrument:
 
     def widget_display_positions(self) -> list[dict[str, float]]:
         """Where each drawn control point is on screen: ``{"index", "u", "v", "z"}``, normalised, origin
-        bottom-left (the points the display setting hides are left out: nobody can grab them)."""
+        bottom-left (the points the display setting hides are left out: nobody can grab them), whether it
+        moves some vertex (``"moves_mesh"``) and its largest pull on a vertex (``"pull"``: the fraction of
+        its own move that vertex makes)."""
         plotter = self.editor.plotter
         ren = plotter.renderer
         w, h = plotter.render_window.GetSize()
@@ -93,7 +96,11 @@ class Instrument:
         from ffd_notebook.fit import control_weights
 
         index, weight = control_weights(self.editor.ffd, self.editor.session.rest_points)
-        moving = set(np.unique(index[weight != 0]).tolist())  # the control points that move some vertex
+        rows = np.repeat(np.arange(len(index)), index.shape[1])
+        # a control point's pull on each vertex (repeated indices of the clamp border add up), its largest
+        n_points = int(np.prod(self.editor.lattice.shape))
+        pulls = sparse.coo_matrix((weight.ravel(), (rows, index.ravel())), shape=(len(index), n_points)).tocsr()
+        pull = np.asarray(pulls.max(axis=0).todense()).ravel()
         out = []
         for i, center in enumerate(self.editor.session.control_points()):
             if i not in shown:
@@ -101,7 +108,8 @@ class Instrument:
             ren.SetWorldPoint(*center, 1.0)
             ren.WorldToDisplay()
             x, y, z = ren.GetDisplayPoint()
-            out.append({"index": i, "u": x / w, "v": y / h, "z": z, "moves_mesh": i in moving})
+            out.append({"index": i, "u": x / w, "v": y / h, "z": z, "moves_mesh": bool(pull[i] > 0),
+                        "pull": float(pull[i])})  # fmt: skip
         return out
 
     def surface(self, probe: list[list[float]] | None = None) -> dict[str, Any]:

@@ -1,7 +1,7 @@
 """The quickstart notebook in a real JupyterLab, driven by headless Chromium.
 
 JupyterLab runs on 127.0.0.1 with a token and private settings; the test opens a copy of
-``notebooks/01_quickstart.ipynb``, runs all cells, drags a control-point sphere inside the editor's
+``notebooks/01_quickstart.ipynb``, runs all cells, drags an outer control-point sphere inside the editor's
 trame iframe, checks from the kernel side (trace file, ``ffd_state`` trigger of tests/editor_instrument.py) that
 the callbacks ran and the lattice moved, saves the .ffd through the notebook's panel and checks the
 file. Latency and frame rate go to ``test-artifacts/browser_metrics.json``; screenshots to
@@ -79,13 +79,16 @@ def test_quickstart_notebook_drag_and_save(lab, tmp_path: Path):
 
             state0 = trigger(frame, "ffd_state")
             view = frame.locator("img").first
-            metrics.update(drag_and_measure(page, frame, view, trace, shape=SHAPE))
+            metrics.update(drag_and_measure(page, frame, view, trace, shape=SHAPE, outer=True))  # an outer sphere
             page.screenshot(path=ARTIFACTS / "jupyter_after_drag.png")
 
             # the kernel saw the drag: callbacks for that sphere only, and its offset changed
             state1, records = settled_drag_state(frame, trace, state0["n_callbacks"])  # (asserts the counts agree)
             assert records and {r["index"] for r in records} == {metrics["widget"]}
             assert state1["offsets_abs_sum"] != state0["offsets_abs_sum"]
+            assert state1["checksum"] != state0["checksum"], "the mesh did not change"
+            ijk = np.unravel_index(metrics["widget"], SHAPE)
+            assert any(v in (0, n - 1) for v, n in zip(ijk, SHAPE, strict=True)), "the sphere dragged is outer"
             assert metrics["stepped"]["event_to_frame_ms"] is not None, "no new image after the callbacks"
             assert metrics["paced"]["callbacks"] > 0
 
