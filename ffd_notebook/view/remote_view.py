@@ -221,6 +221,9 @@ class InteractiveSizeAdapter(RcaViewAdapter):
     """trame-rca's view adapter, rendering at ``ratio`` of the size between the browser's Start and End of
     an interaction (trame-rca scales the events' coordinates by the same factor).
 
+    A button press is handled after a mouse move to where it is (VTK's button widgets act only on a
+    press over the button the pointer hovers, and the browser sends no moves while no button is held).
+
     Mouse moves are coalesced: a move is kept, not handled, until the scheduler is about to render
     (``scheduler.before_render``) or another event arrives, and a newer move replaces it. Moves arrive
     every ~10-20 ms while a frame takes ~50 ms; each one handled ran the VTK interactor and the
@@ -253,10 +256,19 @@ class InteractiveSizeAdapter(RcaViewAdapter):
         self.flush()  # events keep their order: a press or a release after the moves before it
         if kind == "StartInteractionEvent" and self.ratio != 1.0:
             self.scale = self.ratio  # before the button press that follows: the whole drag at one size
+        if kind in _PRESSES:
+            # the browser sends no mouse moves while no button is held (trame-rca's default, and hovering would
+            # cost a render per move): bring the pointer to the press first, as it is in a desktop window, where
+            # it always got there by moving. VTK's button widgets take a press only over the button they hover
+            super().on_interaction(origin, {**event, "type": "MouseMove"})
         super().on_interaction(origin, event)
         if kind == "EndInteractionEvent" and self.scale != 1.0:
             self.scale = 1.0
         self.schedule_render()
+
+
+#: trame-rca's button-press events
+_PRESSES = ("LeftButtonPress", "MiddleButtonPress", "RightButtonPress")
 
 
 def _area_class() -> type:

@@ -282,11 +282,13 @@ async def _coalesced(area: RecordingArea) -> list[tuple[str, int]]:
 def test_mouse_moves_are_coalesced_into_the_newest_before_each_frame_in_order():
     area = RecordingArea()
     before = asyncio.run(_coalesced(area))
-    assert before == [("LeftButtonPress", 160)]  # the moves wait for the frame
+    # a press comes after a move to where it is (hover); the moves that follow wait for the frame
+    assert before == [("MouseMove", 160), ("LeftButtonPress", 160)]
     rendered = area.rendered()
     # the first frame saw the press and the newest move only; a release handles the move before it first
-    assert rendered[0] == [("LeftButtonPress", 160), ("MouseMove", 200)]
+    assert rendered[0] == [("MouseMove", 160), ("LeftButtonPress", 160), ("MouseMove", 200)]
     assert area.handled == [
+        ("MouseMove", 160),
         ("LeftButtonPress", 160),
         ("MouseMove", 200),
         ("MouseMove", 210),
