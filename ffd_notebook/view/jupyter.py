@@ -33,6 +33,7 @@ from numpy.typing import NDArray
 __all__ = [
     "STATIC_BACKENDS",
     "BrowserViews",
+    "aim_unset_cameras",
     "backend",
     "execution_count",
     "fit_to_output",
@@ -127,6 +128,7 @@ def serve_plotter(plotter: pv.Plotter) -> Any:
     The iframe shows a page of :func:`jupyter_server` holding a :class:`~.remote_view.RemoteView`
     that fills it; its address carries the server's session token (the trame client reads it from
     there). The view joins the plotter's :class:`BrowserViews`, so :func:`push_to_browser` reaches it.
+    Cameras nobody has placed are aimed at the scene first (:func:`aim_unset_cameras`).
     """
     from trame.ui.html import DivLayout
     from trame_pyvista.jupyter import Widget, build_url
@@ -134,6 +136,7 @@ def serve_plotter(plotter: pv.Plotter) -> Any:
     from .remote_view import RemoteView
     from .web_security import url_with_token
 
+    aim_unset_cameras(plotter)
     server = jupyter_server()
     page = f"ffd_view_{next(_pages)}"
     with DivLayout(server, template_name=page) as layout:
@@ -144,6 +147,33 @@ def serve_plotter(plotter: pv.Plotter) -> Any:
     fit_to_output(widget, src, *plotter.window_size)
     views_of(plotter).add(view)
     return widget
+
+
+def aim_unset_cameras(plotter: pv.Plotter) -> None:
+    """Aim every camera of ``plotter`` that nobody has placed at its scene, as ``plotter.show()`` does on its
+    first render: PyVista's default view direction, reset to the visible actors.
+
+    A plotter served through trame never goes through ``show()``: a GP explorer shown in a notebook without
+    a camera position looked from VTK's default camera, at the origin, and showed no mesh at all.
+
+    Examples
+    --------
+    >>> import pyvista as pv
+    >>> pl = pv.Plotter(off_screen=True)
+    >>> _ = pl.add_mesh(pv.Sphere(center=(100.0, 0.0, 0.0)))
+    >>> aim_unset_cameras(pl)
+    >>> [round(v) for v in pl.camera.focal_point], pl.renderer.camera_set
+    ([100, 0, 0], True)
+    >>> pl.camera_position = "xy"   # a camera placed by its maker is left where it is
+    >>> before = pl.camera_position
+    >>> aim_unset_cameras(pl); pl.camera_position == before
+    True
+    >>> pl.close()
+    """
+    for renderer in plotter.renderers:
+        if not renderer.camera_set:
+            renderer.camera_position = renderer.get_default_cam_pos()
+            renderer.reset_camera(render=False)
 
 
 def fit_to_output(widget: Any, src: str, width: int, height: int) -> None:
