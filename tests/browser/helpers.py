@@ -535,9 +535,9 @@ class Lab:
         page.wait_for_selector(IDLE, timeout=60_000)
 
     @staticmethod
-    def editor_frame(page: Any, cell_text: str) -> Any:
-        """The content frame of the editor's trame iframe in the cell containing ``cell_text``, once it shows
-        an image."""
+    def view_iframe(page: Any, cell_text: str) -> tuple[Any, Any]:
+        """The trame iframe (a locator) in the cell containing ``cell_text`` and its content frame, once it
+        shows an image."""
         cell = page.locator(".jp-CodeCell", has_text=cell_text).first
         cell.scroll_into_view_if_needed()
         iframe = cell.locator("iframe.pyvista").first
@@ -545,8 +545,14 @@ class Lab:
         iframe.scroll_into_view_if_needed()
         frame = iframe.element_handle().content_frame()
         frame.wait_for_load_state("load")
-        wait_for(lambda: image_frames(frame), 60, "the first image in the editor's iframe")
-        return frame
+        wait_for(lambda: image_frames(frame), 60, f"the first image in the view of {cell_text!r}")
+        return iframe, frame
+
+    @staticmethod
+    def editor_frame(page: Any, cell_text: str) -> Any:
+        """The content frame of the editor's trame iframe in the cell containing ``cell_text``, once it shows
+        an image."""
+        return Lab.view_iframe(page, cell_text)[1]
 
 
 @contextlib.contextmanager

@@ -18,7 +18,7 @@ from pathlib import Path
 import nbformat
 import numpy as np
 import pytest
-from browser.helpers import ARTIFACTS, image_frames, launch_browser, start_lab, wait_for
+from browser.helpers import ARTIFACTS, launch_browser, start_lab, wait_for
 from playwright.sync_api import sync_playwright
 
 pytestmark = [pytest.mark.browser, pytest.mark.slow]
@@ -43,19 +43,6 @@ CELLS = [
     "         'normal': viewer.normal.tolist(), 'face_points': int(viewer.face.n_points)}\n"
     "json.dump(state, open('state.json', 'w'))",
 ]
-
-
-def view_of(page, cell_text: str):
-    """The trame iframe in the cell containing ``cell_text`` and the ``<img>`` inside it, once it shows an image."""
-    cell = page.locator(".jp-CodeCell", has_text=cell_text).first
-    cell.scroll_into_view_if_needed()
-    iframe = cell.locator("iframe").first
-    iframe.wait_for(state="attached", timeout=60_000)
-    iframe.scroll_into_view_if_needed()
-    frame = iframe.element_handle().content_frame()
-    frame.wait_for_load_state("load")
-    wait_for(lambda: image_frames(frame), 60, f"the first image of {cell_text!r}")
-    return iframe, frame.locator("img").first
 
 
 def picture(page, view) -> np.ndarray:
@@ -120,7 +107,8 @@ def test_gp_explorer_button_and_cut_viewer_plane_in_jupyterlab(tmp_path: Path):
             assert start["gp_max"] == 0.0  # the prior mean: nothing moved yet
 
             # the explorer's "sample" button: a VTK button 30 px wide, 10 px from the picture's bottom-left corner
-            iframe, view = view_of(page, "explorer = GPExplorer(")
+            iframe, frame = lab.view_iframe(page, "explorer = GPExplorer(")
+            view = frame.locator("img").first
             before = settled_picture(page, iframe, view)
             box = view.bounding_box()
             assert abs(box["width"] - SIZE[0]) <= 2 and abs(box["height"] - SIZE[1]) <= 2, box
@@ -132,7 +120,8 @@ def test_gp_explorer_button_and_cut_viewer_plane_in_jupyterlab(tmp_path: Path):
 
             # the cut viewer's plane: press on it beside the middle of the picture (the origin handle and
             # the normal arrow are in the middle) and drag; the organ is cut again where the plane went
-            iframe, view = view_of(page, "viewer = CutViewer(")
+            iframe, frame = lab.view_iframe(page, "viewer = CutViewer(")
+            view = frame.locator("img").first
             before = settled_picture(page, iframe, view)
             box = view.bounding_box()
             x, y = box["x"] + 0.5 * box["width"], box["y"] + 0.7 * box["height"]
