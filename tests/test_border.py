@@ -8,8 +8,8 @@ from reference_ffd import deform_loop
 from test_deform import random_lattice
 
 from ffd_notebook import FFD, Lattice, read_mesh
-from ffd_notebook.basis import bspline_support
 from ffd_notebook.datasets import sample_mesh
+from ffd_notebook.ffd.support import axis_support as bspline_support
 
 SHAPES = st.tuples(*[st.integers(2, 7)] * 3)
 
