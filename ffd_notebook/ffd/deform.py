@@ -127,7 +127,7 @@ class FFD:
         return np.ascontiguousarray(self._local_rows(as_points(points)).T)
 
     def _local_rows(self, pts: NDArray[np.float64]) -> NDArray[np.float64]:
-        """``T_local`` of points already checked, as rows ``(3, N)`` (one-shot: see ``_oneshot``)."""
+        """``T_local`` of points already checked, as rows ``(3, N)`` (the one-shot :mod:`.oneshot`)."""
         lat = self.lattice
         rows = oneshot.displacement(self.basis, lat.offsets, oneshot.lattice_rows(lat, pts), self.border)
         if self.only_inside:  # the domain test on to_lattice's coordinates, as the cached path does
