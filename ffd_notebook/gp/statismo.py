@@ -96,7 +96,7 @@ def _modelinfo(f) -> dict[str, object]:
 def load_model(path: str | os.PathLike[str]) -> LowRankGP:
     """Read a Statismo/Scalismo shape model (HDF5) as a :class:`~ffd_notebook.gp.LowRankGP`.
 
-    The model's :attr:`~ffd_notebook.gp.LowRankGP.points` are the representer's points (the
+    The model's ``points`` are the representer's points (the
     reference), its mean the file's mean shape minus them, :attr:`~ffd_notebook.gp.LowRankGP.cells`
     the triangles; ``model.metadata`` keeps the rest (representer attributes, noise variance,
     modelinfo) so :func:`save_model` writes it back unchanged.

@@ -75,7 +75,7 @@ def decimate_keeping_colors(mesh: pv.PolyData, reduction: float, attribute_error
     floats and rounded back to uint8. With ``attribute_error=True`` the colours also enter the
     error metric (``AttributeErrorMetric`` + ``ScalarsAttribute``) and VTK then solves vertex
     colours from the quadrics instead; measured on the shared face scans (80 % reduction, mean
-    |colour error| of the decimated surface against every original vertex, 0-255 scale):
+    ``|colour error|`` of the decimated surface against every original vertex, 0-255 scale):
     template 0.16 without vs 1.05 with, james 8.9 vs 11.8, so mapping alone is the default.
 
     Parameters

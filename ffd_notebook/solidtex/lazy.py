@@ -99,7 +99,7 @@ class LazySolidTexture:
         Same int, same colours, whatever is sampled first. Each block's draws are a hash of one
         integer root seed and the block's index, and a Generator's state cannot be hashed
         reproducibly: a Generator gives one 63-bit draw as the root seed
-        (:func:`~ffd_notebook.solidtex.seeding.integer_seed`), kept as :attr:`seed`.
+        (:func:`~ffd_notebook.solidtex.seeding.integer_seed`), kept as ``seed``.
     candidates : int
         Pool blocks compared per block.
     pool : int
