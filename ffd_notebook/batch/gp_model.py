@@ -15,7 +15,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..ffd.lattice import Lattice
-from ..gp import BSplineKernel, GaussianKernel, GaussianProcess, LowRankGP
+from ..gp import BSplineKernel, GaussianKernel, GaussianProcess, Kernel, LowRankGP
 
 __all__ = ["GPSample", "RandomGP"]
 
@@ -94,6 +94,7 @@ class RandomGP:
     def bind(self, points: ArrayLike) -> BoundGP:
         """Build the low-rank model on the points (a mesh's vertices)."""
         pts = np.asarray(points, dtype=np.float64)
+        kernel: Kernel
         if self.kernel == "gaussian":
             kernel = GaussianKernel(sigma=self.sigma, scale=self.scale)
         else:

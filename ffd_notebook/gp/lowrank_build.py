@@ -7,7 +7,7 @@ does and this module how one is made (each under the project's module size).
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, cast
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -23,6 +23,11 @@ if TYPE_CHECKING:
     from .lowrank import LowRankGP
 
 __all__ = ["LowRankBuilders"]
+
+
+def _model_class(cls: type) -> type[LowRankGP]:
+    """The class the builders construct: :class:`LowRankGP`, of which they are a part (or a subclass of it)."""
+    return cast("type[LowRankGP]", cls)
 
 
 def _kernel_of(process: GaussianProcess):
@@ -139,13 +144,13 @@ class LowRankBuilders:
         factor = np.zeros((3, len(space.vectors_t), r))
         rows = [column_of[(int(b), int(j))] for b, j in which]
         factor[axes, rows, np.arange(r)] = np.sqrt(eig)
-        return cls(space, factor, variances=eig)
+        return _model_class(cls)(space, factor, variances=eig)
 
     @classmethod
     def from_examples(
         cls,
         reference: ArrayLike | object,
-        meshes: Sequence[ArrayLike | object],
+        meshes: Sequence[ArrayLike | object] | NDArray[np.float64],
         rank: int | None = None,
         variance: float | None = None,
     ) -> LowRankGP:
@@ -209,7 +214,7 @@ class LowRankBuilders:
             raise ValueError("variances must be non-negative")
         space, factor = matrix_space(ref, mean, basis, variances)
         space.cells = None if cells is None else np.asarray(cells, dtype=np.int64)
-        return cls(space, factor, variances=variances)
+        return _model_class(cls)(space, factor, variances=variances)
 
     @classmethod
     def _truncated(cls, space, factor, mean_shift, rank, variance) -> LowRankGP:
@@ -217,4 +222,4 @@ class LowRankBuilders:
         basis, eig = ops.eigen_form(factor, space.gram)
         keep = int(np.count_nonzero(eig > ops.RELATIVE_FLOOR * max(eig[0], 0.0))) if len(eig) else 0
         keep = min(keep, choose_rank(eig[:keep], space.total_variance, rank, variance)) if keep else 0
-        return cls(space, np.ascontiguousarray(basis[:, :, :keep]), mean_shift, variances=eig[:keep])
+        return _model_class(cls)(space, np.ascontiguousarray(basis[:, :, :keep]), mean_shift, variances=eig[:keep])

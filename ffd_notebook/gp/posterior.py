@@ -65,6 +65,7 @@ class PosteriorKernel(Kernel):
         self.noise = observation_noise(noise, len(self.landmarks))
         self.is_diagonal = prior.is_diagonal and self.noise.is_diagonal
         if self.is_diagonal:
+            assert self.noise.variances is not None  # diagonal noise is given by its variances
             self.groups = _factor_groups(prior, self.landmarks, self.noise.variances)
             self.n_components = len(self.groups)
         else:

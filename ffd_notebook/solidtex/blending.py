@@ -54,7 +54,7 @@ def _weights(block: int, overlap: int, flags: tuple[bool, ...]) -> NDArray[np.fl
 
 
 def block_weights(
-    block: int, overlap: int, fade_in: tuple[bool, bool, bool], fade_out: tuple[bool, bool, bool]
+    block: int, overlap: int, fade_in: tuple[bool, ...], fade_out: tuple[bool, ...]
 ) -> NDArray[np.float32]:
     """``(block, block, block)`` feathering weights of a block (read-only, cached).
 

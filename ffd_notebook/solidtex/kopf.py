@@ -165,7 +165,7 @@ def _optimise(
             w = (weight / (1.0 + over)).reshape(grid)
             numv[sub] += w[..., None] * colour.reshape(*grid, 3)
             denv[sub] += w
-    return num / np.maximum(den, 1e-12)[..., None]
+    return (num / np.maximum(den, 1e-12)[..., None]).astype(np.float32, copy=False)
 
 
 def _discrete_sweep(
@@ -329,6 +329,7 @@ def exemplar_from_image(
                     volume = _transfer_colours(volume, level_img, 5, seed + it)
                 volume = _optimise(volume.astype(np.float32), index, target_hist, 2, it)
                 bar.update()
+    assert volume is not None  # levels >= 1
     volume = _transfer_colours(volume, img, 20, seed)
     if discrete_sweeps:  # ``index`` is the finest level's: the full image
         for sweep in range(discrete_sweeps):  # the sparse grid moves between sweeps, as in the optimisation

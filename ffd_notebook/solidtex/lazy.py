@@ -151,7 +151,7 @@ class LazySolidTexture:
         ex = np.ascontiguousarray(exemplar)
         if ex.ndim != 4 or ex.shape[3] != 3 or ex.dtype != np.uint8:
             raise ValueError(f"exemplar must be a (Z, Y, X, 3) uint8 volume, got {ex.dtype} {ex.shape}")
-        target = (int(shape),) * 3 if np.isscalar(shape) else tuple(int(s) for s in shape)
+        target = (int(shape),) * 3 if isinstance(shape, (int, np.integer)) else tuple(int(s) for s in shape)
         seed = integer_seed(rng)
         b = int(block) if block is not None else choose_block_size(ex, rng=seed)
         if len(target) != 3 or min(target) < 1 or not 4 <= b <= min(ex.shape[:3]):

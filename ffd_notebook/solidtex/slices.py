@@ -176,7 +176,7 @@ def sliding_crops(
     [0, 12, 24]
     """
     rgb = as_rgb8(image)
-    h, w = (size, size) if np.isscalar(size) else size
+    h, w = (size, size) if isinstance(size, (int, np.integer)) else size
     last_r = start[0] + step[0] * (n_slices - 1)
     last_c = start[1] + step[1] * (n_slices - 1)
     if n_slices < 1 or min(start) < 0 or min(last_r, last_c) < 0:

@@ -61,12 +61,12 @@ class Stage:
         Shape of the volume blocks are drawn from: the exemplar, or the previous stage's region.
     """
 
-    region: tuple[int, int, int]
+    region: tuple[int, ...]
     block: int
     overlap: int
     pool: int
-    n_blocks: tuple[int, int, int]
-    source_shape: tuple[int, int, int]
+    n_blocks: tuple[int, ...]
+    source_shape: tuple[int, ...]
 
     @property
     def step(self) -> int:
@@ -107,7 +107,7 @@ def _stage(region, block, overlap, pool_wanted, source_shape) -> Stage:
 
 
 def plan_stages(
-    exemplar_shape: tuple[int, ...], shape: tuple[int, int, int], block: int, overlap: float = 1 / 6, reuse: bool = True
+    exemplar_shape: tuple[int, ...], shape: tuple[int, ...], block: int, overlap: float = 1 / 6, reuse: bool = True
 ) -> list[Stage]:
     """The synthesis stages for a target ``shape``.
 
@@ -188,6 +188,7 @@ def _run_stage(
                     acc[region] += weights[..., None] * new
                     wsum[region] += weights
                 if measure:
+                    assert mismatch is not None  # measure implies it
                     mismatch[0] += _transition_energy(w, np.square(new - old).sum(-1), covered > 0, has_prev)
                     mismatch[1] += b * b * sum(has_prev)
                 bar.update()
@@ -337,7 +338,7 @@ def synthesize(
         raise ValueError(f"seams must be 'feather' or 'cut', got {seams!r}")
     if ex.ndim != 4 or ex.shape[3] != 3:
         raise ValueError(f"exemplar must be a (Z, Y, X, 3) colour volume, got shape {ex.shape}")
-    target = (int(shape),) * 3 if np.isscalar(shape) else tuple(int(s) for s in shape)
+    target = (int(shape),) * 3 if isinstance(shape, (int, np.integer)) else tuple(int(s) for s in shape)
     if block is None:
         block = choose_block_size(ex, rng=rng)
     if overlap is None:
