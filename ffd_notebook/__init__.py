@@ -18,9 +18,29 @@ True
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 from ._util.lazy import lazy_getattr
 from .errors import FileFormatError
 from .ffd import FFD, Deformer, Lattice
+
+# the lazy names below, declared for type checkers and IDEs (tests/test_typing.py keeps both in step)
+if TYPE_CHECKING:
+    from .io import load_deformation as load_deformation
+    from .io import load_ffd as load_ffd
+    from .io import load_prm as load_prm
+    from .io import load_transform as load_transform
+    from .io import place_at_mesh_minimum as place_at_mesh_minimum
+    from .io import read_mesh as read_mesh
+    from .io import read_obj as read_obj
+    from .io import save_deformation as save_deformation
+    from .io import save_ffd as save_ffd
+    from .io import save_prm as save_prm
+    from .io import save_transform as save_transform
+    from .io import write_mesh as write_mesh
+    from .io import write_obj as write_obj
+    from .view import Editor as Editor
+    from .view import edit as edit
 
 __version__ = "0.1.0"
 

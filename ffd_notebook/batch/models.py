@@ -15,10 +15,10 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..ffd.basis import BASES
+from ..ffd.basis import BASES, BasisName
 from ..ffd.deform import FFD
 from ..ffd.lattice import Lattice
-from ..ffd.support import check_border
+from ..ffd.support import Border, check_border
 
 __all__ = ["LatticeSample", "RandomLattice"]
 
@@ -128,8 +128,8 @@ class RandomLattice:
     num_control_points: int | tuple[int, int, int] = 7
     max_displacement: float | tuple[float, float, float] = 7.5
     locked_borders: int = 2
-    basis: str = "bspline"
-    border: str = "zero"
+    basis: BasisName = "bspline"
+    border: Border = "zero"
     margin: float = 0.05
 
     name = "random-lattice"

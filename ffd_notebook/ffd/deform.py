@@ -16,12 +16,12 @@ from numpy.typing import ArrayLike, NDArray
 
 from .._util.points import as_points
 from . import oneshot
-from .basis import BASES
+from .basis import BASES, BasisName
 from .deformer import Deformer
 from .fit import fit_points as _fit_points
 from .jacobian import bernstein_lattice_jacobian, bspline_lattice_jacobian, det3, jacobian_to_world
 from .lattice import Lattice
-from .support import CellGroups, check_border, in_domain
+from .support import Border, CellGroups, check_border, in_domain
 
 __all__ = ["FFD"]
 
@@ -81,8 +81,8 @@ class FFD:
     def __init__(
         self,
         lattice: Lattice,
-        basis: str = "bspline",
-        border: str | None = None,
+        basis: BasisName = "bspline",
+        border: Border | None = None,
         affine: ArrayLike | None = None,
         only_inside: bool = False,
     ) -> None:
@@ -97,12 +97,12 @@ class FFD:
                 f"the cubic B-spline basis with border 'zero' needs at least 4 control points per axis, "
                 f"got {lattice.shape}"
             )
-        self.basis = basis
+        self.basis: BasisName = basis
         self.affine = _check_affine(affine)
         self.only_inside = bool(only_inside)
 
     @property
-    def border(self) -> str:
+    def border(self) -> Border:
         """The B-spline border rule in use: the one given, else the lattice's."""
         return self.lattice.border if self._border is None else self._border
 

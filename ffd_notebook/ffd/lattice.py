@@ -14,8 +14,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .._util.points import as_points
-from .basis import BASES
-from .support import check_border
+from .basis import BASES, BasisName
+from .support import Border, check_border
 
 __all__ = ["Lattice"]
 
@@ -82,7 +82,7 @@ class Lattice:
         origin: ArrayLike = (0.0, 0.0, 0.0),
         rotation: ArrayLike | None = None,
         offsets: ArrayLike | None = None,
-        border: str = "zero",
+        border: Border = "zero",
     ) -> None:
         shape_arr = np.asarray(shape)
         if shape_arr.shape != (3,) or not np.all(shape_arr == np.round(shape_arr)) or np.any(shape_arr < 2):
@@ -104,7 +104,7 @@ class Lattice:
         self.metadata: dict[str, Any] = {}
 
     @property
-    def border(self) -> str:
+    def border(self) -> Border:
         """``"zero"`` or ``"clamp"``: what the B-spline FFD assumes beyond the lattice."""
         return self._border
 
@@ -119,8 +119,8 @@ class Lattice:
         points_or_mesh: Any,
         shape: tuple[int, int, int] | int = (5, 5, 5),
         margin: float | None = None,
-        basis: str = "bspline",
-        border: str = "zero",
+        basis: BasisName = "bspline",
+        border: Border = "zero",
     ) -> Lattice:
         """Fit an axis-aligned lattice around a point set or mesh.
 

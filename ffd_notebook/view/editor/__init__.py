@@ -6,10 +6,17 @@ on first use.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 from ..._util.lazy import lazy_getattr
 from .changes import Change
 from .editor import Editor, edit
 from .session import EditingSession, MeshIO
+
+if TYPE_CHECKING:  # the lazy names below, declared for type checkers and IDEs
+    from .app import EditorApp as EditorApp
+    from .app import run_app as run_app
+    from .notebook_panel import ControlPanel as ControlPanel
 
 _LAZY = {
     "ControlPanel": "ffd_notebook.view.editor.notebook_panel",
