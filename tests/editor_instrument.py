@@ -115,7 +115,7 @@ class Instrument:
     def surface(self, probe: list[list[float]] | None = None) -> dict[str, Any]:
         """What the ``ffd_surface`` trigger answers: the mode, the pins (rest and on screen), the last
         grabbed point (rest and on screen), and for each ``probe`` ``(u, v)`` the rest point under it (or None)."""
-        session, handle = self.editor.session, self.editor.scene.surface_handle
+        session, handle = self.editor.session, self.editor.scene.surface_picking
         w, h = self.editor.plotter.render_window.GetSize()
 
         def on_screen(rest: Any) -> list[list[float]]:

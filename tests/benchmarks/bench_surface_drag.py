@@ -7,7 +7,7 @@ Run from the repository root (needs ../shared/data):
 Prints, in one run and as medians (of repeats of medians; the machine is shared):
 
 - picking the mesh point under the cursor on a press: the editor's NumPy ray test
-  (:func:`ffd_notebook.view.editor.surface_drag.ray_hit`, bounding spheres then Moller-Trumbore)
+  (:func:`ffd_notebook.view.editor.session.surface_drag.ray_hit`, bounding spheres then Moller-Trumbore)
   against the baseline ``vtkCellPicker`` on the mesh actor, after the points moved (as after a drag);
 - one surface-drag event (``session.drag_surface``: the least-norm fit with two pins, the
   cached FFD update of every control point involved, undo bookkeeping) against the baseline
@@ -50,7 +50,7 @@ def main() -> None:
     from ffd_notebook.view import Editor
 
     editor = Editor(FACE, shape=(args.shape,) * 3, window_size=(800, 600))
-    session, handle = editor.session, editor.scene.surface_handle
+    session, handle = editor.session, editor.scene.surface_picking
     editor.screenshot()
     print(f"face: {editor.mesh.n_points} vertices, {editor.mesh.n_cells} triangles, lattice {editor.lattice.shape}")
     w, h = editor.plotter.window_size

@@ -30,12 +30,12 @@ from ...deform import FFD
 from ...io import write_mesh
 from ...lattice import Lattice
 from ...meshing import as_surface, color_array_name, decimate_keeping_colors, deformed_copy
-from . import session_files
-from .history import History
-from .message_log import MessageLog
-from .proxy import INTERACTIVE_CELLS
-from .scene import EditorScene
-from .session import EditingSession, MeshIO
+from .scene.proxy import INTERACTIVE_CELLS
+from .scene.scene import EditorScene
+from .session import files as session_files
+from .session.history import History
+from .session.message_log import MessageLog
+from .session.session import EditingSession, MeshIO
 
 __all__ = ["PYVISTA_MESH_IO", "Editor", "edit"]
 
@@ -362,7 +362,7 @@ class Editor:
     def widget(self) -> Any:
         """The editor's notebook widget: its view next to a control panel (made once)."""
         if self._widget is None:
-            from .notebook import editor_widget
+            from .notebook.output import editor_widget
 
             self._widget = editor_widget(self)
         return self._widget
@@ -372,7 +372,7 @@ class Editor:
         from IPython.display import display
 
         from ..jupyter import execution_count
-        from .notebook import EditorOutput
+        from .notebook.output import EditorOutput
 
         cell = execution_count()
         if cell is not None and cell == self._shown_in_cell:

@@ -7,11 +7,11 @@ import uuid
 import pytest
 import pyvista as pv
 
-from ffd_notebook.view.editor import controls
 from ffd_notebook.view.editor.app import EditorApp
-from ffd_notebook.view.editor.controls import Control, editor_state
 from ffd_notebook.view.editor.editor import Editor
-from ffd_notebook.view.editor.notebook_panel import ControlPanel
+from ffd_notebook.view.editor.notebook.panel import ControlPanel
+from ffd_notebook.view.editor.session import controls
+from ffd_notebook.view.editor.session.controls import Control, editor_state
 
 
 @pytest.fixture

@@ -7,7 +7,7 @@ import pytest
 import pyvista as pv
 
 from ffd_notebook.view.editor import Editor
-from ffd_notebook.view.editor import coloring as fields
+from ffd_notebook.view.editor.scene import coloring as fields
 
 
 def mapper(editor):

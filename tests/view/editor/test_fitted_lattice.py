@@ -17,7 +17,7 @@ import numpy as np
 from ffd_notebook import FFD, Lattice
 from ffd_notebook.datasets import sample_mesh
 from ffd_notebook.view.editor.editor import PYVISTA_MESH_IO
-from ffd_notebook.view.editor.session import EditingSession
+from ffd_notebook.view.editor.session.session import EditingSession
 
 
 def outer_ring(shape):
@@ -84,7 +84,7 @@ def test_refits_keep_the_clamp_border_and_bernstein_is_unchanged():
 
 
 def test_a_fitted_lattice_saves_to_ffd_with_its_border(tmp_path):
-    from ffd_notebook.view.editor import session_files
+    from ffd_notebook.view.editor.session import files as session_files
 
     session = EditingSession(sample_mesh(), mesh_io=PYVISTA_MESH_IO)
     session.move_control_point((0, 2, 4), (3.0, -2.0, 1.0))

@@ -9,8 +9,8 @@ from editor_testing import assert_view_matches_model, display_xy, mouse_drag, wi
 
 from ffd_notebook import Lattice
 from ffd_notebook.view.editor import Editor
-from ffd_notebook.view.editor.controls import by_key, editor_state, run
-from ffd_notebook.view.editor.lattice_actor import SELECTED_COLOR, WIDGET_COLOR, shown_indices
+from ffd_notebook.view.editor.scene.lattice_actor import SELECTED_COLOR, WIDGET_COLOR, shown_indices
+from ffd_notebook.view.editor.session.controls import by_key, editor_state, run
 
 
 def actor_count(editor):

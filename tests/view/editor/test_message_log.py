@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import copy
 
-from ffd_notebook.view.editor.message_log import MAX_MESSAGES, MessageLog
+from ffd_notebook.view.editor.session.message_log import MAX_MESSAGES, MessageLog
 
 
 def test_messages_are_bounded_newest_last(editor):

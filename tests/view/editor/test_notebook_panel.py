@@ -9,8 +9,8 @@ import pytest
 from editor_testing import assert_view_matches_model, shown_points, widget_index
 
 from ffd_notebook.io import load_ffd, read_obj
-from ffd_notebook.view.editor.changes import DRAG_SYNC_S
-from ffd_notebook.view.editor.notebook_panel import ControlPanel
+from ffd_notebook.view.editor.notebook.panel import ControlPanel
+from ffd_notebook.view.editor.session.changes import DRAG_SYNC_S
 
 
 @pytest.fixture

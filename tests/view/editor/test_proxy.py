@@ -8,8 +8,8 @@ import pyvista as pv
 from editor_testing import display_xy, widget_index
 
 from ffd_notebook.view.editor import Editor
-from ffd_notebook.view.editor.proxy import INTERACTIVE_CELLS, simplified
-from ffd_notebook.view.editor.scene import prepare_display
+from ffd_notebook.view.editor.scene.proxy import INTERACTIVE_CELLS, simplified
+from ffd_notebook.view.editor.scene.scene import prepare_display
 
 
 @pytest.fixture(scope="module")

@@ -9,10 +9,10 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from ffd_notebook import Lattice
-from ffd_notebook.view.editor.controls import by_key, editor_state, run
 from ffd_notebook.view.editor.editor import PYVISTA_MESH_IO
-from ffd_notebook.view.editor.session import EditingSession
-from ffd_notebook.view.editor.surface_drag import ray_hit
+from ffd_notebook.view.editor.session.controls import by_key, editor_state, run
+from ffd_notebook.view.editor.session.session import EditingSession
+from ffd_notebook.view.editor.session.surface_drag import ray_hit
 
 
 @pytest.fixture
@@ -194,7 +194,7 @@ def surface_editor(editor):
 
 
 def test_a_mouse_drag_moves_the_picked_point_with_the_mouse(surface_editor):
-    editor, handle = surface_editor, surface_editor.scene.surface_handle
+    editor, handle = surface_editor, surface_editor.scene.surface_picking
     start, delta = (118.0, 86.0), (24.0, 12.0)
     grabbed = handle.pick(*start)
     assert grabbed is not None
@@ -219,7 +219,7 @@ def test_a_mouse_drag_moves_the_picked_point_with_the_mouse(surface_editor):
 
 
 def test_a_click_pins_and_unpins_and_pins_hold(surface_editor):
-    editor, handle = surface_editor, surface_editor.scene.surface_handle
+    editor, handle = surface_editor, surface_editor.scene.surface_picking
     pin_xy = (100.0, 70.0)
     mouse(editor, "LeftButtonPressEvent", *pin_xy)
     mouse(editor, "MouseMoveEvent", pin_xy[0] + 1, pin_xy[1])  # a hand's jitter is still a click
@@ -244,7 +244,7 @@ def test_a_click_pins_and_unpins_and_pins_hold(surface_editor):
 
 
 def test_a_press_off_the_mesh_rotates_the_camera_and_spheres_stay(surface_editor):
-    editor, handle = surface_editor, surface_editor.scene.surface_handle
+    editor, handle = surface_editor, surface_editor.scene.surface_picking
     w, h = editor.plotter.window_size
     on_screen = handle.world_to_display(editor.session.control_points())
     # a sphere that is off the mesh on screen, well inside the window
@@ -275,7 +275,7 @@ def test_picking_agrees_with_vtk_cell_picker(surface_editor):
     """The NumPy ray test against VTK's own picker, on the plotted (deformed) mesh."""
     from vtkmodules.vtkRenderingCore import vtkCellPicker
 
-    editor, handle = surface_editor, surface_editor.scene.surface_handle
+    editor, handle = surface_editor, surface_editor.scene.surface_picking
     editor.session.begin_surface_drag(0)
     editor.session.drag_surface(editor.mesh.points[0] + (0.3, 0.0, 0.2))  # pick on a deformed mesh
     editor.session.end_surface_drag()

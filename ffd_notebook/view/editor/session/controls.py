@@ -18,11 +18,11 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ...basis import BASES
+from ....basis import BASES
 from .surface_drag import MODES
 
 if TYPE_CHECKING:
-    from .editor import Editor
+    from ..editor import Editor
 
 __all__ = [
     "BASIS_CHOICES",

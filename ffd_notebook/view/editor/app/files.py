@@ -25,7 +25,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from ..file_root import (
+from ...file_root import (
     FFD_SUFFIXES,
     MESH_SUFFIXES,
     FileRoot,
@@ -34,9 +34,9 @@ from ..file_root import (
     client_message,
     refuse_special_or_oversize,
 )
-from .controls import numbers
-from .scene import prepare_display
-from .session import copy_ffd
+from ..scene.scene import prepare_display
+from ..session.controls import numbers
+from ..session.session import copy_ffd
 
 __all__ = ["MESH_FORMATS", "AppFilesMixin", "upload_bytes"]
 
@@ -44,7 +44,7 @@ __all__ = ["MESH_FORMATS", "AppFilesMixin", "upload_bytes"]
 def _write_deformation(target: Path, ffd: Any, shown: str) -> None:
     """``save_deformation(target, ffd)``; a refusal (the format cannot hold ``ffd``) becomes a
     :class:`PathRefused` whose whole reason the page may show, naming the file as the page does."""
-    from ...io import save_deformation
+    from ....io import save_deformation
 
     try:
         save_deformation(target, ffd)
@@ -219,7 +219,7 @@ class AppFilesMixin:
 
     def save_mesh(self, path: str) -> None:
         """Save the deformed mesh in the app's folder (format from the extension, atomically)."""
-        from ...io import write_mesh
+        from ....io import write_mesh
 
         target = self._typed(path, lambda p: self.files.for_writing(p, MESH_SUFFIXES), "save")
         if target is not None:
@@ -283,7 +283,7 @@ class AppFilesMixin:
 
     async def download_mesh(self, fmt: str = "obj") -> bytes:
         """The deformed mesh as the bytes of a ``fmt`` file (one of :data:`MESH_FORMATS`)."""
-        from ...io import write_mesh
+        from ....io import write_mesh
 
         if fmt not in MESH_FORMATS:
             raise ValueError(f"mesh format must be one of {MESH_FORMATS}")

@@ -12,8 +12,8 @@ from __future__ import annotations
 import re
 from typing import Any
 
-from ..file_root import FFD_SUFFIXES
-from .controls import Control
+from ...file_root import FFD_SUFFIXES
+from ..session.controls import Control
 
 __all__ = ["build_layout"]
 
@@ -177,7 +177,7 @@ def build_layout(app: Any) -> tuple[Any, Any]:
     from trame.widgets import html
     from trame.widgets import vuetify3 as v
 
-    from ..remote_view import RemoteView
+    from ...remote_view import RemoteView
 
     toolbar = [c for c in app.controls if c.section == "toolbar"]
     with SinglePageWithDrawerLayout(app.server, width=340) as layout:

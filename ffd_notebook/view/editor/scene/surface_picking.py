@@ -27,13 +27,13 @@ import numpy as np
 import pyvista as pv
 from numpy.typing import NDArray
 
-from .changes import Change
-from .surface_drag import ray_hit
+from ..session.changes import Change
+from ..session.surface_drag import ray_hit
 
 if TYPE_CHECKING:
     from .scene import EditorScene
 
-__all__ = ["CLICK_PX", "PIN_COLOR", "PIN_PX", "PRIORITY", "SurfaceHandle"]
+__all__ = ["CLICK_PX", "PIN_COLOR", "PIN_PX", "PRIORITY", "SurfacePicking"]
 
 PRIORITY = 20.0  # above the lattice actor's observers (10) and every widget's
 CLICK_PX = 3.0  # a press and release closer than this (pixels) is a click
@@ -41,7 +41,7 @@ PIN_PX = 8.0  # a click this close to a pin (pixels) removes it
 PIN_COLOR = "red"
 
 
-class SurfaceHandle:
+class SurfacePicking:
     """Surface picking, dragging and pins of one :class:`~.scene.EditorScene` (see the module docstring).
 
     Parameters

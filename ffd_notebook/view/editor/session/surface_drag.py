@@ -24,7 +24,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ...fit import control_weights
+from ....fit import control_weights
 
 __all__ = ["MODES", "SurfaceDragging", "ray_hit"]
 
@@ -51,7 +51,7 @@ class SurfaceDragging:
     --------
     >>> import numpy as np, pyvista as pv
     >>> from ffd_notebook.view.editor.editor import PYVISTA_MESH_IO
-    >>> from ffd_notebook.view.editor.session import EditingSession
+    >>> from ffd_notebook.view.editor.session.session import EditingSession
     >>> session = EditingSession(pv.Sphere(), mesh_io=PYVISTA_MESH_IO, shape=(5, 5, 5))
     >>> session.pin(0)
     0

@@ -28,9 +28,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ...deform import FFD
-from ...deformer import Deformer
-from ...lattice import Lattice
+from ....deform import FFD
+from ....deformer import Deformer
+from ....lattice import Lattice
 from .changes import Change, Subscribers
 from .history import History, LatticeSwap, OffsetEdit
 from .message_log import MessageLog

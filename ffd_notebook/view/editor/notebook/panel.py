@@ -15,12 +15,12 @@ from typing import TYPE_CHECKING, Any
 
 import ipywidgets as widgets
 
-from . import controls as panel_controls
-from .changes import Change, DragSync
-from .controls import Control, editor_state, run
+from ..session import controls as panel_controls
+from ..session.changes import Change, DragSync
+from ..session.controls import Control, editor_state, run
 
 if TYPE_CHECKING:
-    from .editor import Editor
+    from ..editor import Editor
 
 __all__ = ["ControlPanel"]
 

@@ -22,14 +22,14 @@ import socket
 from collections.abc import Callable
 from typing import Any
 
-from ..file_root import DEFAULT_MAX_FILE_BYTES, FileRoot
-from ..web_security import AccessPolicy, new_token, protect, url_with_token
-from . import controls as panel_controls
-from .app_files import MESH_FORMATS, AppFilesMixin
-from .app_layout import build_layout
-from .changes import Change, DragSync
-from .controls import by_key, editor_state, run
-from .editor import Editor
+from ...file_root import DEFAULT_MAX_FILE_BYTES, FileRoot
+from ...web_security import AccessPolicy, new_token, protect, url_with_token
+from ..editor import Editor
+from ..session import controls as panel_controls
+from ..session.changes import Change, DragSync
+from ..session.controls import by_key, editor_state, run
+from .files import MESH_FORMATS, AppFilesMixin
+from .layout import build_layout
 
 __all__ = ["EditorApp", "run_app"]
 
