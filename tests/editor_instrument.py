@@ -62,8 +62,8 @@ class Instrument:
     def _follow(self, change: Any) -> None:
         if change.kind != "drag":
             return
-        if change.label == "surface drag" and self.editor.session.surface_grab is not None:
-            self.last_grab = self.editor.session.surface_grab.tolist()
+        if change.label == "surface drag" and self.editor.session.surface.grabbed is not None:
+            self.last_grab = self.editor.session.surface.grabbed.tolist()
         self.n_drags += 1
         if self._trace is None:
             return
@@ -125,13 +125,13 @@ class Instrument:
 
         hits = [handle.pick(u * w, v * h) for u, v in probe or []]
         return {
-            "mode": session.interaction_mode,
-            "pins": session.pins.tolist(),
-            "pins_uv": on_screen(session.pins),
-            "pins_world": session.pinned_points().tolist(),
+            "mode": session.surface.mode,
+            "pins": session.surface.pins.tolist(),
+            "pins_uv": on_screen(session.surface.pins),
+            "pins_world": session.surface.pinned_points().tolist(),
             "grab": self.last_grab,
             "grab_uv": on_screen(self.last_grab)[0] if self.last_grab is not None else None,
-            "dragging": session.surface_grab is not None,
+            "dragging": session.surface.grabbed is not None,
             "history": len(session.history),
             "probe": [None if hit is None else hit.tolist() for hit in hits],
         }

@@ -9,7 +9,7 @@ Prints, in one run and as medians (of repeats of medians; the machine is shared)
 - picking the mesh point under the cursor on a press: the editor's NumPy ray test
   (:func:`ffd_notebook.view.editor.session.surface_drag.ray_hit`, bounding spheres then Moller-Trumbore)
   against the baseline ``vtkCellPicker`` on the mesh actor, after the points moved (as after a drag);
-- one surface-drag event (``session.drag_surface``: the least-norm fit with two pins, the
+- one surface-drag event (``session.surface.move``: the least-norm fit with two pins, the
   cached FFD update of every control point involved, undo bookkeeping) against the baseline
   sphere-drag event (``session.drag``, one control point), and the one-point ``FFD.fit_points``
   solve alone against its target (<= 5 ms).
@@ -76,20 +76,20 @@ def main() -> None:
         rows["pick: NumPy ray test (editor)"].append(timed(ray_test, 3) / 5)
 
     grab = handle.pick(w / 2, h / 2)
-    session.pin(int(np.argmax(editor.mesh.points[:, 1])))
-    session.pin(int(np.argmin(editor.mesh.points[:, 1])))
+    session.surface.pin(int(np.argmax(editor.mesh.points[:, 1])))
+    session.surface.pin(int(np.argmin(editor.mesh.points[:, 1])))
     start = session.ffd.deform(grab[None])[0]
     scale = 0.05 * float(np.ptp(editor.mesh.points, axis=0).max())
     centers = session.control_points()
     index = int(np.ravel_multi_index((args.shape // 2,) * 3, editor.lattice.shape))
     solve_rows = np.array([grab])
     for _ in range(args.repeat):
-        session.begin_surface_drag(grab)
+        session.surface.begin(grab)
         targets = iter(start + rng.normal(0, scale, (args.events, 3)))
         rows.setdefault("event: surface drag, 2 pins (editor)", []).append(
-            timed(lambda it=targets: session.drag_surface(next(it)), args.events)
+            timed(lambda it=targets: session.surface.move(next(it)), args.events)
         )
-        session.end_surface_drag()
+        session.surface.end()
         moves = iter(centers[index] + rng.normal(0, scale, (args.events, 3)))
         session.begin_drag(index)
         rows.setdefault("event: sphere drag (baseline)", []).append(

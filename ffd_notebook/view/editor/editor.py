@@ -281,11 +281,11 @@ class Editor:
 
     def set_interaction_mode(self, mode: str) -> None:
         """What a mouse drag moves (spheres or the mesh): :meth:`EditingSession.set_interaction_mode`."""
-        self.session.set_interaction_mode(mode)
+        self.session.surface.set_mode(mode)
 
     def clear_pins(self) -> None:
         """Unpin every pinned mesh point: :meth:`EditingSession.clear_pins`."""
-        self.session.clear_pins()
+        self.session.surface.clear_pins()
 
     def show_points(self, which: str) -> None:
         """Draw all control points, those near the selection, or the hull: :meth:`EditingSession.show_points`."""

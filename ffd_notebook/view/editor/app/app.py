@@ -28,13 +28,13 @@ from ..editor import Editor
 from ..session import controls as panel_controls
 from ..session.changes import Change, DragSync
 from ..session.controls import by_key, editor_state, run
-from .files import MESH_FORMATS, AppFilesMixin
+from .files import MESH_FORMATS, AppFiles
 from .layout import build_layout
 
 __all__ = ["EditorApp", "run_app"]
 
 
-class EditorApp(AppFilesMixin):
+class EditorApp:
     """A trame server showing ``editor`` with a control panel.
 
     Parameters
@@ -81,19 +81,18 @@ class EditorApp(AppFilesMixin):
         self.editor = editor
         self.server = server if server is not None else get_server(name, client_type="vue3")
         self.state = self.server.state
-        self.files = FileRoot(os.getcwd() if root is None else root, max_bytes=max_file_bytes)
+        root_folder = FileRoot(os.getcwd() if root is None else root, max_bytes=max_file_bytes)
+        self.files = AppFiles(editor, self.state, root_folder, sync=self.sync)  # typed paths, uploads, downloads
         self.token = new_token() if token is None else token
         self.url: str | None = None
         self._drag_sync = DragSync()
-        self._scratch = None
-        self._tasks: set[Any] = set()
         self.controls = [c for c in panel_controls.CONTROLS if "app" in c.panels]
         self.state.update(self._editor_values())
         self.state.update({c.key: c.default for c in self.controls if c.default is not None})
         self.state.update({f"{c.key}_items": [{"value": v, "title": t} for v, t in c.choices] for c in self.controls})
         self.state.update(
             trame__title="ffd_notebook editor",
-            root_name=str(self.files.path),
+            root_name=str(root_folder.path),
             ffd_upload=None,
             mesh_upload=None,
             mesh_format=MESH_FORMATS[0],
@@ -102,13 +101,13 @@ class EditorApp(AppFilesMixin):
             busy_text="",
         )
         for name_, method in (
-            ("ffd_load_ffd", self.load_ffd),
-            ("ffd_save_ffd", self.save_ffd),
-            ("ffd_load_mesh", self.load_mesh),
-            ("ffd_save_mesh", self.save_mesh),
-            ("ffd_download_ffd", self.download_ffd),
-            ("ffd_download_mesh", self.download_mesh),
-            ("ffd_rebuild", self.rebuild),
+            ("ffd_load_ffd", self.files.load_ffd),
+            ("ffd_save_ffd", self.files.save_ffd),
+            ("ffd_load_mesh", self.files.load_mesh),
+            ("ffd_save_mesh", self.files.save_mesh),
+            ("ffd_download_ffd", self.files.download_ffd),
+            ("ffd_download_mesh", self.files.download_mesh),
+            ("ffd_rebuild", self.files.rebuild),
         ):
             self.server.controller.trigger(name_)(method)
         self.layout, self.view = build_layout(self)
@@ -117,8 +116,8 @@ class EditorApp(AppFilesMixin):
         for control in self.controls:
             if control.command is not None and control.kind != "button":  # inputs act when their value changes
                 self.state.change(*control.state)(self._input_handler(control))
-        self.state.change("ffd_upload")(self.receive_ffd_upload)
-        self.state.change("mesh_upload")(self.receive_mesh_upload)
+        self.state.change("ffd_upload")(self.files.receive_ffd_upload)
+        self.state.change("mesh_upload")(self.files.receive_mesh_upload)
 
     # ------------------------------------------------------------------ editor -> page
     def _editor_values(self) -> dict[str, Any]:
@@ -182,7 +181,7 @@ class EditorApp(AppFilesMixin):
 
     def close(self) -> None:
         """Remove the uploads folder and close the editor."""
-        self.cleanup_files()
+        self.files.cleanup()
         self.editor.close()
 
 
@@ -208,9 +207,9 @@ def run_app(
     app = EditorApp(editor, root=root, max_file_bytes=max_file_bytes)
     if setup is not None:
         setup(app)
-    atexit.register(app.cleanup_files)  # also when the server ends by a signal or an error
+    atexit.register(app.files.cleanup)  # also when the server ends by a signal or an error
     try:
         app.start(port=port, host=host)
     finally:
-        app.cleanup_files()
+        app.files.cleanup()
     return app

@@ -8,11 +8,11 @@ name). A remote user needs no server path at all: lattice files (.ffd, ITK .tfm/
 PyGeM .prm) and meshes can be uploaded from the
 browser and the lattice and the deformed mesh downloaded to it.
 
-Reading and writing files run in a worker thread (:meth:`AppFilesMixin._in_background`) so the
+Reading and writing files run in a worker thread (:meth:`AppFiles.in_background`) so the
 event loop keeps answering (HTTP, other clients, the page's own messages) and the page shows a
 progress bar. The worker also does the slow parts of installing: binding the lattice to a loaded
 mesh (the deformer's weights and first evaluation), the plotted copy of the mesh and its normals
-(:func:`~.scene.prepare_display`), and binding a rebuilt lattice (:meth:`AppFilesMixin.rebuild`);
+(:func:`~.scene.prepare_display`), and binding a rebuilt lattice (:meth:`AppFiles.rebuild`);
 only swapping the result into the editor (VTK actors) runs on the loop. Without a running event
 loop (scripts, unit tests) the same work runs synchronously.
 """
@@ -38,7 +38,7 @@ from ..scene.scene import prepare_display
 from ..session.controls import numbers
 from ..session.session import copy_ffd
 
-__all__ = ["MESH_FORMATS", "AppFilesMixin", "upload_bytes"]
+__all__ = ["MESH_FORMATS", "AppFiles", "upload_bytes"]
 
 
 def _write_deformation(target: Path, ffd: Any, shown: str) -> None:
@@ -75,20 +75,30 @@ def upload_bytes(upload: Any) -> tuple[str, bytes] | None:
     return str(upload.get("name") or "upload"), bytes(content)
 
 
-class AppFilesMixin:
-    """File actions of :class:`~ffd_notebook.view.editor.app.EditorApp` (see the module docstring).
+class AppFiles:
+    """The file actions of one :class:`~ffd_notebook.view.editor.app.EditorApp` (``app.files``; see the module
+    docstring).
 
-    Needs ``self.editor``, ``self.state``, ``self.files`` (a FileRoot) and ``self.sync()``.
+    Parameters
+    ----------
+    editor : Editor
+        The editor the files are loaded into and saved from.
+    state : trame state
+        The page's state (``busy``, ``busy_text``, the upload inputs).
+    root : FileRoot
+        The folder typed paths are confined to.
+    sync : callable
+        Called after every action that changed the editor or added a message: the app copies the
+        editor's state to the page.
     """
 
-    editor: Any
-    state: Any
-    files: FileRoot
-    _scratch: ScratchFolder | None
-    _tasks: set[Any]
-
-    def sync(self) -> None:  # pragma: no cover - EditorApp's
-        raise NotImplementedError
+    def __init__(self, editor: Any, state: Any, root: FileRoot, *, sync: Callable[[], None]) -> None:
+        self.editor = editor
+        self.state = state
+        self.root = root
+        self.sync = sync
+        self._scratch: ScratchFolder | None = None
+        self._tasks: set[Any] = set()
 
     # ------------------------------------------------------------------ running work
     def _report(self, exc: BaseException, shown: str, verb: str) -> None:
@@ -100,7 +110,7 @@ class AppFilesMixin:
             self.state.busy = text is not None
             self.state.busy_text = text or ""
 
-    def _in_background(self, what: str, work: Callable[[], Any], done: Callable[[Any], None], shown: str,
+    def in_background(self, what: str, work: Callable[[], Any], done: Callable[[Any], None], shown: str,
                        verb: str) -> None:  # fmt: skip
         """Run ``work()`` in a worker thread, then ``done(result)`` on the event loop; errors become messages.
 
@@ -154,7 +164,7 @@ class AppFilesMixin:
 
     # ------------------------------------------------------------------ reading
     def _read_ffd(self, path: Path, shown: str) -> None:
-        self._in_background(f"reading {shown}", lambda: self.editor.read_ffd_file(path),
+        self.in_background(f"reading {shown}", lambda: self.editor.read_ffd_file(path),
                             lambda result: self.editor.use_ffd(*result, shown), shown, "load")  # fmt: skip
 
     def _read_mesh(self, path: Path, shown: str) -> None:
@@ -167,7 +177,7 @@ class AppFilesMixin:
             self.editor.scene.offer_display(prepared)
             self.editor.use_mesh(mesh, deformer, shown)
 
-        self._in_background(f"reading {shown}", work, done, shown, "load")
+        self.in_background(f"reading {shown}", work, done, shown, "load")
 
     # ------------------------------------------------------------------ lattice
     def rebuild(self, *values: Any) -> None:
@@ -189,20 +199,20 @@ class AppFilesMixin:
                 raise ValueError("the mesh changed meanwhile; rebuild again")
             session.set_shape(shape, deformer)
 
-        self._in_background(f"fitting a {name} lattice", lambda: ffd.bind(mesh.points), done,
+        self.in_background(f"fitting a {name} lattice", lambda: ffd.bind(mesh.points), done,
                             f"the {name} lattice", "rebuild")  # fmt: skip
 
     def load_ffd(self, path: str) -> None:
         """Load a lattice file (.ffd, ITK, PyGeM .prm) from a path in the app's folder."""
-        target = self._typed(path, self.files.for_reading, "load")
+        target = self._typed(path, self.root.for_reading, "load")
         if target is not None:
-            self._read_ffd(target, self.files.shown(target))
+            self._read_ffd(target, self.root.shown(target))
 
     def load_mesh(self, path: str) -> None:
         """Load a mesh (OBJ, PLY, VTP, STL, ...) from a path in the app's folder."""
-        target = self._typed(path, self.files.for_reading, "load")
+        target = self._typed(path, self.root.for_reading, "load")
         if target is not None:
-            self._read_mesh(target, self.files.shown(target))
+            self._read_mesh(target, self.root.shown(target))
 
     # ------------------------------------------------------------------ writing
     def save_ffd(self, path: str) -> None:
@@ -210,10 +220,10 @@ class AppFilesMixin:
 
         A format that cannot hold the FFD exactly is refused with the reason, and writes nothing.
         """
-        target = self._typed(path, lambda p: self.files.for_writing(p, FFD_SUFFIXES), "save")
+        target = self._typed(path, lambda p: self.root.for_writing(p, FFD_SUFFIXES), "save")
         if target is not None:
-            ffd, shown = copy_ffd(self.editor.ffd), self.files.shown(target)
-            self._in_background(f"writing {shown}", lambda: _write_deformation(target, ffd, shown),
+            ffd, shown = copy_ffd(self.editor.ffd), self.root.shown(target)
+            self.in_background(f"writing {shown}", lambda: _write_deformation(target, ffd, shown),
                                 lambda _: self.editor.messages.append(f"saved the lattice to {shown}"), shown,
                                 "save")  # fmt: skip
 
@@ -221,10 +231,10 @@ class AppFilesMixin:
         """Save the deformed mesh in the app's folder (format from the extension, atomically)."""
         from ....io import write_mesh
 
-        target = self._typed(path, lambda p: self.files.for_writing(p, MESH_SUFFIXES), "save")
+        target = self._typed(path, lambda p: self.root.for_writing(p, MESH_SUFFIXES), "save")
         if target is not None:
-            mesh, shown = self.editor.deformed_mesh, self.files.shown(target)
-            self._in_background(f"writing {shown}", lambda: write_mesh(target, mesh),
+            mesh, shown = self.editor.deformed_mesh, self.root.shown(target)
+            self.in_background(f"writing {shown}", lambda: write_mesh(target, mesh),
                                 lambda _: self.editor.messages.append(f"saved the deformed mesh to {shown}"),
                                 shown, "save")  # fmt: skip
 
@@ -245,12 +255,12 @@ class AppFilesMixin:
         try:
             if Path(name).suffix.lower() not in suffixes:
                 raise PathRefused(f"{Path(name).name!r}: expected a file ending with {', '.join(suffixes)}")
-            if len(content) > self.files.max_bytes:
+            if len(content) > self.root.max_bytes:
                 raise PathRefused(f"{Path(name).name!r} is bigger than the limit of "
-                                  f"{self.files.max_bytes / 2**20:.0f} MiB")  # fmt: skip
+                                  f"{self.root.max_bytes / 2**20:.0f} MiB")  # fmt: skip
             target = self._scratch_file(name)
             target.write_bytes(content)
-            refuse_special_or_oversize(target, self.files.max_bytes)
+            refuse_special_or_oversize(target, self.root.max_bytes)
         except (PathRefused, OSError) as exc:
             self._report(exc, shown, "load")
             return None
@@ -290,7 +300,7 @@ class AppFilesMixin:
         mesh = self.editor.deformed_mesh
         return await self._written_bytes(f"download.{fmt}", lambda path: write_mesh(path, mesh))
 
-    def cleanup_files(self) -> None:
+    def cleanup(self) -> None:
         """Remove the folder of uploads and downloads (at exit)."""
         if self._scratch is not None:
             self._scratch.cleanup()

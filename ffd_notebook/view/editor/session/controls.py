@@ -387,8 +387,8 @@ def editor_state(editor: Editor) -> dict[str, Any]:
         "can_redo": editor.can_redo,
         "has_selection": editor.selected is not None,
         "mesh_info": f"{editor.mesh.n_points} vertices, {editor.mesh.n_cells} faces",
-        "mode": editor.session.interaction_mode,
-        "has_pins": len(editor.session.pins) > 0,
+        "mode": editor.session.surface.mode,
+        "has_pins": len(editor.session.surface.pins) > 0,
         "moved_points": int(np.any(editor.lattice.offsets != 0, axis=-1).sum()),
         "messages": [{"text": t, "error": t.startswith("Error")} for t in list(editor.messages)[-N_MESSAGES:][::-1]],
     }

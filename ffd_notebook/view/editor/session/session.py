@@ -34,7 +34,7 @@ from ....lattice import Lattice
 from .changes import Change, Subscribers
 from .history import History, LatticeSwap, OffsetEdit
 from .message_log import MessageLog
-from .surface_drag import SurfaceDragging
+from .surface_drag import SurfaceDrag
 
 __all__ = ["FIELDS", "POINTS_SHOWN", "EditingSession", "MeshIO", "copy_ffd", "fitted_lattice"]
 
@@ -72,10 +72,11 @@ class MeshIO:
     color_array: Callable[[Any], str | None]  # mesh -> name of its per-vertex color array, or None
 
 
-class EditingSession(SurfaceDragging):
+class EditingSession:
     """The editor's state and commands, without rendering (see the module docstring).
 
-    Surface drags and pins (``pin``, ``begin_surface_drag``...) come from :class:`~.surface_drag.SurfaceDragging`.
+    Surface drags, pins and the interaction mode are the session's :class:`~.surface_drag.SurfaceDrag`,
+    ``session.surface`` (``session.surface.pin(...)``, ``session.surface.begin(...)``...).
 
     Parameters
     ----------
@@ -122,6 +123,7 @@ class EditingSession(SurfaceDragging):
         self.selected: tuple[int, int, int] | None = None
         self._subscribers = Subscribers(self.messages.append)
         self._dragged: int | None = None
+        self.surface = SurfaceDrag(self)  # pins, interaction mode, surface drags
         if lattice is None:
             lattice, self.lattice_source = fitted_lattice(mesh, shape, basis), "fit"
         else:
@@ -461,7 +463,7 @@ class EditingSession(SurfaceDragging):
         new_lattice, selected = deformer.ffd is not self.ffd, self.selected
         if new_document:
             self.history.clear()
-            self._pins = None  # pins are points of the old mesh
+            self.surface.drop_pins()  # pins are points of the old mesh
         self._bind_mesh(mesh, deformer, source=None if new_document else self.source_mesh)
         if not new_lattice:
             self.selected = selected
