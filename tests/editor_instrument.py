@@ -95,7 +95,7 @@ class Instrument:
         shown = set(self.editor.scene.lattice_actor.shown.tolist())
         from ffd_notebook.fit import control_weights
 
-        index, weight = control_weights(self.editor.ffd, self.editor.session.rest_points)
+        index, weight = control_weights(self.editor.session.ffd, self.editor.session.rest_points)
         rows = np.repeat(np.arange(len(index)), index.shape[1])
         # a control point's pull on each vertex (repeated indices of the clamp border add up), its largest
         n_points = int(np.prod(self.editor.lattice.shape))

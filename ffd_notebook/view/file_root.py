@@ -27,7 +27,6 @@ from ..io.deformation_files import DEFORMATION_SUFFIXES
 
 __all__ = [
     "DEFAULT_MAX_FILE_BYTES",
-    "MESH_SUFFIXES",
     "FileRoot",
     "PathRefused",
     "ScratchFolder",
@@ -36,7 +35,6 @@ __all__ = [
 ]
 
 DEFAULT_MAX_FILE_BYTES = 512 * 1024 * 1024
-MESH_SUFFIXES = (".obj", ".ply", ".stl", ".vtp", ".vtk", ".vtu")
 #: lattice files the app reads and writes: every deformation format of :mod:`ffd_notebook.io`
 FFD_SUFFIXES = tuple(DEFORMATION_SUFFIXES)
 

@@ -29,7 +29,7 @@ TARGET_STALL_S = 1.0
 
 async def rebuild_20(app) -> tuple[float, float]:
     """A 20^3 rebuild through the panel's shape control, from a 5^3 lattice."""
-    app.editor.set_shape((5, 5, 5))
+    app.editor.session.set_shape((5, 5, 5))
     return await longest_stall(
         lambda: app.run("rebuild", [20, 20, 20]),
         lambda: app.editor.lattice.shape == (20, 20, 20) and not app.state.busy,

@@ -59,7 +59,7 @@ def main() -> None:
     picker = vtkCellPicker()
     picker.SetTolerance(0.0005)
     picker.PickFromListOn()
-    picker.AddPickList(editor.mesh_actor)
+    picker.AddPickList(editor.scene.mesh_actor)
 
     def cell_picker():
         editor.scene.display.GetPoints().Modified()  # the points moved since the last press

@@ -75,13 +75,13 @@ def test_rebuild_basis_colors_field_and_decimate(app):
     app.run("rebuild", ["5", "6", "4"])
     assert app.editor.lattice.shape == (5, 6, 4) and (app.state.nx, app.state.ny) == (5, 6)
     app.run("basis", ["bernstein"])
-    assert app.editor.basis == "bernstein" and app.state.basis == "bernstein"
+    assert app.editor.session.basis == "bernstein" and app.state.basis == "bernstein"
     app.run("colors", [False])
-    assert not app.editor.colors_shown and not app.state.colors
+    assert not app.editor.session.colors_shown and not app.state.colors
     app.run("field", ["displacement"])
-    assert app.editor.field == "displacement"
+    assert app.editor.session.field == "displacement"
     app.run("field", ["none"])
-    assert app.editor.field is None
+    assert app.editor.session.field is None
     n = app.editor.mesh.n_cells
     app.run("decimate", ["0.5"])
     assert app.editor.mesh.n_cells < 0.7 * n and app.state.mesh_info.endswith(f"{app.editor.mesh.n_cells} faces")
@@ -89,9 +89,9 @@ def test_rebuild_basis_colors_field_and_decimate(app):
 
 def test_selection_typed_in_the_panel(app):
     app.run("ijk", ["2", "3", "1"])
-    assert app.editor.selected == (2, 3, 1) and app.state.has_selection
+    assert app.editor.session.selected == (2, 3, 1) and app.state.has_selection
     app.run("ijk", ["2", "", "1"])  # half-typed: ignored
-    assert app.editor.selected == (2, 3, 1)
+    assert app.editor.session.selected == (2, 3, 1)
 
 
 def test_ffd_and_mesh_files_by_path(app, tmp_path):
@@ -163,7 +163,7 @@ def test_itk_and_pygem_files_by_path_inside_the_root_only(app, tmp_path):
     affine = np.diag([1.2, 1.0, 0.9, 1.0])
     save_transform(tmp_path / "in.tfm", FFD(lattice, affine=affine))
     app.files.load_ffd("in.tfm")
-    assert np.allclose(app.editor.ffd.affine, affine)
+    assert np.allclose(app.editor.session.ffd.affine, affine)
     expected = load_transform(tmp_path / "in.tfm").deform(app.editor.mesh.points)
     assert np.allclose(app.editor.deformed_mesh.points, expected, atol=1e-5)
     app.files.save_ffd("sub/../out.h5")  # inside the root: written, affine part included
@@ -178,7 +178,7 @@ def test_itk_and_pygem_files_by_path_inside_the_root_only(app, tmp_path):
     try:
         app.files.load_ffd(str(outside))
         assert app.state.messages[0]["error"] and "outside the app's folder" in app.state.messages[0]["text"]
-        assert np.allclose(app.editor.ffd.affine, affine)  # a refused load changes nothing
+        assert np.allclose(app.editor.session.ffd.affine, affine)  # a refused load changes nothing
     finally:
         outside.unlink()
 

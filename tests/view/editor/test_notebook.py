@@ -67,7 +67,7 @@ print(json.dumps({
     "src": view.src, "port": server.port, "proxied": proxied,
     "state0": state0, "state1": state1,
     "n_px": len(server.controller.trigger_fn("ffd_widget_px")()["widgets"]),
-    "panel": type(panel).__name__, "selected": list(editor.selected),
+    "panel": type(panel).__name__, "selected": list(editor.session.selected),
 }))
 """
 

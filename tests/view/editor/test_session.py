@@ -107,7 +107,6 @@ def test_commands_follow_the_model_and_undo(shared_data):
 
 
 def test_lattice_shape_basis_and_files(shared_data, tmp_path):
-    from ffd_notebook.view.editor.session import files as session_files
 
     session = new_session()
     session.set_shape((5, 4, 4))
@@ -115,39 +114,38 @@ def test_lattice_shape_basis_and_files(shared_data, tmp_path):
     session.set_basis("bernstein")
     session.move_control_point((2, 1, 1), (0.0, 0.0, 0.3))
     assert_follows_the_model(session)
-    lattice = session_files.load_ffd(session, shared_data / "seed-lineage" / "registration_11x12x11.FFD")
+    lattice = session.files.load_lattice(shared_data / "seed-lineage" / "registration_11x12x11.FFD")
     assert session.lattice is lattice and lattice.shape == (11, 12, 11)
     assert_follows_the_model(session)
     state = (session.lattice, len(session.history), len(session.messages))
     bad = tmp_path / "bad.ffd"
     bad.write_text("#dimension#\nthree\n")
     with pytest.raises(ValueError):
-        session_files.load_ffd(session, bad)
+        session.files.load_lattice(bad)
     assert (session.lattice, len(session.history)) == state[:2] and len(session.messages) == state[2] + 1
     assert session.messages[-1].startswith(f"Error: could not load the lattice {str(bad)!r}")
     session.undo()  # back to the Bernstein lattice with its moved point
     assert session.basis == "bernstein" and session.lattice.offsets[2, 1, 1, 2] == pytest.approx(0.3)
     saved = tmp_path / "saved.ffd"
     with pytest.raises(ValueError, match="cannot hold this FFD exactly"):  # .ffd lattices are B-splines
-        session_files.save_ffd(session, saved)
+        session.files.save_lattice(saved)
     assert not saved.exists()
     assert session.messages[-1].startswith(f"Error: could not save the lattice to {str(saved)!r}")
     session.redo()  # the loaded B-spline .ffd lattice
-    session_files.save_ffd(session, saved)
+    session.files.save_lattice(saved)
     assert session.messages[-1] == f"saved the lattice to {saved}"
 
 
 def test_decimation_keeps_lattice_and_history():
-    from ffd_notebook.view.editor.session import files as session_files
 
     session = new_session(pv.Sphere(theta_resolution=40, phi_resolution=40))
     session.move_control_point((1, 1, 2), (0.0, 0.0, 0.2))
     mirror = Mirror(session)
-    mesh = session_files.decimate(session, 0.5)
+    mesh = session.decimate(0.5)
     assert session.mesh is mesh and mesh.n_points < session.source_mesh.n_points
     assert [c.kind for c in mirror.changes[:1]] == ["mesh"] and session.can_undo
     assert_follows_the_model(session)
-    session_files.decimate(session, 0.0)  # back to the mesh as loaded
+    session.decimate(0.0)  # back to the mesh as loaded
     assert session.mesh.n_points == session.source_mesh.n_points
 
 

@@ -10,7 +10,7 @@ from hypothesis import strategies as st
 
 from ffd_notebook import Lattice
 from ffd_notebook.view.editor.editor import PYVISTA_MESH_IO
-from ffd_notebook.view.editor.session.controls import by_key, editor_state, run
+from ffd_notebook.view.editor.session.controls import by_key, run, session_state
 from ffd_notebook.view.editor.session.session import EditingSession
 from ffd_notebook.view.editor.session.surface_drag import ray_hit
 
@@ -128,7 +128,7 @@ def test_a_new_mesh_clears_the_pins(tmp_path):
     editor = Editor(colored_sphere(), shape=(4, 4, 4), window_size=(120, 90))
     try:
         editor.session.surface.pin(0)
-        editor.decimate(0.5)  # the same document: pins are rest points, they stay
+        editor.session.decimate(0.5)  # the same document: pins are rest points, they stay
         assert len(editor.session.surface.pins) == 1
         editor.load_mesh(other)
         assert len(editor.session.surface.pins) == 0
@@ -188,8 +188,8 @@ def press_drag_release(editor, start, delta, steps=4):
 @pytest.fixture
 def surface_editor(editor):
     editor.screenshot()  # the camera and the window have their size
-    run(editor, by_key("mode"), ["surface"])
-    assert editor.session.surface.mode == "surface" and editor_state(editor)["mode"] == "surface"
+    run(editor.session, by_key("mode"), ["surface"])
+    assert editor.session.surface.mode == "surface" and session_state(editor.session)["mode"] == "surface"
     return editor
 
 
@@ -200,19 +200,19 @@ def test_a_mouse_drag_moves_the_picked_point_with_the_mouse(surface_editor):
     assert grabbed is not None
     vertex = int(np.argmin(np.linalg.norm(editor.mesh.points - grabbed, axis=1)))
     shown_before = editor.scene.shown_points()[vertex].copy()
-    depth = handle.world_to_display(editor.ffd.deform(grabbed[None]))[0, 2]
+    depth = handle.world_to_display(editor.session.ffd.deform(grabbed[None]))[0, 2]
     mouse_move = handle.display_to_world(start[0] + delta[0], start[1] + delta[1], depth) - handle.display_to_world(
         *start, depth
     )
     press_drag_release(editor, start, delta)
     # the grabbed point is under the mouse, in the plane through it parallel to the view
-    now = handle.world_to_display(editor.ffd.deform(grabbed[None]))[0]
+    now = handle.world_to_display(editor.session.ffd.deform(grabbed[None]))[0]
     np.testing.assert_allclose(now[:2], np.add(start, delta), atol=1e-3)
     assert now[2] == pytest.approx(depth, abs=1e-9)
     # the nearest vertex went the same way, about as far
     moved = editor.scene.shown_points()[vertex] - shown_before
     assert moved @ mouse_move > 0.8 * (mouse_move @ mouse_move)
-    assert len(editor.history) == 1 and editor.selected is None
+    assert len(editor.session.history) == 1 and editor.session.selected is None
     assert_view_matches_model(editor)  # mesh, lattice lines and spheres followed
     editor.undo()
     assert not editor.lattice.offsets.any()
@@ -225,7 +225,7 @@ def test_a_click_pins_and_unpins_and_pins_hold(surface_editor):
     mouse(editor, "MouseMoveEvent", pin_xy[0] + 1, pin_xy[1])  # a hand's jitter is still a click
     mouse(editor, "LeftButtonReleaseEvent", pin_xy[0] + 1, pin_xy[1])
     assert len(editor.session.surface.pins) == 1 and not editor.lattice.offsets.any()
-    assert editor_state(editor)["has_pins"]
+    assert session_state(editor.session)["has_pins"]
     np.testing.assert_allclose(handle.pin_cloud.points, editor.session.surface.pinned_points(), atol=1e-6)
     assert handle.pin_actor.GetVisibility()
     pinned = editor.session.surface.pinned_points()
@@ -239,7 +239,7 @@ def test_a_click_pins_and_unpins_and_pins_hold(surface_editor):
     mouse(editor, "LeftButtonReleaseEvent", x + 2, y)
     assert len(editor.session.surface.pins) == 0 and not handle.pin_actor.GetVisibility()
     editor.session.surface.pin(0)
-    run(editor, by_key("clear_pins"), [])
+    run(editor.session, by_key("clear_pins"), [])
     assert len(editor.session.surface.pins) == 0
 
 
@@ -254,13 +254,15 @@ def test_a_press_off_the_mesh_rotates_the_camera_and_spheres_stay(surface_editor
     x, y, _ = on_screen[index]
     camera = np.array(editor.plotter.camera.position)
     press_drag_release(editor, (x, y), (25.0, 0.0))
-    assert not editor.lattice.offsets.any() and len(editor.history) == 0 and editor.selected is None
+    assert not editor.lattice.offsets.any() and len(editor.session.history) == 0 and editor.session.selected is None
     assert np.linalg.norm(np.array(editor.plotter.camera.position) - camera) > 1e-3  # the camera turned
     # the same press in control-point mode grabs that sphere (so the check above can fail)
-    run(editor, by_key("mode"), ["control points"])
+    run(editor.session, by_key("mode"), ["control points"])
     x, y, _ = handle.world_to_display(editor.session.control_points()[index][None])[0]
     press_drag_release(editor, (x, y), (10.0, 0.0))
-    assert editor.selected == tuple(np.unravel_index(index, editor.lattice.shape)) and editor.lattice.offsets.any()
+    assert (
+        editor.session.selected == tuple(np.unravel_index(index, editor.lattice.shape)) and editor.lattice.offsets.any()
+    )
 
 
 def test_control_point_mode_leaves_the_mouse_to_the_spheres(editor):
@@ -282,7 +284,7 @@ def test_picking_agrees_with_vtk_cell_picker(surface_editor):
     picker = vtkCellPicker()
     picker.SetTolerance(0.0)
     picker.PickFromListOn()
-    picker.AddPickList(editor.mesh_actor)
+    picker.AddPickList(editor.scene.mesh_actor)
     n_hits = 0
     for x in range(30, 220, 12):
         for y in range(20, 170, 12):
@@ -292,6 +294,6 @@ def test_picking_agrees_with_vtk_cell_picker(surface_editor):
                 continue
             n_hits += 1
             assert ours is not None, (x, y)
-            shown = editor.ffd.deform(ours[None])[0]  # the picked rest point, where it is now
+            shown = editor.session.ffd.deform(ours[None])[0]  # the picked rest point, where it is now
             np.testing.assert_allclose(shown, picker.GetPickPosition(), atol=0.02)
     assert n_hits > 50

@@ -1,9 +1,11 @@
 """The standalone FFD editor: an :class:`~ffd_notebook.view.editor.Editor` in a trame web page.
 
 The page is a Vuetify 3 layout: the plotter's :class:`~ffd_notebook.view.remote_view.RemoteView` (server-side
-rendering, which the drag handle needs) and a side panel with the notebook panel's features. The
-panel only calls Editor methods; the editor tells the panel what changed through
-:meth:`Editor.observe`, so edits made anywhere (drag, panel, undo) show up in both.
+rendering, which the drag handle needs) and a side panel drawn from the same list of controls as the
+notebook panel. The panel only calls session commands (:func:`..session.controls.run`); the session
+tells the page what changed (:meth:`EditingSession.subscribe <..session.EditingSession.subscribe>`), so
+edits made anywhere (drag, panel, undo, code) show up everywhere. File actions go through the app's
+:class:`~.files.AppFiles` (``app.files``): paths confined to a root folder, uploads, worker threads.
 
 Safety (see :mod:`.web_security` and :mod:`.file_root`): the page's address carries a fresh random
 token that the server requires, requests from other sites' pages are refused, paths typed into the
@@ -27,7 +29,7 @@ from ...web_security import AccessPolicy, new_token, protect, url_with_token
 from ..editor import Editor
 from ..session import controls as panel_controls
 from ..session.changes import Change, DragSync
-from ..session.controls import by_key, editor_state, run
+from ..session.controls import by_key, run, session_state
 from .files import MESH_FORMATS, AppFiles
 from .layout import build_layout
 
@@ -121,13 +123,13 @@ class EditorApp:
 
     # ------------------------------------------------------------------ editor -> page
     def _editor_values(self) -> dict[str, Any]:
-        values = editor_state(self.editor)
+        values = session_state(self.editor.session)
         if "sel_i" not in values and "sel_i" not in self.state:
             values.update(sel_i=0, sel_j=0, sel_k=0, dx=0.0, dy=0.0, dz=0.0)
         return values
 
     def sync(self) -> None:
-        """Copy the editor's state (:func:`.controls.editor_state`) to the page."""
+        """Copy the editor's state (:func:`..session.controls.session_state`) to the page."""
         with self.state:
             self.state.update(self._editor_values())
 
@@ -140,7 +142,7 @@ class EditorApp:
         return lambda **values: self.run(control.key, [values[k] for k in control.state])
 
     def run(self, key: str, values: list[Any] | None = None) -> bool:
-        """Run the panel control ``key`` (see :data:`.controls.CONTROLS`) with the page's ``values``.
+        """Run the panel control ``key`` (see :data:`..session.controls.CONTROLS`) with the page's ``values``.
 
         A failure becomes a message on the page instead of a traceback. File actions go through the
         app's root folder and a worker thread (their named triggers) instead of the editor's own.
@@ -149,7 +151,7 @@ class EditorApp:
         if control.app_trigger is not None:
             self.server.controller.trigger_fn(control.app_trigger)(*(values or []))
             return True
-        ok = run(self.editor, control, values or [])
+        ok = run(self.editor.session, control, values or [])
         self.sync()
         return ok
 

@@ -25,9 +25,9 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+from ....io.mesh import MESH_SUFFIXES
 from ...file_root import (
     FFD_SUFFIXES,
-    MESH_SUFFIXES,
     FileRoot,
     PathRefused,
     ScratchFolder,
@@ -36,7 +36,7 @@ from ...file_root import (
 )
 from ..scene.scene import prepare_display
 from ..session.controls import numbers
-from ..session.session import copy_ffd
+from ..session.lattices import copy_ffd
 
 __all__ = ["MESH_FORMATS", "AppFiles", "upload_bytes"]
 
@@ -94,6 +94,7 @@ class AppFiles:
 
     def __init__(self, editor: Any, state: Any, root: FileRoot, *, sync: Callable[[], None]) -> None:
         self.editor = editor
+        self.session = editor.session
         self.state = state
         self.root = root
         self.sync = sync
@@ -102,7 +103,7 @@ class AppFiles:
 
     # ------------------------------------------------------------------ running work
     def _report(self, exc: BaseException, shown: str, verb: str) -> None:
-        self.editor.messages.append(f"Error: could not {verb}: {client_message(exc, shown)}")
+        self.session.messages.append(f"Error: could not {verb}: {client_message(exc, shown)}")
         self.sync()
 
     def _set_busy(self, text: str | None) -> None:
@@ -117,7 +118,7 @@ class AppFiles:
         One file action at a time: a second one while the first runs is refused with a message.
         """
         if self.state.busy:
-            self.editor.messages.append(f"Error: still busy ({self.state.busy_text}); try again when it is done")
+            self.session.messages.append(f"Error: still busy ({self.state.busy_text}); try again when it is done")
             self.sync()
             return
         try:
@@ -164,18 +165,18 @@ class AppFiles:
 
     # ------------------------------------------------------------------ reading
     def _read_ffd(self, path: Path, shown: str) -> None:
-        self.in_background(f"reading {shown}", lambda: self.editor.read_ffd_file(path),
-                            lambda result: self.editor.use_ffd(*result, shown), shown, "load")  # fmt: skip
+        self.in_background(f"reading {shown}", lambda: self.session.files.read_lattice(path),
+                            lambda result: self.session.files.use_lattice(*result, shown), shown, "load")  # fmt: skip
 
     def _read_mesh(self, path: Path, shown: str) -> None:
         def work() -> tuple[Any, Any, Any]:
-            mesh, deformer = self.editor.read_mesh_file(path)
+            mesh, deformer = self.session.files.read_mesh(path)
             return mesh, deformer, prepare_display(mesh, deformer.current(), self.editor.scene.interactive_cells)
 
         def done(result: tuple[Any, Any, Any]) -> None:
             mesh, deformer, prepared = result
             self.editor.scene.offer_display(prepared)
-            self.editor.use_mesh(mesh, deformer, shown)
+            self.session.files.use_mesh(mesh, deformer, shown)
 
         self.in_background(f"reading {shown}", work, done, shown, "load")
 
@@ -183,7 +184,7 @@ class AppFiles:
     def rebuild(self, *values: Any) -> None:
         """Fit a lattice of the typed size (``nx, ny, nz``) around the mesh; binding it to the mesh
         (seconds on a big mesh) runs in a worker thread."""
-        session = self.editor.session
+        session = self.session
         try:
             shape = numbers(list(values), "lattice size", int)
             ffd = session.fitted_ffd(shape)  # checks the size (a message if it cannot be built)
@@ -222,9 +223,9 @@ class AppFiles:
         """
         target = self._typed(path, lambda p: self.root.for_writing(p, FFD_SUFFIXES), "save")
         if target is not None:
-            ffd, shown = copy_ffd(self.editor.ffd), self.root.shown(target)
+            ffd, shown = copy_ffd(self.session.ffd), self.root.shown(target)
             self.in_background(f"writing {shown}", lambda: _write_deformation(target, ffd, shown),
-                                lambda _: self.editor.messages.append(f"saved the lattice to {shown}"), shown,
+                                lambda _: self.session.messages.append(f"saved the lattice to {shown}"), shown,
                                 "save")  # fmt: skip
 
     def save_mesh(self, path: str) -> None:
@@ -233,9 +234,9 @@ class AppFiles:
 
         target = self._typed(path, lambda p: self.root.for_writing(p, MESH_SUFFIXES), "save")
         if target is not None:
-            mesh, shown = self.editor.deformed_mesh, self.root.shown(target)
+            mesh, shown = self.session.deformed_mesh, self.root.shown(target)
             self.in_background(f"writing {shown}", lambda: write_mesh(target, mesh),
-                                lambda _: self.editor.messages.append(f"saved the deformed mesh to {shown}"),
+                                lambda _: self.session.messages.append(f"saved the deformed mesh to {shown}"),
                                 shown, "save")  # fmt: skip
 
     # ------------------------------------------------------------------ the browser's files
@@ -288,7 +289,7 @@ class AppFiles:
 
     async def download_ffd(self) -> bytes:
         """The FFD as the bytes of a .ffd file (the page's download button saves them in the browser)."""
-        ffd = copy_ffd(self.editor.ffd)
+        ffd = copy_ffd(self.session.ffd)
         return await self._written_bytes("download.ffd", lambda path: _write_deformation(path, ffd, "lattice.ffd"))
 
     async def download_mesh(self, fmt: str = "obj") -> bytes:
@@ -297,7 +298,7 @@ class AppFiles:
 
         if fmt not in MESH_FORMATS:
             raise ValueError(f"mesh format must be one of {MESH_FORMATS}")
-        mesh = self.editor.deformed_mesh
+        mesh = self.session.deformed_mesh
         return await self._written_bytes(f"download.{fmt}", lambda path: write_mesh(path, mesh))
 
     def cleanup(self) -> None:

@@ -1,4 +1,4 @@
-"""The standalone app's page: a Vuetify 3 side panel built from :data:`.controls.CONTROLS`, next to the remote view.
+"""The standalone app's page: a Vuetify 3 side panel built from :data:`..session.controls.CONTROLS`, beside the view.
 
 Every button passes the values it needs as arguments (``click=(app.run, "['apply', [sel_i, ...]]")``),
 so an action never runs with a text field's previous value; file buttons call the app's named
