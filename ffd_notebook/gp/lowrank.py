@@ -36,9 +36,9 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from .._util.points import as_points
 from . import lowrank_build as build
 from . import lowrank_ops as ops
-from .kernels import as_points
 from .linalg import as_generator
 from .space import Space, joined_space
 

@@ -6,7 +6,7 @@ where they help (see :func:`~ffd_notebook.view.rendering.new_plotter`).
 
 from __future__ import annotations
 
-from ..lazy import lazy_getattr
+from .._util.lazy import lazy_getattr
 from .rendering import is_headless, new_plotter
 
 _LAZY = {

@@ -15,7 +15,7 @@ Names are imported on first use: ``from ffd_notebook.view.editor import EditingS
 
 from __future__ import annotations
 
-from ...lazy import lazy_getattr
+from ..._util.lazy import lazy_getattr
 
 _LAZY = {
     "Change": "ffd_notebook.view.editor.session",

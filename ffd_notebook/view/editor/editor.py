@@ -14,7 +14,7 @@ the notebook widget (``editor.widget``)
     The scene's trame view next to a :class:`~.notebook.ControlPanel`; follows the session too.
 
 Data flows one way: a move of the drag handle -> :meth:`EditingSession.drag` (the lattice's offsets; the
-cached :class:`~ffd_notebook.deformer.Deformer` recomputes only the points the moved control point
+cached :class:`~ffd_notebook.ffd.deformer.Deformer` recomputes only the points the moved control point
 influences) -> one :class:`~.session.Change` naming that control point -> the scene rewrites the
 plotted points and the lattice lines in place -> the next render shows them.
 """
@@ -29,8 +29,8 @@ import numpy as np
 import pyvista as pv
 from numpy.typing import ArrayLike, NDArray
 
+from ...ffd.lattice import Lattice
 from ...io import write_mesh
-from ...lattice import Lattice
 from ...meshing import as_surface, color_array_name, decimate_keeping_colors, deformed_copy
 from .scene.proxy import INTERACTIVE_CELLS
 from .scene.scene import EditorScene

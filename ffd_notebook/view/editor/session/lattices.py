@@ -4,8 +4,8 @@ from __future__ import annotations
 
 from typing import Any
 
-from ....deform import FFD
-from ....lattice import Lattice
+from ....ffd.deform import FFD
+from ....ffd.lattice import Lattice
 
 __all__ = ["copy_ffd", "fitted_lattice"]
 
