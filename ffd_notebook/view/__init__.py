@@ -1,7 +1,7 @@
 """The view layer: everything that touches VTK, PyVista, trame or ipywidgets.
 
-Importing it applies the headless rendering settings where they help
-(see :func:`~ffd_notebook.view.rendering.configure_rendering`).
+Importing it changes no global setting; the plotters it makes get the headless rendering settings
+where they help (see :func:`~ffd_notebook.view.rendering.new_plotter`).
 """
 
 from __future__ import annotations
@@ -9,7 +9,7 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 from .._util.lazy import lazy_getattr
-from .rendering import configure_rendering, is_headless
+from .rendering import is_headless, new_plotter
 
 if TYPE_CHECKING:  # the lazy names below, declared for type checkers and IDEs
     from .camera import frame_camera as frame_camera
@@ -17,19 +17,17 @@ if TYPE_CHECKING:  # the lazy names below, declared for type checkers and IDEs
     from .editor import EditingSession as EditingSession
     from .editor import Editor as Editor
     from .editor import edit as edit
-    from .editor.notebook_panel import ControlPanel as ControlPanel
+    from .editor.notebook import ControlPanel as ControlPanel
     from .gp import GPExplorer as GPExplorer
     from .solidtex import CutViewer as CutViewer
     from .solidtex import TexturedOrgan as TexturedOrgan
     from .solidtex import add_cut as add_cut
 
-configure_rendering()
-
 _LAZY = {
     "Editor": "ffd_notebook.view.editor",
     "edit": "ffd_notebook.view.editor",
     "EditingSession": "ffd_notebook.view.editor",
-    "ControlPanel": "ffd_notebook.view.editor.notebook_panel",
+    "ControlPanel": "ffd_notebook.view.editor.notebook",
     "GPExplorer": "ffd_notebook.view.gp",
     "TexturedOrgan": "ffd_notebook.view.solidtex",
     "CutViewer": "ffd_notebook.view.solidtex",
@@ -38,7 +36,7 @@ _LAZY = {
     "view_direction": "ffd_notebook.view.camera",
 }
 
-__all__ = ["configure_rendering", "is_headless", *sorted(_LAZY)]
+__all__ = ["is_headless", "new_plotter", *sorted(_LAZY)]
 
 
 __getattr__ = lazy_getattr(__name__, _LAZY)
