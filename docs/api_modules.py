@@ -30,4 +30,8 @@ PUBLIC: dict[str, str] = {
 #: packages that are implementation only (underscore or documented through a public one) -> why
 INTERNAL: dict[str, str] = {
     "ffd_notebook._util": "private helpers (lazy imports, BLAS threads, deprecations)",
+    "ffd_notebook.view.editor.session": "the editor's layers: documented through ffd_notebook.view.editor",
+    "ffd_notebook.view.editor.scene": "the editor's layers: documented through ffd_notebook.view.editor",
+    "ffd_notebook.view.editor.notebook": "the editor's layers: documented through ffd_notebook.view.editor",
+    "ffd_notebook.view.editor.app": "the editor's layers: documented through ffd_notebook.view.editor",
 }

@@ -103,10 +103,10 @@ class EditorApp:
             busy_text="",
         )
         for name_, method in (
-            ("ffd_load_ffd", self.files.load_ffd),
-            ("ffd_save_ffd", self.files.save_ffd),
-            ("ffd_load_mesh", self.files.load_mesh),
-            ("ffd_save_mesh", self.files.save_mesh),
+            ("ffd_load_ffd", self.files.load_deformation_in_background),
+            ("ffd_save_ffd", self.files.save_deformation_in_background),
+            ("ffd_load_mesh", self.files.load_mesh_in_background),
+            ("ffd_save_mesh", self.files.save_mesh_in_background),
             ("ffd_download_ffd", self.files.download_ffd),
             ("ffd_download_mesh", self.files.download_mesh),
             ("ffd_rebuild", self.files.rebuild),
@@ -205,7 +205,7 @@ def run_app(
     """
     editor = Editor(mesh, shape=tuple(shape), basis=basis)
     if ffd is not None:
-        editor.load_ffd(ffd)
+        editor.load_deformation(ffd)
     app = EditorApp(editor, root=root, max_file_bytes=max_file_bytes)
     if setup is not None:
         setup(app)

@@ -25,6 +25,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+from ...._util.deprecation import renamed
 from ....io.mesh import MESH_SUFFIXES
 from ...file_root import (
     FFD_SUFFIXES,
@@ -165,8 +166,9 @@ class AppFiles:
 
     # ------------------------------------------------------------------ reading
     def _read_ffd(self, path: Path, shown: str) -> None:
-        self.in_background(f"reading {shown}", lambda: self.session.files.read_lattice(path),
-                            lambda result: self.session.files.use_lattice(*result, shown), shown, "load")  # fmt: skip
+        files = self.session.files
+        self.in_background(f"reading {shown}", lambda: files.read_deformation(path),
+                            lambda result: files.use_deformation(*result, shown), shown, "load")  # fmt: skip
 
     def _read_mesh(self, path: Path, shown: str) -> None:
         def work() -> tuple[Any, Any, Any]:
@@ -203,21 +205,24 @@ class AppFiles:
         self.in_background(f"fitting a {name} lattice", lambda: ffd.bind(mesh.points), done,
                             f"the {name} lattice", "rebuild")  # fmt: skip
 
-    def load_ffd(self, path: str) -> None:
-        """Load a lattice file (.ffd, ITK, PyGeM .prm) from a path in the app's folder."""
+    def load_deformation_in_background(self, path: str) -> None:
+        """Start loading a deformation file (.ffd, ITK, PyGeM .prm) from a path in the app's folder.
+
+        The file is read in a worker thread and installed on the event loop; what happened is told
+        in the app's messages (nothing is returned)."""
         target = self._typed(path, self.root.for_reading, "load")
         if target is not None:
             self._read_ffd(target, self.root.shown(target))
 
-    def load_mesh(self, path: str) -> None:
-        """Load a mesh (OBJ, PLY, VTP, STL, ...) from a path in the app's folder."""
+    def load_mesh_in_background(self, path: str) -> None:
+        """Start loading a mesh (OBJ, PLY, VTP, STL, ...) from a path in the app's folder (a worker thread)."""
         target = self._typed(path, self.root.for_reading, "load")
         if target is not None:
             self._read_mesh(target, self.root.shown(target))
 
     # ------------------------------------------------------------------ writing
-    def save_ffd(self, path: str) -> None:
-        """Save the FFD to a lattice file in the app's folder (format by extension, atomically).
+    def save_deformation_in_background(self, path: str) -> None:
+        """Start saving the FFD to a deformation file in the app's folder (format by extension, atomically).
 
         A format that cannot hold the FFD exactly is refused with the reason, and writes nothing.
         """
@@ -228,8 +233,8 @@ class AppFiles:
                                 lambda _: self.session.messages.append(f"saved the lattice to {shown}"), shown,
                                 "save")  # fmt: skip
 
-    def save_mesh(self, path: str) -> None:
-        """Save the deformed mesh in the app's folder (format from the extension, atomically)."""
+    def save_mesh_in_background(self, path: str) -> None:
+        """Start saving the deformed mesh in the app's folder (format from the extension, atomically)."""
         from ....io import write_mesh
 
         target = self._typed(path, lambda p: self.root.for_writing(p, MESH_SUFFIXES), "save")
@@ -238,6 +243,12 @@ class AppFiles:
             self.in_background(f"writing {shown}", lambda: write_mesh(target, mesh),
                                 lambda _: self.session.messages.append(f"saved the deformed mesh to {shown}"),
                                 shown, "save")  # fmt: skip
+
+    # the names of 0.1, which did not say that they return before the work is done; kept until 0.3
+    load_ffd = renamed(load_deformation_in_background, "load_ffd")
+    save_ffd = renamed(save_deformation_in_background, "save_ffd")
+    load_mesh = renamed(load_mesh_in_background, "load_mesh")
+    save_mesh = renamed(save_mesh_in_background, "save_mesh")
 
     # ------------------------------------------------------------------ the browser's files
     def _scratch_file(self, name: str) -> Path:
