@@ -66,8 +66,18 @@ def public_objects() -> dict[str, object]:
                         continue
                     if isinstance(value, (staticmethod, classmethod)):
                         value = value.__func__
-                    if inspect.isfunction(value) or isinstance(value, property):
-                        add(f"{canonical}.{attr}", value)
+                    if not (inspect.isfunction(value) or isinstance(value, property)):
+                        continue
+                    owner = klass
+                    if not value.__doc__:  # an override without its own docstring inherits the base's (as autodoc)
+                        for base in klass.__mro__[1:]:
+                            inherited = vars(base).get(attr)
+                            if getattr(inherited, "__doc__", None):
+                                owner, value = base, inherited
+                                break
+                    if isinstance(value, (staticmethod, classmethod)):
+                        value = value.__func__
+                    add(f"{owner.__module__}.{owner.__qualname__}.{attr}", value)
     return found
 
 
@@ -108,10 +118,8 @@ def test_public_docstrings_have_their_sections():
 
 def test_the_check_finds_a_missing_section(tmp_path, monkeypatch):
     """numpydoc's validator does report what this test relies on."""
-    (tmp_path / "demo_doc.py").write_text(
-        'def f(x):\n    """Do it.\n\n    Parameters\n    ----------\n    y : int\n        Not x.\n    """\n    return x\n',
-        encoding="utf-8",
-    )
+    source = 'def f(x):\n    """Do it.\n\n    Parameters\n    ----------\n    y : int\n        Not x.\n    """\n'
+    (tmp_path / "demo_doc.py").write_text(source + "    return x\n", encoding="utf-8")
     monkeypatch.syspath_prepend(str(tmp_path))
     codes = {error[0] for error in numpydoc.validate.validate("demo_doc.f")["errors"]}
     assert {"PR01", "RT01", "EX01"} <= codes
