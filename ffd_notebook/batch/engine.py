@@ -42,8 +42,10 @@ TASKS_PER_WORKER = 4
 class BatchResult:
     """What :func:`generate` did.
 
-    Attributes
+    Parameters
     ----------
+    out : pathlib.Path
+        The output folder.
     rows : list of dict
         The manifest: every finished sample of the folder (this run's and earlier ones), by id.
     made, skipped : list of int
@@ -59,6 +61,13 @@ class BatchResult:
         Seconds from the first task submitted to the last result.
     scheduler : str
         Which scheduler ran the tasks.
+
+    Examples
+    --------
+    >>> import pathlib
+    >>> result = BatchResult(pathlib.Path("out"), made=[0, 1], failed={2: "sample 2: folds"})
+    >>> len(result.made), sorted(result.failed)
+    (2, [2])
     """
 
     out: Path
@@ -292,6 +301,18 @@ def replay(out: str | os.PathLike[str], index: int):
     Reads ``run.json`` and the manifest row, binds the model to the source mesh again, loads
     the parameters file and deforms: the same code path as the run, so the points are the
     ones that were written (bit for bit, before the file format's own rounding).
+
+    Parameters
+    ----------
+    out : str or os.PathLike
+        The output folder of a :func:`generate` run.
+    index : int
+        The sample's id.
+
+    Returns
+    -------
+    pyvista.PolyData
+        The deformed mesh, as the run made it.
 
     Examples
     --------

@@ -108,12 +108,41 @@ class FFD:
 
     # ------------------------------------------------------------------ evaluation
     def apply_affine(self, points: ArrayLike) -> NDArray[np.float64]:
-        """The global part ``A x + b`` alone."""
+        """The global part ``A x + b`` alone.
+
+        Parameters
+        ----------
+        points : array_like
+            ``(N, 3)`` points in world coordinates.
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(N, 3)`` float64: each point moved by the affine part only.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from ffd_notebook import FFD, Lattice
+        >>> ffd = FFD(Lattice((4, 4, 4), 1.0), affine=np.diag([2.0, 1.0, 1.0, 1.0]))
+        >>> ffd.apply_affine([[1.0, 1.0, 1.0]]).tolist()
+        [[2.0, 1.0, 1.0]]
+        """
         pts = as_points(points)
         return pts @ self.affine[:3, :3].T + self.affine[:3, 3]
 
     def displacement(self, points: ArrayLike) -> NDArray[np.float64]:
         """The local part ``T_local(x)``: lattice-driven displacement of each point, ``(N, 3)``.
+
+        Parameters
+        ----------
+        points : array_like
+            ``(N, 3)`` points in world coordinates.
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(N, 3)`` float64: the local displacement of each point (without the affine part).
 
         Examples
         --------
@@ -136,6 +165,16 @@ class FFD:
 
     def deform(self, points: ArrayLike) -> NDArray[np.float64]:
         """Deformed positions ``A x + b + T_local(x)`` of ``(N, 3)`` points.
+
+        Parameters
+        ----------
+        points : array_like
+            ``(N, 3)`` points in world coordinates.
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(N, 3)`` float64: the deformed points (new array; ``points`` is not changed).
 
         Examples
         --------
@@ -164,6 +203,16 @@ class FFD:
         Analytic: the affine matrix plus the local part's derivative from the basis
         derivatives, chained through the lattice frame (``d uvw / dx = R^T / spacing``).
 
+        Parameters
+        ----------
+        points : array_like
+            ``(N, 3)`` points in world coordinates.
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(N, 3, 3)`` float64: ``J[n, i, j] = d T_i / d x_j`` at point ``n``.
+
         Examples
         --------
         >>> import numpy as np
@@ -188,6 +237,16 @@ class FFD:
     def jacobian_determinant(self, points: ArrayLike) -> NDArray[np.float64]:
         """Determinant of the Jacobian at each point; ``<= 0`` where the deformation folds.
 
+        Parameters
+        ----------
+        points : array_like
+            ``(N, 3)`` points in world coordinates.
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(N,)`` float64 determinants.
+
         Examples
         --------
         >>> import numpy as np
@@ -200,7 +259,31 @@ class FFD:
         return det3(self.jacobian(points))
 
     def bind(self, points: ArrayLike, dtype: Any = np.float32) -> Deformer:
-        """Bind to one point set: a :class:`~ffd_notebook.Deformer` that caches what does not change."""
+        """Bind to one point set: a :class:`~ffd_notebook.Deformer` that caches what does not change.
+
+        Parameters
+        ----------
+        points : array_like
+            ``(N, 3)`` points, e.g. a mesh's vertices.
+        dtype : numpy dtype, optional
+            Precision of the cached weights and outputs (``float32`` by default: the editor's drag path).
+
+        Returns
+        -------
+        Deformer
+            The bound evaluator; ``deformer.update(changed=...)`` recomputes only what moved.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from ffd_notebook import FFD, Lattice
+        >>> pts = np.random.default_rng(0).random((30, 3))
+        >>> ffd = FFD(Lattice.around(pts, shape=5))
+        >>> deformer = ffd.bind(pts, dtype=np.float64)
+        >>> ffd.lattice.offsets[2, 2, 2] = (0.1, 0.0, 0.0)
+        >>> bool(np.allclose(deformer.update(changed=[(2, 2, 2)]), ffd.deform(pts)))
+        True
+        """
         return Deformer(self, points, dtype=dtype)
 
     def fit_points(
@@ -214,6 +297,22 @@ class FFD:
 
         Least squares when not every target can be met; ``pinned`` points stay where they are.
         Returns the change, ``(nx, ny, nz, 3)``. See :func:`ffd_notebook.ffd.fit.fit_points`.
+
+        Parameters
+        ----------
+        points : array_like
+            ``(K, 3)`` rest positions of the points to move.
+        targets : array_like
+            ``(K, 3)`` where ``deform(points)`` must land.
+        pinned : array_like, optional
+            ``(P, 3)`` rest positions whose deformed positions must not change.
+        weights : array_like, optional
+            ``(K,)`` relative weights of the targets when they cannot all be met.
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(nx, ny, nz, 3)``: the change made to ``lattice.offsets``.
 
         Examples
         --------

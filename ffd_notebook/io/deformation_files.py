@@ -38,6 +38,16 @@ def load_deformation(path: str | os.PathLike[str]) -> FFD:
     (0, 0, 0), see :func:`~ffd_notebook.io.place_at_mesh_minimum`). ITK: :func:`load_transform`.
     ``.prm``: ``FFD(load_prm(path), "bernstein", only_inside=True)``, PyGeM's deformation.
 
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The file; its extension chooses the format.
+
+    Returns
+    -------
+    FFD
+        The deformation the file means.
+
     Raises
     ------
     FileFormatError
@@ -75,6 +85,13 @@ def save_deformation(path: str | os.PathLike[str], ffd: FFD) -> None:
     moves only the points inside its box (``only_inside=True``) and whose rotation is not a
     reflection; ITK files a B-spline lattice with the "zero" border and any invertible affine
     part (:func:`save_transform`).
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The file; its extension chooses the format.
+    ffd : FFD
+        The deformation to write.
 
     Raises
     ------
