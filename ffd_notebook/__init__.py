@@ -41,6 +41,9 @@ _LAZY = {
     "save_prm": "ffd_notebook.io",
     "load_deformation": "ffd_notebook.io",
     "save_deformation": "ffd_notebook.io",
+    "load_elastix": "ffd_notebook.io",
+    "save_elastix": "ffd_notebook.io",
+    "ElastixTransform": "ffd_notebook.io",
     "edit": "ffd_notebook.view",
     "Editor": "ffd_notebook.view",
 }

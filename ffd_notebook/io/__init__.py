@@ -1,4 +1,4 @@
-"""Reading and writing files: .ffd lattices, ITK transforms, PyGeM .prm files, OBJ meshes, other meshes.
+"""Reading and writing files: .ffd lattices, ITK transforms, elastix parameter files, PyGeM .prm files, meshes.
 
 The .ffd, OBJ and PLY parsers are written here (see :mod:`.ffd_file`, :mod:`.obj` and :mod:`.ply`
 for why); STL and VTK formats go through VTK's readers in a child process (see :mod:`.mesh`).
@@ -15,6 +15,7 @@ from __future__ import annotations
 from ..lazy import lazy_getattr
 from ._safety import MAX_FILE_BYTES, check_regular_file
 from .deformation_files import load_deformation, save_deformation
+from .elastix import ElastixTransform, load_elastix, save_elastix
 from .ffd_file import load_ffd, save_ffd
 from .itk import load_transform, save_transform
 from .placement import place_at_mesh_minimum
@@ -30,8 +31,10 @@ _LAZY = {
 
 __all__ = [
     "MAX_FILE_BYTES",
+    "ElastixTransform",
     "check_regular_file",
     "load_deformation",
+    "load_elastix",
     "load_ffd",
     "load_prm",
     "load_transform",
@@ -39,6 +42,7 @@ __all__ = [
     "read_mesh",
     "read_obj",
     "save_deformation",
+    "save_elastix",
     "save_ffd",
     "save_prm",
     "save_transform",

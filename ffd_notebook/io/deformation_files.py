@@ -1,4 +1,4 @@
-"""Any deformation file by extension: ``.ffd``, ITK transforms, PyGeM ``.prm``.
+"""Any deformation file: ``.ffd``, ITK transforms, elastix parameter files (by content), PyGeM ``.prm``.
 
 One pair of functions for everything that reads or writes a whole deformation (the command-line
 converter, the editor's panels): :func:`load_deformation` returns the :class:`~ffd_notebook.FFD`
@@ -14,13 +14,18 @@ from pathlib import Path
 import numpy as np
 
 from ..deform import FFD
+from ..errors import FileFormatError
+from .elastix import load_elastix, save_elastix
+from .elastix_text import is_parameter_file
 from .ffd_file import load_ffd, save_ffd
 from .itk import ITK_SUFFIXES, load_transform, save_transform
 from .prm import load_prm, save_prm
 
-__all__ = ["DEFORMATION_SUFFIXES", "load_deformation", "save_deformation"]
+__all__ = ["DEFORMATION_SUFFIXES", "FORMATS", "load_deformation", "save_deformation"]
 
 DEFORMATION_SUFFIXES = (".ffd", *ITK_SUFFIXES, ".prm")
+#: The ``format=`` names of :func:`save_deformation` (``None``: by extension).
+FORMATS = ("ffd", "itk", "elastix", "prm")
 
 
 def _suffix(path: str | os.PathLike[str]) -> str:
@@ -32,10 +37,13 @@ def _suffix(path: str | os.PathLike[str]) -> str:
 
 
 def load_deformation(path: str | os.PathLike[str]) -> FFD:
-    """Read a ``.ffd``, ITK (``.tfm``, ``.txt``, ``.h5``, ``.hdf5``) or PyGeM ``.prm`` file as an FFD.
+    """Read a ``.ffd``, ITK (``.tfm``, ``.txt``, ``.h5``, ``.hdf5``), elastix or PyGeM ``.prm`` file as an FFD.
 
     ``.ffd``: ``FFD(load_ffd(path))`` (B-spline; a file without a placement section rests at
     (0, 0, 0), see :func:`~ffd_notebook.io.place_at_mesh_minimum`). ITK: :func:`load_transform`.
+    A ``.txt`` file whose first line is not ITK's header but ``(Name value ...)`` is an elastix
+    transform parameter file: ``load_elastix(path).to_ffd()``, the chain it starts lowered onto
+    one FFD (see :mod:`~ffd_notebook.io.elastix`).
     ``.prm``: ``FFD(load_prm(path), "bernstein", only_inside=True)``, PyGeM's deformation.
 
     Raises
@@ -60,6 +68,12 @@ def load_deformation(path: str | os.PathLike[str]) -> FFD:
         return FFD(load_ffd(path), "bspline")
     if suffix == ".prm":
         return FFD(load_prm(path), "bernstein", only_inside=True)
+    if suffix == ".txt" and is_parameter_file(path):
+        chain = load_elastix(path)
+        try:
+            return chain.to_ffd()
+        except ValueError as exc:
+            raise FileFormatError(path, None, f"this elastix chain has no FFD equal to it: {exc}") from None
     return load_transform(path)
 
 
@@ -67,8 +81,11 @@ def _refuse(path: str | os.PathLike[str], what: str, why: str) -> ValueError:
     return ValueError(f"{os.fspath(path)}: a {what} file cannot hold this FFD exactly: {why}")
 
 
-def save_deformation(path: str | os.PathLike[str], ffd: FFD) -> None:
+def save_deformation(path: str | os.PathLike[str], ffd: FFD, *, format: str | None = None) -> None:
     """Write an FFD in the format its extension names, atomically, or refuse if it would not be exact.
+
+    ``format`` (one of :data:`FORMATS`) overrides the extension: ``"elastix"`` writes an elastix
+    transform parameter file (:func:`~ffd_notebook.io.save_elastix`; ``.txt`` means ITK otherwise).
 
     ``.ffd`` holds a B-spline lattice with either border (a "clamp" one is recorded), no affine
     part, moving every point it reaches; ``.prm`` a Bernstein lattice without affine part that
@@ -95,7 +112,14 @@ def save_deformation(path: str | os.PathLike[str], ffd: FFD) -> None:
     ...
     ValueError: ...a.prm: a PyGeM .prm file cannot hold this FFD exactly: it has the 'bspline' basis; ...
     """
+    if format is not None and format not in FORMATS:
+        raise ValueError(f"format must be one of {', '.join(FORMATS)} (or None: by extension), got {format!r}")
+    if format == "elastix":
+        save_elastix(path, ffd)
+        return
     suffix = _suffix(path)
+    if format is not None and format != {".ffd": "ffd", ".prm": "prm"}.get(suffix, "itk"):
+        raise ValueError(f"{os.fspath(path)}: the extension {suffix!r} does not fit format={format!r}")
     if suffix in ITK_SUFFIXES:
         save_transform(path, ffd)
         return

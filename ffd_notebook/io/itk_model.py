@@ -38,7 +38,7 @@ from ..deform import FFD
 from ..errors import FileFormatError
 from ..lattice import Lattice
 
-__all__ = ["RawTransform", "ffd_to_transforms", "transforms_to_ffd"]
+__all__ = ["RawTransform", "ffd_to_transforms", "strip_padding", "transforms_to_ffd"]
 
 BSPLINE = "BSplineTransform_double_3_3"
 AFFINE = "AffineTransform_double_3_3"
@@ -152,7 +152,7 @@ def _pull_back(path, raw: RawTransform, lattice: Lattice, a: np.ndarray, b: np.n
     return Lattice(lattice.shape, spacing, origin, rotation)
 
 
-def _strip_padding(lattice: Lattice) -> Lattice | None:
+def strip_padding(lattice: Lattice) -> Lattice | None:
     """The lattice without three zero layers all round, if it has them (what the writer adds)."""
     if min(lattice.shape) < 4 + 2 * _PAD:
         return None
@@ -201,7 +201,7 @@ def transforms_to_ffd(path: str | os.PathLike[str], transforms: list[RawTransfor
     affine[:3, 3] = a_out @ inner[1] + b_out
     if not np.all(np.isfinite(affine)) or not np.all(np.isfinite(lattice.offsets)):
         raise _error(path, chain[j], "parameters", "the combined transform overflows (infinite values)")
-    stripped = _strip_padding(lattice)
+    stripped = strip_padding(lattice)
     if stripped is not None:
         return FFD(stripped, "bspline", affine=affine)
     return FFD(lattice, "bspline", affine=affine, only_inside=True)
