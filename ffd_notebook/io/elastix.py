@@ -78,12 +78,14 @@ class LinearStep:
 class BSplineStep:
     """elastix's cubic B-spline: ``x + sum B(u) c`` where ``1 <= u < n - 2``, ``x`` elsewhere.
 
-    ``placement`` is ``GridDirection @ diag(GridSpacing)``; ``origin`` the position of the first
-    coefficient (``GridOrigin`` moved by ``GridIndex``); ``coefficients`` ``(nx, ny, nz, 3)``.
+    ``direction`` and ``spacing`` as in the file (``GridDirection``, columns the grid axes;
+    ``GridSpacing``); ``origin`` the position of the first coefficient (``GridOrigin`` moved by
+    ``GridIndex``); ``coefficients`` ``(nx, ny, nz, 3)``.
     """
 
     kind: str
-    placement: NDArray[np.float64]
+    direction: NDArray[np.float64]
+    spacing: NDArray[np.float64]
     origin: NDArray[np.float64]
     coefficients: NDArray[np.float64]
     path: str = ""
@@ -91,6 +93,11 @@ class BSplineStep:
 
     def __post_init__(self) -> None:
         self._to_index = np.linalg.inv(self.placement)
+
+    @property
+    def placement(self) -> NDArray[np.float64]:
+        """``direction @ diag(spacing)``: grid index to world offset."""
+        return self.direction * self.spacing
 
     def grid_index(self, points: NDArray[np.float64]) -> NDArray[np.float64]:
         """Continuous grid indices of ``(N, 3)`` points as rows ``(3, N)``."""
@@ -167,7 +174,7 @@ class ElastixTransform:
             the B-spline that shears its grid (a lattice's axes are orthogonal).
         """
         a, b = np.eye(3), np.zeros(3)
-        grid: tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]] | None = None
+        grid: list[NDArray[np.float64]] | None = None  # direction, spacing, origin, offsets
         for index, step in enumerate(self.steps):
             how = self.combine[index - 1] if index else "Compose"
             if isinstance(step, LinearStep):
@@ -175,23 +182,26 @@ class ElastixTransform:
                 if how == "Compose":
                     a, b = m @ a, m @ b + t
                     if grid is not None:
-                        grid = (grid[0], grid[1], grid[2] @ m.T)
+                        grid[3] = grid[3] @ m.T
                 else:
                     a, b = m + a - np.eye(3), b + t
                 continue
             if grid is not None:
                 raise ValueError(f"{step.path}: a second B-spline transform in the chain; an FFD holds one lattice")
-            if how == "Compose":  # B(A x + b): the grid pulled back through x -> A x + b
-                if abs(np.linalg.det(a)) < 1e-300 or np.linalg.cond(a) > 1e12:
+            grid = [step.direction.copy(), step.spacing.copy(), step.origin.copy(), step.coefficients.copy()]
+            if how == "Compose" and not (np.array_equal(a, np.eye(3)) and not b.any()):
+                # B(A x + b): the grid pulled back through x -> A x + b
+                if not np.all(np.isfinite(a)) or np.linalg.cond(a) > 1e12:
                     raise ValueError(f"{step.path}: the linear map before the B-spline is singular")
                 inverse = np.linalg.inv(a)
-                grid = (inverse @ step.placement, inverse @ (step.origin - b), step.coefficients.copy())
-            else:
-                grid = (step.placement.copy(), step.origin.copy(), step.coefficients.copy())
+                grid[2] = inverse @ (step.origin - b)
+                if not np.array_equal(a, np.eye(3)):
+                    placement = inverse @ step.placement
+                    grid[1] = np.linalg.norm(placement, axis=0)
+                    grid[0] = placement / grid[1]
         if grid is None:
             raise ValueError("the chain holds no B-spline transform: no lattice to make an FFD of")
-        placement, origin, offsets = grid
-        lattice = _lattice(placement, origin, offsets)
+        lattice = _lattice(*grid)
         lattice.metadata["elastix"] = dict(self.geometry)
         affine = np.eye(4)
         affine[:3, :3], affine[:3, 3] = a, b
@@ -208,10 +218,9 @@ class ElastixTransform:
         return f"ElastixTransform({', '.join(parts)})"
 
 
-def _lattice(placement: NDArray[np.float64], origin: NDArray[np.float64], offsets: NDArray[np.float64]) -> Lattice:
-    """The lattice whose control point ``ijk`` rests at ``origin + placement @ ijk``, if its axes are orthogonal."""
-    spacing = np.linalg.norm(placement, axis=0)
-    rotation = placement / spacing
+def _lattice(rotation: NDArray[np.float64], spacing: NDArray[np.float64], origin: NDArray[np.float64],
+             offsets: NDArray[np.float64]) -> Lattice:  # fmt: skip
+    """The lattice with control point ``ijk`` at ``origin + rotation @ (spacing * ijk)``, if its axes are orthogonal."""
     error = np.abs(rotation.T @ rotation - np.eye(3)).max()
     if error > 1e-6:
         raise ValueError(f"the B-spline grid is sheared in this chain (its axes are off orthogonal by {error:.2g}, "
@@ -299,7 +308,7 @@ def _bspline(params: ParameterMap, kind: str) -> BSplineStep:
     origin = params.numbers("GridOrigin", 3)
     direction = params.numbers("GridDirection", 9).reshape(3, 3).T if "GridDirection" in params else np.eye(3)
     placement = direction * spacing
-    if not np.all(np.isfinite(placement)) or np.linalg.cond(placement) > 1e12:
+    if not np.all(np.isfinite(placement)) or np.linalg.cond(placement) > 1e12 or np.any(spacing == np.inf):
         raise params.error("GridDirection", "the grid direction is singular (its columns are not independent)")
     n = int(np.prod(shape))
     values = _parameters(params, 3 * n, f"{shape[0]}x{shape[1]}x{shape[2]} {kind}")
@@ -307,7 +316,7 @@ def _bspline(params: ParameterMap, kind: str) -> BSplineStep:
     first = origin + placement @ np.asarray(index, dtype=np.float64)
     if not np.all(np.isfinite(first)):
         raise params.error("GridOrigin", "the grid's first control point is not finite")
-    return BSplineStep(kind, placement, first, np.ascontiguousarray(coefficients), params.path)
+    return BSplineStep(kind, direction, spacing, first, np.ascontiguousarray(coefficients), params.path)
 
 
 def _step(params: ParameterMap) -> Step:
