@@ -44,6 +44,9 @@ _LAZY = {
     "load_elastix": "ffd_notebook.io",
     "save_elastix": "ffd_notebook.io",
     "ElastixTransform": "ffd_notebook.io",
+    "DisplacementField": "ffd_notebook.io",
+    "load_displacement_field": "ffd_notebook.io",
+    "save_displacement_field": "ffd_notebook.io",
     "edit": "ffd_notebook.view",
     "Editor": "ffd_notebook.view",
 }

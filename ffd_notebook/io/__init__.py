@@ -15,6 +15,7 @@ from __future__ import annotations
 from ..lazy import lazy_getattr
 from ._safety import MAX_FILE_BYTES, check_regular_file
 from .deformation_files import load_deformation, save_deformation
+from .displacement_field import DisplacementField, load_displacement_field, save_displacement_field
 from .elastix import ElastixTransform, load_elastix, save_elastix
 from .ffd_file import load_ffd, save_ffd
 from .itk import load_transform, save_transform
@@ -31,9 +32,11 @@ _LAZY = {
 
 __all__ = [
     "MAX_FILE_BYTES",
+    "DisplacementField",
     "ElastixTransform",
     "check_regular_file",
     "load_deformation",
+    "load_displacement_field",
     "load_elastix",
     "load_ffd",
     "load_prm",
@@ -42,6 +45,7 @@ __all__ = [
     "read_mesh",
     "read_obj",
     "save_deformation",
+    "save_displacement_field",
     "save_elastix",
     "save_ffd",
     "save_prm",

@@ -15,6 +15,13 @@ import numpy as np
 
 from ..deform import FFD
 from ..errors import FileFormatError
+from .displacement_field import (
+    FIELD_SUFFIXES,
+    DisplacementField,
+    field_suffix,
+    load_displacement_field,
+    save_displacement_field,
+)
 from .elastix import load_elastix, save_elastix
 from .elastix_text import is_parameter_file
 from .ffd_file import load_ffd, save_ffd
@@ -23,20 +30,20 @@ from .prm import load_prm, save_prm
 
 __all__ = ["DEFORMATION_SUFFIXES", "FORMATS", "load_deformation", "save_deformation"]
 
-DEFORMATION_SUFFIXES = (".ffd", *ITK_SUFFIXES, ".prm")
+DEFORMATION_SUFFIXES = (".ffd", *ITK_SUFFIXES, ".prm", *FIELD_SUFFIXES)
 #: The ``format=`` names of :func:`save_deformation` (``None``: by extension).
-FORMATS = ("ffd", "itk", "elastix", "prm")
+FORMATS = ("ffd", "itk", "elastix", "prm", "field")
 
 
 def _suffix(path: str | os.PathLike[str]) -> str:
-    suffix = Path(path).suffix.lower()
+    suffix = field_suffix(path) or Path(path).suffix.lower()
     if suffix not in DEFORMATION_SUFFIXES:
         raise ValueError(f"{os.fspath(path)}: unknown deformation file extension {suffix!r}; expected one of "
                          f"{', '.join(DEFORMATION_SUFFIXES)}")  # fmt: skip
     return suffix
 
 
-def load_deformation(path: str | os.PathLike[str]) -> FFD:
+def load_deformation(path: str | os.PathLike[str]) -> FFD | DisplacementField:
     """Read a ``.ffd``, ITK (``.tfm``, ``.txt``, ``.h5``, ``.hdf5``), elastix or PyGeM ``.prm`` file as an FFD.
 
     ``.ffd``: ``FFD(load_ffd(path))`` (B-spline; a file without a placement section rests at
@@ -45,6 +52,9 @@ def load_deformation(path: str | os.PathLike[str]) -> FFD:
     transform parameter file: ``load_elastix(path).to_ffd()``, the chain it starts lowered onto
     one FFD (see :mod:`~ffd_notebook.io.elastix`).
     ``.prm``: ``FFD(load_prm(path), "bernstein", only_inside=True)``, PyGeM's deformation.
+    A displacement field (``.nii``, ``.nii.gz``, ``.nrrd``, ``.mha``) is returned as a
+    :class:`~ffd_notebook.io.DisplacementField` (:func:`~ffd_notebook.io.fit_lattice` makes a
+    lattice of it).
 
     Raises
     ------
@@ -64,6 +74,8 @@ def load_deformation(path: str | os.PathLike[str]) -> FFD:
     ('bernstein', True)
     """
     suffix = _suffix(path)
+    if suffix in FIELD_SUFFIXES:
+        return load_displacement_field(path)
     if suffix == ".ffd":
         return FFD(load_ffd(path), "bspline")
     if suffix == ".prm":
@@ -81,11 +93,13 @@ def _refuse(path: str | os.PathLike[str], what: str, why: str) -> ValueError:
     return ValueError(f"{os.fspath(path)}: a {what} file cannot hold this FFD exactly: {why}")
 
 
-def save_deformation(path: str | os.PathLike[str], ffd: FFD, *, format: str | None = None) -> None:
+def save_deformation(path: str | os.PathLike[str], ffd: FFD | DisplacementField, *, format: str | None = None) -> None:
     """Write an FFD in the format its extension names, atomically, or refuse if it would not be exact.
 
     ``format`` (one of :data:`FORMATS`) overrides the extension: ``"elastix"`` writes an elastix
     transform parameter file (:func:`~ffd_notebook.io.save_elastix`; ``.txt`` means ITK otherwise).
+    A displacement field (``.nii``, ``.nii.gz``, ``.nrrd``, ``.mha``) is written on its own grid;
+    an FFD becomes one with :func:`~ffd_notebook.io.save_displacement_field` and a reference grid.
 
     ``.ffd`` holds a B-spline lattice with either border (a "clamp" one is recorded), no affine
     part, moving every point it reaches; ``.prm`` a Bernstein lattice without affine part that
@@ -118,8 +132,18 @@ def save_deformation(path: str | os.PathLike[str], ffd: FFD, *, format: str | No
         save_elastix(path, ffd)
         return
     suffix = _suffix(path)
-    if format is not None and format != {".ffd": "ffd", ".prm": "prm"}.get(suffix, "itk"):
+    kind = "field" if suffix in FIELD_SUFFIXES else {".ffd": "ffd", ".prm": "prm"}.get(suffix, "itk")
+    if format is not None and format != kind:
         raise ValueError(f"{os.fspath(path)}: the extension {suffix!r} does not fit format={format!r}")
+    if kind == "field":
+        if not isinstance(ffd, DisplacementField):
+            raise ValueError(f"{os.fspath(path)}: a displacement field needs a voxel grid; use "
+                             "save_displacement_field(path, deformation, reference)")  # fmt: skip
+        save_displacement_field(path, ffd)
+        return
+    if isinstance(ffd, DisplacementField):
+        raise ValueError(f"{os.fspath(path)}: a displacement field is not a lattice; fit one first "
+                         f"(fit_lattice(field, shape)) to write it as a {suffix} file")  # fmt: skip
     if suffix in ITK_SUFFIXES:
         save_transform(path, ffd)
         return
