@@ -47,6 +47,8 @@ _LAZY = {
     "DisplacementField": "ffd_notebook.io",
     "load_displacement_field": "ffd_notebook.io",
     "save_displacement_field": "ffd_notebook.io",
+    "sample_displacement_field": "ffd_notebook.io",
+    "fit_lattice": "ffd_notebook.io",
     "edit": "ffd_notebook.view",
     "Editor": "ffd_notebook.view",
 }

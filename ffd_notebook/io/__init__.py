@@ -15,10 +15,16 @@ from __future__ import annotations
 from ..lazy import lazy_getattr
 from ._safety import MAX_FILE_BYTES, check_regular_file
 from .deformation_files import load_deformation, save_deformation
-from .displacement_field import DisplacementField, load_displacement_field, save_displacement_field
+from .displacement_field import (
+    DisplacementField,
+    load_displacement_field,
+    sample_displacement_field,
+    save_displacement_field,
+)
 from .elastix import ElastixTransform, load_elastix, save_elastix
 from .ffd_file import load_ffd, save_ffd
 from .itk import load_transform, save_transform
+from .lattice_fitting import fit_lattice
 from .placement import place_at_mesh_minimum
 from .prm import load_prm, save_prm
 
@@ -35,6 +41,7 @@ __all__ = [
     "DisplacementField",
     "ElastixTransform",
     "check_regular_file",
+    "fit_lattice",
     "load_deformation",
     "load_displacement_field",
     "load_elastix",
@@ -44,6 +51,7 @@ __all__ = [
     "place_at_mesh_minimum",
     "read_mesh",
     "read_obj",
+    "sample_displacement_field",
     "save_deformation",
     "save_displacement_field",
     "save_elastix",

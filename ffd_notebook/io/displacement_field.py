@@ -29,6 +29,7 @@ __all__ = [
     "DisplacementField",
     "field_suffix",
     "load_displacement_field",
+    "reference_grid",
     "sample_displacement_field",
     "save_displacement_field",
 ]
@@ -174,6 +175,21 @@ def _grid_of(reference: Any) -> tuple[tuple[int, int, int], NDArray, NDArray, ND
         return size, spacing, origin, direction  # type: ignore[return-value]
     raise TypeError("reference must be an image file, a SimpleITK image, a DisplacementField or a mapping with "
                     f"size/spacing/origin/direction, got {type(reference).__name__}")  # fmt: skip
+
+
+def reference_grid(reference: Any) -> dict[str, Any]:
+    """A reference's voxel grid as ``{"size", "spacing", "origin", "direction"}`` .
+
+    ``reference``: an image file, a SimpleITK image, a :class:`DisplacementField` or such a mapping
+    (``size`` required; spacing 1, origin 0 and identity direction by default).
+
+    Examples
+    --------
+    >>> reference_grid({"size": (4, 5, 6)})["spacing"].tolist()
+    [1.0, 1.0, 1.0]
+    """
+    size, spacing, origin, direction = _grid_of(reference)
+    return {"size": tuple(size), "spacing": spacing, "origin": origin, "direction": direction}
 
 
 def _first_line(exc: BaseException) -> str:

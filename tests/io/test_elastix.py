@@ -392,3 +392,24 @@ def test_txt_files_are_told_apart_by_content(tmp_path):
     assert load_deformation(tmp_path / "itk.txt").lattice == load_deformation(tmp_path / "elx.txt").lattice
     with pytest.raises(ValueError, match="format must be one of"):
         save_deformation(tmp_path / "x.txt", ffd, format="nifti")
+
+
+# ---------------------------------------------------------------------------------------- convert
+def test_sheared_chain_converts_to_a_field_and_to_a_fitted_lattice(registrations, tmp_path, capsys):
+    from ffd_notebook.__main__ import main
+    from ffd_notebook.io import load_displacement_field
+
+    path = registrations["affine+bspline"]
+    chain = load_elastix(path)
+    assert main(["convert", str(path), str(tmp_path / "x.tfm")]) == 1
+    assert "sheared" in capsys.readouterr().err and not (tmp_path / "x.tfm").exists()
+    assert main(["convert", str(path), str(tmp_path / "field.nii.gz")]) == 0  # on the fixed image's grid
+    field = load_displacement_field(tmp_path / "field.nii.gz")
+    assert field.shape == (18, 22, 20) and np.allclose(field.direction, ROTATED, atol=1e-6)
+    centres = field.grid_points()
+    assert np.abs(field.deform(centres) - chain.deform(centres)).max() < 1e-5  # NIfTI's float32 geometry
+    assert main(["convert", str(path), str(tmp_path / "fitted.h5"), "--fit", "8", "--affine"]) == 0
+    assert "fitted a 8x8x8 lattice to 7920 samples" in capsys.readouterr().err
+    fitted = load_deformation(tmp_path / "fitted.h5")
+    inside = _image_points(500, (1.5, 1.0, 2.0), (10.0, -5.0, 3.0), ROTATED, seed=4)
+    assert np.abs(fitted.deform(inside) - chain.deform(inside)).max() < 0.5
