@@ -52,18 +52,15 @@ def _strip(text: str) -> str:
 
 def _split(path: str | os.PathLike[str], number: int, body: str) -> tuple[str, tuple[str, ...]]:
     """Name and values of a line's inside (between the brackets), elastix's ``SplitLine``."""
-    if body.count('"') % 2:
+    quotes = body.count('"')
+    if quotes % 2:
         raise FileFormatError(path, number, 'an odd number of quotes ("): a string value is not closed')
-    pieces: list[str] = [""]
-    quoted = False
-    for char in body:
-        if char == '"':
-            quoted = not quoted
-            pieces.append("")
-        elif char == " " and not quoted:
-            pieces.append("")
-        else:
-            pieces[-1] += char
+    if quotes:  # quotes delimit values, blanks inside them stay (every other piece is quoted)
+        pieces = []
+        for index, part in enumerate(body.split('"')):
+            pieces.extend([part] if index % 2 else part.split(" "))
+    else:  # the long lines (TransformParameters): no quotes
+        pieces = body.split(" ")
     name, values = pieces[0], tuple(p for p in pieces[1:] if p)
     if not _NAME.fullmatch(name):
         shown = name if len(name) <= 40 else name[:40] + "..."

@@ -24,6 +24,7 @@ from ..basis import bspline, bspline_cells
 from ..deform import FFD
 from ..lattice import Lattice, as_points
 from .displacement_field import DisplacementField, sample_displacement_field
+from .tensor_grid import apply_along, axis_weights
 
 __all__ = ["fit_lattice"]
 
@@ -57,18 +58,6 @@ def _lattice_over_grid(field: DisplacementField, shape: tuple[int, int, int]) ->
     return Lattice(shape, spacing, field.origin - rotation @ spacing, rotation)
 
 
-def _axis_matrix(u: NDArray[np.float64], n: int) -> NDArray[np.float64]:
-    """``(len(u), n)`` cubic B-spline weights of lattice coordinates ``u`` (zero border: outside rows drop)."""
-    first, t = bspline_cells(u)
-    w = bspline(t)
-    out = np.zeros((len(u), n))
-    for k in range(4):
-        j = first + k
-        ok = (j >= 0) & (j < n)
-        out[np.flatnonzero(ok), j[ok]] = w[ok, k]
-    return out
-
-
 def _aligned(field: DisplacementField, lattice: Lattice) -> list[NDArray[np.float64]] | None:
     """Per-axis lattice coordinates of the field's voxels if the grid runs along the lattice axes, else ``None``."""
     if not np.allclose(field.direction, lattice.rotation, rtol=0, atol=1e-12):
@@ -76,13 +65,6 @@ def _aligned(field: DisplacementField, lattice: Lattice) -> list[NDArray[np.floa
     start = lattice.to_lattice(field.origin[None])[0]
     step = field.spacing / lattice.spacing
     return [start[a] + np.arange(field.shape[a]) * step[a] for a in range(3)]
-
-
-def _along(matrix: NDArray[np.float64], data: NDArray[np.float64], axis: int) -> NDArray[np.float64]:
-    """``matrix`` applied along one of the three grid axes of ``data`` ``(n0, n1, n2, 3)``."""
-    moved = np.moveaxis(data, axis, 0)
-    out = (matrix @ moved.reshape(moved.shape[0], -1)).reshape((matrix.shape[0],) + moved.shape[1:])
-    return np.moveaxis(out, 0, axis)
 
 
 def _affine_fit(points: NDArray[np.float64], targets: NDArray[np.float64], weights: NDArray[np.float64] | None):
@@ -103,13 +85,13 @@ def _grid_fit(field, lattice, coords, affine):
         points = field.grid_points()
         a, b = _affine_fit(points, points + targets.reshape(-1, 3), None)
         targets = (points + targets.reshape(-1, 3) - points @ a.T - b).reshape(targets.shape)
-    mats = [_axis_matrix(coords[axis], lattice.shape[axis]) for axis in range(3)]
+    mats = [axis_weights(coords[axis], lattice.shape[axis]) for axis in range(3)]
     offsets = targets
     for axis in range(3):
-        offsets = _along(np.linalg.pinv(mats[axis]), offsets, axis)
+        offsets = apply_along(np.linalg.pinv(mats[axis]), offsets, axis)
     predicted = offsets
     for axis in range(3):
-        predicted = _along(mats[axis], predicted, axis)
+        predicted = apply_along(mats[axis], predicted, axis)
     return offsets, (a, b), (targets - predicted).reshape(-1, 3)
 
 

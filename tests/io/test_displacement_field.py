@@ -97,3 +97,17 @@ def test_bad_fields_are_refused_and_nothing_is_half_written(tmp_path):
         save_deformation(tmp_path / "x.tfm", load_displacement_field(tmp_path / "ok.nii"))
     assert (tmp_path / "ok.nii").read_bytes() == before
     assert sorted(p.name for p in tmp_path.iterdir()) == ["junk.nrrd", "ok.nii", "scalar.nii"]
+
+
+@pytest.mark.parametrize("only_inside", [False, True])
+def test_fields_of_ffds_on_grids_along_their_lattice_are_sampled_axis_by_axis(only_inside):
+    from ffd_notebook.io import sample_displacement_field
+
+    ffd = _ffd(4)
+    ffd.only_inside = only_inside
+    # along the lattice (the fast path), no voxel on the domain's faces (u = 1 or n - 2: rounding decides there)
+    grid = dict(REFERENCE, direction=ffd.lattice.rotation, size=(23, 19, 17), origin=(6.013, -1.029, 2.007))
+    fast = sample_displacement_field(ffd, grid)
+    slow = sample_displacement_field(ffd.deform, grid)  # a plain callable: every voxel centre through deform()
+    assert np.abs(fast.vectors - slow.vectors).max() < 1e-9
+    assert np.abs(slow.vectors).max() > 0.5

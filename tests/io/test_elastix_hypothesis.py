@@ -84,7 +84,9 @@ def test_any_bspline_ffd_survives_elastix_files(ffd):
     assert np.abs(back.lattice.origin - lat.origin).max() <= 1e-13 * scale
     inside = lat.to_world(np.random.default_rng(0).random((20, 3)) * (np.array(lat.shape) - 3) + 1)
     size = np.abs(ffd.deform(inside)).max() + 1.0
-    assert np.abs(chain.deform(inside) - ffd.deform(inside)).max() <= 1e-9 * size
+    # the two compute lattice coordinates differently: rounding of |x| / spacing, times the offsets
+    rounding = 1e-13 * np.abs(inside).max() / lat.spacing.min() * (np.abs(lat.offsets).max() + 1.0)
+    assert np.abs(chain.deform(inside) - ffd.deform(inside)).max() <= 1e-9 * size + rounding
 
 
 @SETTINGS
