@@ -348,7 +348,7 @@ def _initial(params: ParameterMap, current: Path) -> Path | None:
                None)  # fmt: skip
     if key is None:
         return None
-    name = " ".join(params.values(key))
+    name = params.values(key)[0]  # elastix reads the first value (a quoted name keeps its blanks)
     if name == "NoInitialTransform":
         return None
     for candidate in _candidates(current, name):

@@ -133,6 +133,34 @@ def test_bspline_registration_loads_as_an_ffd_equal_to_transformix(registrations
     assert np.abs(ffd.deform(points) - reference).max() <= _tolerance(chain)
 
 
+@pytest.mark.parametrize(
+    ("change", "value"),
+    [("Transform", "RecursiveBSplineTransform"), ("GridIndex", "1 0 2"), ("GridDirection", "0 1 0 -1 0 0 0 0 1")],
+)
+def test_bspline_variants_match_transformix(registrations, tmp_path, change, value):
+    """The recursive B-spline, a grid index other than 0 (elastix moves the grid by it), a rotated grid."""
+    text = registrations["bspline"].read_text()
+    start = text.index(f"({change} ")
+    edited = text[:start] + f"({change} {value if value[0].isdigit() else chr(34) + value + chr(34)})"
+    edited += text[text.index(")", start) + 1 :]
+    path = tmp_path / "TransformParameters.0.txt"
+    path.write_text(edited)
+    chain = load_elastix(path)
+    params = read_parameter_file(path)
+    grid = chain.steps[0]
+    points = (
+        grid.origin
+        + (np.random.default_rng(8).random((300, 3)) * (np.array(grid.coefficients.shape[:3]) + 1) - 1)
+        @ grid.placement.T
+    )
+    points = _off_border(chain, points)
+    reference = transformix_points(path, points, tmp_path / "out")
+    assert np.abs(reference - points).max() > 0.05
+    assert np.abs(chain.deform(points) - reference).max() <= _tolerance(chain)
+    assert np.abs(load_deformation(path).deform(points) - reference).max() <= _tolerance(chain)
+    assert params.values(change) == tuple(value.split())
+
+
 def test_affine_then_bspline_compose_chain_needs_a_sheared_lattice(registrations):
     with pytest.raises(FileFormatError, match="sheared"):
         load_deformation(registrations["affine+bspline"])
