@@ -18,8 +18,8 @@ import sys
 from collections.abc import Sequence
 from typing import Any
 
-from ..deform import FFD
 from ..errors import FileFormatError
+from ..ffd.deform import FFD
 from .deformation_files import DEFORMATION_SUFFIXES, FORMATS, load_deformation, save_deformation
 from .displacement_field import DisplacementField, field_suffix, reference_grid, save_displacement_field
 from .elastix import ElastixTransform, load_elastix

@@ -13,8 +13,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..deform import FFD
 from ..errors import FileFormatError
+from ..ffd.deform import FFD
 from .displacement_field import (
     FIELD_SUFFIXES,
     DisplacementField,

@@ -19,9 +19,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..deform import FFD
+from .._util.points import as_points
 from ..errors import FileFormatError
-from ..lattice import as_points
+from ..ffd.deform import FFD
 from ._atomic import atomic_path
 from ._safety import check_regular_file
 from .tensor_grid import apply_along, axis_weights

@@ -41,9 +41,10 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .. import _oneshot
-from ..deform import FFD
-from ..lattice import Lattice, as_points
+from .._util.points import as_points
+from ..ffd import oneshot as _oneshot
+from ..ffd.deform import FFD
+from ..ffd.lattice import Lattice
 from .elastix_text import ParameterMap, read_parameter_file, write_parameter_file
 from .itk_model import strip_padding
 

@@ -20,9 +20,10 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..basis import bspline, bspline_cells
-from ..deform import FFD
-from ..lattice import Lattice, as_points
+from .._util.points import as_points
+from ..ffd.basis import bspline, bspline_cells
+from ..ffd.deform import FFD
+from ..ffd.lattice import Lattice
 from .displacement_field import DisplacementField, sample_displacement_field
 from .tensor_grid import apply_along, axis_weights
 

@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from ..basis import bspline, bspline_cells
+from ..ffd.basis import bspline, bspline_cells
 
 __all__ = ["apply_along", "axis_weights"]
 
