@@ -149,6 +149,10 @@ def save_deformation(path: str | os.PathLike[str], ffd: FFD | DisplacementField,
         return
     border = ffd.border
     affine = not np.array_equal(ffd.affine, np.eye(4))
+    if ffd.lattice.sheared and suffix in (".ffd", ".prm"):
+        what = ".ffd" if suffix == ".ffd" else "PyGeM .prm"
+        raise _refuse(path, what, "its lattice is sheared (axes not orthogonal, as an elastix affine-then-B-spline "
+                      "chain makes it); only elastix files hold that")  # fmt: skip
     if suffix == ".ffd":
         if ffd.basis != "bspline":
             raise _refuse(path, ".ffd", f"it has the {ffd.basis!r} basis; .ffd lattices are cubic B-splines")

@@ -168,11 +168,14 @@ class ElastixTransform:
         the B-spline's valid region do not move), unless the grid has three zero layers all
         round (what :func:`save_elastix` writes), which are dropped.
 
+        A linear map with shear composed before the B-spline (elastix's usual affine-then-B-spline
+        registration) gives a sheared lattice (:attr:`~ffd_notebook.Lattice.sheared`): elastix
+        files hold it, .ffd, ITK and PyGeM files refuse it.
+
         Raises
         ------
         ValueError
-            No B-spline or two of them (an FFD is one lattice), or a linear map composed before
-            the B-spline that shears its grid (a lattice's axes are orthogonal).
+            No B-spline or two of them (an FFD is one lattice).
         """
         a, b = np.eye(3), np.zeros(3)
         grid: list[NDArray[np.float64]] | None = None  # direction, spacing, origin, offsets
@@ -221,14 +224,14 @@ class ElastixTransform:
 
 def _lattice(rotation: NDArray[np.float64], spacing: NDArray[np.float64], origin: NDArray[np.float64],
              offsets: NDArray[np.float64]) -> Lattice:  # fmt: skip
-    """The lattice with control point ``ijk`` at ``origin + rotation @ (spacing * ijk)``, if its axes are orthogonal."""
+    """The lattice with control point ``ijk`` at ``origin + rotation @ (spacing * ijk)`` (sheared if need be)."""
     error = np.abs(rotation.T @ rotation - np.eye(3)).max()
-    if error > 1e-6:
-        raise ValueError(f"the B-spline grid is sheared in this chain (its axes are off orthogonal by {error:.2g}, "
-                         "from an affine map composed before it); a lattice's axes are orthogonal")  # fmt: skip
-    if error > _ORTHOGONAL:  # rounded direction cosines: the nearest rotation
+    if _ORTHOGONAL < error <= 1e-6:  # rounded direction cosines: the nearest rotation
         u, _, vt = np.linalg.svd(rotation)
         rotation = u @ vt
+    elif error > 1e-6:  # a sheared grid: unit columns exactly, their lengths in the spacing
+        lengths = np.linalg.norm(rotation, axis=0)
+        rotation, spacing = rotation / lengths, spacing * lengths
     return Lattice(offsets.shape[:3], spacing, origin, rotation, offsets)
 
 

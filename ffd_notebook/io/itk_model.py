@@ -219,6 +219,9 @@ def _check_writable(ffd: FFD) -> None:
     if border != "zero":
         raise ValueError(f"an FFD with border={border!r} has no ITK transform: ITK's BSplineTransform treats "
                          "control points outside the grid as zero (border='zero')")  # fmt: skip
+    if ffd.lattice.sheared:
+        raise ValueError("the lattice is sheared (its axes are not orthogonal): ITK's BSplineTransform grid is "
+                         "read back only with an orthogonal direction here; write it as an elastix file")  # fmt: skip
 
 
 def ffd_to_transforms(ffd: FFD) -> list[RawTransform]:

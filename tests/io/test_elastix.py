@@ -161,9 +161,25 @@ def test_bspline_variants_match_transformix(registrations, tmp_path, change, val
     assert params.values(change) == tuple(value.split())
 
 
-def test_affine_then_bspline_compose_chain_needs_a_sheared_lattice(registrations):
-    with pytest.raises(FileFormatError, match="sheared"):
-        load_deformation(registrations["affine+bspline"])
+def test_affine_then_bspline_compose_chain_is_an_ffd_on_a_sheared_lattice(registrations, tmp_path):
+    """elastix's usual run: the affine part shears the B-spline's grid; the FFD holds it, elastix files too."""
+    path = registrations["affine+bspline"]
+    ffd = load_deformation(path)
+    assert ffd.lattice.sheared and ffd.only_inside and not np.array_equal(ffd.affine, np.eye(4))
+    chain = load_elastix(path)
+    points = _off_border(chain, _image_points(400, (1.5, 1.0, 2.0), (10.0, -5.0, 3.0), ROTATED, seed=6))
+    reference = transformix_points(path, points, tmp_path / "a")
+    assert np.abs(ffd.deform(points) - reference).max() <= _tolerance(chain)
+    out = tmp_path / "saved" / "TransformParameters.0.txt"
+    out.parent.mkdir()
+    save_deformation(out, ffd, format="elastix")  # the sheared grid as GridDirection, the affine part by "Add"
+    assert np.abs(transformix_points(out, points, tmp_path / "b") - reference).max() <= 2 * TRANSFORMIX_ROUNDING
+    back = load_deformation(out)
+    assert back.lattice.sheared and np.array_equal(back.lattice.offsets, ffd.lattice.offsets)
+    for name, why in (("x.tfm", "sheared"), ("x.ffd", "sheared"), ("x.h5", "sheared")):
+        with pytest.raises(ValueError, match=why):
+            save_deformation(tmp_path / name, ffd)
+        assert not (tmp_path / name).exists()
 
 
 def test_registration_saves_back_exactly(registrations, tmp_path):
