@@ -156,6 +156,11 @@ def _samples(deformation: Any, region: Any) -> tuple[DisplacementField | None, N
             return sample_displacement_field(deformation, grid), None, None
         raise ValueError("a region is needed: points, a mesh, a mask on a field, or a reference grid")
     points = as_points(region)
+    if isinstance(deformation, np.ndarray):  # displacements at the region's points (a GP sample on a mesh)
+        if deformation.shape != points.shape or not np.all(np.isfinite(deformation)):
+            raise ValueError(f"displacements given as an array must be finite and match the region's points "
+                             f"{points.shape}, got {deformation.shape}")  # fmt: skip
+        return None, points, points + deformation
     deform = deformation.deform if hasattr(deformation, "deform") else deformation
     if not callable(deform):
         raise TypeError(f"expected a deformation (deform(points) or a callable), got {type(deformation).__name__}")
@@ -181,8 +186,9 @@ def fit_lattice(
 
     Parameters
     ----------
-    deformation : DisplacementField, ElastixTransform, FFD, or callable
-        Anything with ``deform(points)``, or a callable taking ``(N, 3)`` points to where they go.
+    deformation : DisplacementField, ElastixTransform, FFD, callable or array
+        Anything with ``deform(points)``, a callable taking ``(N, 3)`` points to where they go, or
+        an ``(N, 3)`` array of displacements at the ``region`` points (a GP sample on a mesh).
     shape : int, tuple of int, or Lattice
         Control points per axis of a new lattice whose domain (the "zero" border's, where the
         weights sum to one) is the region's box, its axes along the field's grid when there is

@@ -91,3 +91,19 @@ def test_a_callable_and_bad_input():
         fit_lattice(lambda p: p, 5, region=points, weights=-np.ones(300))
     with pytest.raises(ValueError, match="mask region must have the field's shape"):
         fit_lattice(sample_displacement_field(lambda p: p, GRID), 5, region=np.ones((2, 2, 2), bool))
+
+
+def test_a_gaussian_process_sample_on_mesh_points():
+    import pyvista as pv
+
+    from ffd_notebook.gp import GaussianKernel, GaussianProcess
+
+    points = pv.Sphere(radius=5.0, theta_resolution=24, phi_resolution=18).points.astype(np.float64)
+    sample = GaussianProcess(GaussianKernel(4.0, 0.5)).sample(points, rng=0)[0]
+    fitted = fit_lattice(sample, (7, 7, 7), region=points)
+    report = fitted.lattice.metadata["fit"]
+    moved = fitted.deform(points) - points
+    assert np.isclose(np.sqrt(np.mean(np.sum((moved - sample) ** 2, axis=1))), report["rms"], rtol=1e-6)
+    assert report["rms"] < 0.1 * np.sqrt(np.mean(np.sum(sample**2, axis=1)))  # a smooth sample: a good fit
+    with pytest.raises(ValueError, match="match the region's points"):
+        fit_lattice(sample[:10], 5, region=points)
