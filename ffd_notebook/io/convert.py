@@ -77,7 +77,8 @@ def convert(source: str, target: str, *, to: str | None = None, fit: str | None 
     source, target : str
         Files to read and to write (the format of each by extension; elastix ``.txt`` by content).
     to : {"ffd", "itk", "elastix", "prm", "field"}, optional
-        The target format when its extension does not say (``.txt`` is ITK unless ``"elastix"``).
+        The target format when its extension does not say (``.txt``: elastix for an elastix source,
+        else ITK).
     fit : str, optional
         A lattice shape (``"16"``, ``"16x16x12"``): fit a lattice to the source instead of
         requiring an exact one (:func:`~ffd_notebook.io.fit_lattice`, over a field's voxels or an
@@ -149,7 +150,7 @@ def convert_main(argv: Sequence[str]) -> int:
     )
     parser.add_argument("source", metavar="IN", help="file to read")
     parser.add_argument("target", metavar="OUT", help="file to write (replaced atomically)")
-    parser.add_argument("--to", choices=FORMATS, help="format of OUT when its extension does not say (.txt: ITK)")
+    parser.add_argument("--to", choices=FORMATS, help="format of OUT when its extension does not say (.txt: elastix for an elastix IN, else ITK)")
     parser.add_argument("--fit", metavar="SHAPE", help="fit a lattice of this shape (N or NXxNYxNZ) to IN")
     parser.add_argument("--affine", action="store_true", help="with --fit: separate the affine part first")
     parser.add_argument("--reference", metavar="IMAGE", help="image whose voxel grid a field is written on "

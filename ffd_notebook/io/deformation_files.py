@@ -97,7 +97,9 @@ def save_deformation(path: str | os.PathLike[str], ffd: FFD | DisplacementField,
     """Write an FFD in the format its extension names, atomically, or refuse if it would not be exact.
 
     ``format`` (one of :data:`FORMATS`) overrides the extension: ``"elastix"`` writes an elastix
-    transform parameter file (:func:`~ffd_notebook.io.save_elastix`; ``.txt`` means ITK otherwise).
+    transform parameter file (:func:`~ffd_notebook.io.save_elastix`). Without it a ``.txt`` file is
+    written in the format the FFD's lattice was read from: elastix for a lattice loaded from an
+    elastix file (``lattice.metadata["elastix"]``; the editor saves it back so), ITK otherwise.
     A displacement field (``.nii``, ``.nii.gz``, ``.nrrd``, ``.mha``) is written on its own grid;
     an FFD becomes one with :func:`~ffd_notebook.io.save_displacement_field` and a reference grid.
 
@@ -128,7 +130,8 @@ def save_deformation(path: str | os.PathLike[str], ffd: FFD | DisplacementField,
     """
     if format is not None and format not in FORMATS:
         raise ValueError(f"format must be one of {', '.join(FORMATS)} (or None: by extension), got {format!r}")
-    if format == "elastix":
+    from_elastix = isinstance(ffd, FFD) and "elastix" in ffd.lattice.metadata
+    if format == "elastix" or (format is None and from_elastix and Path(path).suffix.lower() == ".txt"):
         save_elastix(path, ffd)
         return
     suffix = _suffix(path)

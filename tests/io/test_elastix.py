@@ -435,6 +435,10 @@ def test_txt_files_are_told_apart_by_content(tmp_path):
     assert (tmp_path / "itk.txt").read_text().startswith("#Insight")
     assert (tmp_path / "elx.txt").read_text().startswith("(Transform")
     assert load_deformation(tmp_path / "itk.txt").lattice == load_deformation(tmp_path / "elx.txt").lattice
+    save_deformation(tmp_path / "again.txt", load_deformation(tmp_path / "elx.txt"))  # read from elastix: kept so
+    assert (tmp_path / "again.txt").read_text().startswith("(Transform")
+    save_deformation(tmp_path / "as-itk.txt", load_deformation(tmp_path / "elx.txt"), format="itk")
+    assert (tmp_path / "as-itk.txt").read_text().startswith("#Insight")
     with pytest.raises(ValueError, match="format must be one of"):
         save_deformation(tmp_path / "x.txt", ffd, format="nifti")
 
