@@ -150,7 +150,9 @@ def convert_main(argv: Sequence[str]) -> int:
     )
     parser.add_argument("source", metavar="IN", help="file to read")
     parser.add_argument("target", metavar="OUT", help="file to write (replaced atomically)")
-    parser.add_argument("--to", choices=FORMATS, help="format of OUT when its extension does not say (.txt: elastix for an elastix IN, else ITK)")
+    parser.add_argument("--to", choices=FORMATS,
+                        help="format of OUT when its extension does not say (.txt: elastix for an elastix IN, "
+                        "else ITK)")  # fmt: skip
     parser.add_argument("--fit", metavar="SHAPE", help="fit a lattice of this shape (N or NXxNYxNZ) to IN")
     parser.add_argument("--affine", action="store_true", help="with --fit: separate the affine part first")
     parser.add_argument("--reference", metavar="IMAGE", help="image whose voxel grid a field is written on "
