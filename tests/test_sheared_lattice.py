@@ -44,6 +44,7 @@ def test_deformation_jacobian_and_cached_path_follow_the_shear(border):
     assert np.abs((a.deform(world) - world) - (b.deform(points) - points)).max() < 1e-12
     bound = a.bind(world, dtype=np.float64)
     assert np.abs(bound.update() - a.deform(world)).max() < 1e-9
+    assert np.abs(bound.jacobian_determinant() - a.jacobian_determinant(world)).max() < 1e-6
     # chain rule: d T_local / d world = (d T_local / d x) S^-1
     ja, jb = a.jacobian(world), b.jacobian(points)
     expected = np.eye(3) + (jb - np.eye(3)) @ np.linalg.inv(SHEAR)
