@@ -111,3 +111,11 @@ def test_fields_of_ffds_on_grids_along_their_lattice_are_sampled_axis_by_axis(on
     slow = sample_displacement_field(ffd.deform, grid)  # a plain callable: every voxel centre through deform()
     assert np.abs(fast.vectors - slow.vectors).max() < 1e-9
     assert np.abs(slow.vectors).max() > 0.5
+
+
+def test_batch_lattice_files_refuse_a_field(tmp_path):
+    from ffd_notebook.batch.files import LatticeFiles
+
+    save_displacement_field(tmp_path / "warp.nrrd", _ffd(), REFERENCE)
+    with pytest.raises(ValueError, match=r"warp\.nrrd: a displacement field is not a lattice; fit one first"):
+        LatticeFiles([tmp_path / "warp.nrrd"])
