@@ -1,7 +1,11 @@
 """File commands of an :class:`~.session.EditingSession` (``session.files``): lattice files and meshes.
 
 Lattice files are any deformation file :func:`ffd_notebook.io.load_deformation` reads, by
-extension: ``.ffd``, ITK transforms (``.tfm``, ``.txt``, ``.h5``, ``.hdf5``) and PyGeM ``.prm``.
+extension: ``.ffd``, ITK transforms (``.tfm``, ``.txt``, ``.h5``, ``.hdf5``), elastix transform
+parameter files (``.txt``, by content: the whole chain, as one FFD), PyGeM ``.prm``, and
+displacement fields (``.nii``, ``.nii.gz``, ``.nrrd``, ``.mha``), which become a lattice of the
+session's shape fitted to the field over its voxels (:func:`ffd_notebook.io.fit_lattice`; the
+message tells the residual).
 A loaded file brings its whole FFD (basis, border, affine part, ``only_inside``); saving writes the
 session's FFD, or refuses (a message, no file) where the format cannot hold it exactly.
 
@@ -33,8 +37,8 @@ from ...._util.deprecation import renamed, warn_renamed
 from ....ffd.deform import FFD
 from ....ffd.deformer import Deformer
 from ....ffd.lattice import Lattice
+from ....io import DisplacementField, fit_lattice, place_at_mesh_minimum
 from ....io import load_deformation as _load_deformation
-from ....io import place_at_mesh_minimum
 from ....io import save_deformation as _save_deformation
 from .lattices import copy_ffd, fitted_lattice
 
@@ -76,7 +80,10 @@ class SessionFiles:
         ``"ffd-min"`` (a .ffd without one, put at the current mesh's minimum corner) or ``"file"``
         (ITK, PyGeM: by the file's own numbers). Safe to run in a worker thread.
         """
-        ffd = _load_deformation(path)
+        loaded = _load_deformation(path)
+        if isinstance(loaded, DisplacementField):  # a lattice of the session's shape, fitted over the field's voxels
+            return fit_lattice(loaded, tuple(max(4, n) for n in self.session.lattice.shape)), "file"
+        ffd = loaded
         if _PathType(path).suffix.lower() != ".ffd":
             return ffd, "file"
         if isinstance(ffd.lattice.metadata.get("placement"), dict):
@@ -86,8 +93,13 @@ class SessionFiles:
     def use_deformation(self, ffd: FFD, source: str, name: str) -> None:
         """Install an FFD from :meth:`read_deformation` (one undo step); ``name`` is what messages call the file."""
         self.session.swap_ffd(ffd, label="load lattice", source=source)
-        self.session.info(f"loaded a {'x'.join(map(str, ffd.lattice.shape))} lattice from {name} "
-                     f"({ffd.basis}, at {_PLACES[source]})")  # fmt: skip
+        shape = "x".join(map(str, ffd.lattice.shape))
+        fit = ffd.lattice.metadata.get("fit")
+        if isinstance(fit, dict):
+            self.session.info(f"loaded a {shape} lattice fitted to the displacement field {name} (residual RMS "
+                              f"{fit['rms']:.3g}, max {fit['max']:.3g})")  # fmt: skip
+            return
+        self.session.info(f"loaded a {shape} lattice from {name} ({ffd.basis}, at {_PLACES[source]})")
 
     def load_deformation(self, path: Path) -> FFD:
         """Load a deformation file (.ffd, ITK, PyGeM .prm; undoable) and return the FFD now in use.
