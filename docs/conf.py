@@ -125,6 +125,7 @@ def _api_pages() -> None:
     import importlib
 
     folder = DOCS / "api"
+    shutil.rmtree(folder / "generated", ignore_errors=True)  # autosummary writes them again: none stale
     folder.mkdir(exist_ok=True)
     entries = []
     documented: dict[int, str] = {}  # id(object) -> where its page is (the first public module exporting it)

@@ -27,12 +27,16 @@ if TYPE_CHECKING:  # the lazy names below, declared for type checkers and IDEs
     from .notebook import ControlPanel as ControlPanel
     from .session import Change as Change
     from .session import EditingSession as EditingSession
+    from .session import Field as Field
     from .session import MeshIO as MeshIO
+    from .session import PointsShown as PointsShown
 
 _LAZY = {
     "Change": "ffd_notebook.view.editor.session",
     "EditingSession": "ffd_notebook.view.editor.session",
     "MeshIO": "ffd_notebook.view.editor.session",
+    "Field": "ffd_notebook.view.editor.session",
+    "PointsShown": "ffd_notebook.view.editor.session",
     "Editor": "ffd_notebook.view.editor.editor",
     "edit": "ffd_notebook.view.editor.editor",
     "ControlPanel": "ffd_notebook.view.editor.notebook",

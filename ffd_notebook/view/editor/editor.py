@@ -30,6 +30,7 @@ import pyvista as pv
 from numpy.typing import ArrayLike, NDArray
 
 from ..._util.deprecation import renamed, warn_renamed
+from ...ffd.basis import BasisName
 from ...ffd.deform import FFD
 from ...ffd.lattice import Lattice
 from ...io import write_mesh
@@ -37,7 +38,7 @@ from ...meshing import as_surface, color_array_name, decimate_keeping_colors, de
 from .scene.proxy import INTERACTIVE_CELLS
 from .scene.scene import EditorScene
 from .session.message_log import MessageLog
-from .session.session import EditingSession, MeshIO
+from .session.session import EditingSession, Field, MeshIO, PointsShown
 
 __all__ = ["PYVISTA_MESH_IO", "Editor", "edit"]
 
@@ -114,8 +115,8 @@ class Editor:
         mesh_or_path: Any = None,
         *,
         lattice: Lattice | None = None,
-        shape: tuple[int, int, int] = (5, 5, 5),
-        basis: str = "bspline",
+        shape: tuple[int, ...] = (5, 5, 5),
+        basis: BasisName = "bspline",
         window_size: tuple[int, int] = (800, 600),
         off_screen: bool | None = None,
         interactive_cells: int | None = INTERACTIVE_CELLS,
@@ -204,11 +205,11 @@ class Editor:
         """Zero the offset of control point ``ijk``, or of all of them (one undo step)."""
         self.session.reset(ijk)
 
-    def set_field(self, field: str | None) -> None:
+    def set_field(self, field: Field | None) -> None:
         """Color the mesh by ``"displacement"``, by folding (``"jacobian"``), or not (None)."""
         self.session.set_field(field)
 
-    def show_points(self, which: str) -> None:
+    def show_points(self, which: PointsShown) -> None:
         """Draw all control points (``"all"``), those near the selection (``"near"``), the hull or ``"auto"``."""
         self.session.show_points(which)
 

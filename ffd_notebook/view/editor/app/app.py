@@ -24,6 +24,7 @@ import socket
 from collections.abc import Callable
 from typing import Any
 
+from ....ffd.basis import BasisName
 from ...file_root import DEFAULT_MAX_FILE_BYTES, FileRoot
 from ...web_security import AccessPolicy, new_token, protect, url_with_token
 from ..editor import Editor
@@ -192,8 +193,8 @@ def run_app(
     ffd: str | os.PathLike[str] | None = None,
     port: int = 8080,
     host: str = "127.0.0.1",
-    shape: tuple[int, int, int] = (5, 5, 5),
-    basis: str = "bspline",
+    shape: tuple[int, ...] = (5, 5, 5),
+    basis: BasisName = "bspline",
     root: str | os.PathLike[str] | None = None,
     max_file_bytes: int = DEFAULT_MAX_FILE_BYTES,
     setup: Callable[[EditorApp], None] | None = None,

@@ -4,13 +4,14 @@ from __future__ import annotations
 
 from typing import Any
 
+from ....ffd.basis import BasisName
 from ....ffd.deform import FFD
 from ....ffd.lattice import Lattice
 
 __all__ = ["copy_ffd", "fitted_lattice"]
 
 
-def fitted_lattice(mesh: Any, shape: tuple[int, int, int], basis: str) -> Lattice:
+def fitted_lattice(mesh: Any, shape: tuple[int, ...], basis: BasisName) -> Lattice:
     """The lattice the editor fits around ``mesh`` (initial fit, new size, new basis, new mesh).
 
     For the B-spline basis it uses the "clamp" border: the lattice's box is the mesh's own, at most

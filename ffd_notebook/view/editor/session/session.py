@@ -23,11 +23,12 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from ....ffd.basis import BasisName
 from ....ffd.deform import FFD
 from ....ffd.deformer import Deformer
 from ....ffd.lattice import Lattice
@@ -38,12 +39,16 @@ from .lattices import copy_ffd, fitted_lattice
 from .message_log import MessageLog
 from .surface_drag import SurfaceDrag
 
-__all__ = ["FIELDS", "POINTS_SHOWN", "EditingSession", "MeshIO"]
+__all__ = ["FIELDS", "POINTS_SHOWN", "EditingSession", "Field", "MeshIO", "PointsShown"]
 
 #: what the mesh can be colored by: nothing (its own colors), |displacement|, folding (det J <= 0)
 FIELDS = (None, "displacement", "jacobian")
+#: The type of a coloured field: one of :data:`FIELDS` other than None.
+Field = Literal["displacement", "jacobian"]
 #: which control points the view draws: all, those near the selection, the lattice's hull (dense lattices)
 POINTS_SHOWN = ("auto", "all", "near", "hull")
+#: The type of a choice of control points shown: one of :data:`POINTS_SHOWN`.
+PointsShown = Literal["auto", "all", "near", "hull"]
 
 
 @dataclass(frozen=True)
@@ -96,8 +101,8 @@ class EditingSession:
         *,
         mesh_io: MeshIO,
         lattice: Lattice | None = None,
-        shape: tuple[int, int, int] = (5, 5, 5),
-        basis: str = "bspline",
+        shape: tuple[int, ...] = (5, 5, 5),
+        basis: BasisName = "bspline",
     ) -> None:
         self.mesh_io = mesh_io
         self.messages = MessageLog()  # bounded: the newest MAX_MESSAGES, newest last
@@ -105,9 +110,11 @@ class EditingSession:
         self.field: str | None = None
         self.colors_shown = True
         self.points_shown = "auto"
-        self.selected: tuple[int, int, int] | None = None
+        self.selected: tuple[int, ...] | None = None
         self._subscribers = Subscribers(self.messages.append)
         self._dragged: int | None = None
+        self._rest_control: NDArray[np.float64]  # control points at rest, flat (set with the mesh)
+        self._committed: NDArray[np.float64]  # the offsets as last recorded in the history
         self.surface = SurfaceDrag(self)  # pins, interaction mode, surface drags
         self.files = SessionFiles(self)  # lattice files and meshes
         if lattice is None:
@@ -129,7 +136,7 @@ class EditingSession:
         return self.deformer.ffd
 
     @property
-    def basis(self) -> str:
+    def basis(self) -> BasisName:
         """The FFD basis, ``"bspline"`` or ``"bernstein"``."""
         return self.ffd.basis
 
@@ -188,7 +195,7 @@ class EditingSession:
         """Unsubscribe everybody."""
         self._subscribers.clear()
 
-    def notify(self, kind: str, points: Any = None, label: str = "", started: float | None = None) -> None:
+    def notify(self, kind: Any, points: Any = None, label: str = "", started: float | None = None) -> None:
         """Tell every subscriber about one :class:`~.changes.Change` (from the session's commands and parts)."""
         change = Change(kind, points, label) if started is None else Change(kind, points, label, started)
         self._subscribers.emit(change)
@@ -320,7 +327,7 @@ class EditingSession:
         """Select control point ``(i, j, k)`` (highlighted; the panels edit it), or None."""
         self._select(None if ijk is None else self.check_ijk(ijk), "select")
 
-    def _select(self, ijk: tuple[int, int, int] | None, label: str) -> None:
+    def _select(self, ijk: tuple[int, ...] | None, label: str) -> None:
         self.selected = ijk
         self.notify("select", None, label)
 
@@ -347,14 +354,14 @@ class EditingSession:
         return True
 
     # ------------------------------------------------------------------ lattice and basis
-    def set_lattice(self, lattice: Lattice, basis: str | None = None, *, label: str = "lattice") -> None:
+    def set_lattice(self, lattice: Lattice, basis: BasisName | None = None, *, label: str = "lattice") -> None:
         """Replace the lattice (and optionally the basis); one undo step. Invalid input changes nothing.
 
         A lattice given this way stays where it is when another mesh is loaded.
         """
         self.swap_lattice(lattice, basis, label=label, source="given")
 
-    def swap_lattice(self, lattice: Lattice, basis: str | None, *, label: str, source: str) -> None:
+    def swap_lattice(self, lattice: Lattice, basis: BasisName | None, *, label: str, source: str) -> None:
         """Install ``FFD(lattice, basis)`` as one undo step (see :meth:`swap_ffd`)."""
         if not isinstance(lattice, Lattice):
             raise TypeError(f"lattice must be a Lattice, got {type(lattice).__name__}")
@@ -401,7 +408,7 @@ class EditingSession:
         self.swap_ffd(deformer.ffd, label="shape", source="fit", deformer=deformer)
         self.info(f"new {'x'.join(map(str, deformer.ffd.lattice.shape))} lattice around the mesh")
 
-    def set_basis(self, basis: str) -> None:
+    def set_basis(self, basis: BasisName) -> None:
         """Switch the basis; refits the lattice around the mesh for it (offsets start at zero; undoable)."""
         if basis == self.basis:
             return
