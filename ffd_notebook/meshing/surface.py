@@ -22,6 +22,16 @@ COLOR_ARRAYS = ("RGB", "RGBA", "Colors", "colors", "RGBColors")
 def color_array_name(mesh: pv.DataSet) -> str | None:
     """Name of the mesh's per-vertex colour array (uint8, 3 or 4 components), or ``None``.
 
+    Parameters
+    ----------
+    mesh : pyvista.DataSet
+        The mesh.
+
+    Returns
+    -------
+    str or None
+        The array's name, or None when it has no colours.
+
     Examples
     --------
     >>> import numpy as np, pyvista as pv
@@ -45,6 +55,16 @@ def as_surface(mesh: Any) -> pv.PolyData:
 
     Cells that refer to missing points raise :class:`~ffd_notebook.errors.FileFormatError` (a
     ValueError) before any VTK filter sees them (:func:`ffd_notebook.io.mesh_checks.check_cells`).
+
+    Parameters
+    ----------
+    mesh : pyvista.DataSet
+        Any PyVista mesh (a volume mesh gives its outer surface).
+
+    Returns
+    -------
+    pyvista.PolyData
+        A new surface (the input is not changed).
 
     Examples
     --------
@@ -87,6 +107,11 @@ def decimate_keeping_colors(mesh: pv.PolyData, reduction: float, attribute_error
     attribute_error : bool
         Let colour differences steer the decimation too (see above).
 
+    Returns
+    -------
+    pyvista.PolyData
+        The decimated surface, with its colours.
+
     Examples
     --------
     >>> import numpy as np, pyvista as pv
@@ -122,6 +147,18 @@ def decimate_keeping_colors(mesh: pv.PolyData, reduction: float, attribute_error
 
 def deformed_copy(mesh: pv.PolyData, points: ArrayLike) -> pv.PolyData:
     """A new mesh: ``points`` with the faces and point data of ``mesh``.
+
+    Parameters
+    ----------
+    mesh : pyvista.PolyData
+        The rest mesh.
+    points : array_like
+        ``(N, 3)`` new positions of its points.
+
+    Returns
+    -------
+    pyvista.PolyData
+        The copy.
 
     Examples
     --------

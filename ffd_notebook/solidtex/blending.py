@@ -26,6 +26,11 @@ def axis_ramp(block: int, overlap: int, fade_in: bool, fade_out: bool) -> NDArra
     fade_in, fade_out : bool
         Whether a neighbour shares the first / last ``overlap`` voxels.
 
+    Returns
+    -------
+    numpy.ndarray
+        ``(block,)`` float32 weights in [0, 1].
+
     Examples
     --------
     >>> axis_ramp(6, 2, True, True).tolist()
@@ -64,6 +69,11 @@ def block_weights(
         Block edge and overlap in voxels.
     fade_in, fade_out : (bool, bool, bool)
         Per axis (z, y, x): whether there is a neighbour before / after the block.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(block, block, block)`` float32 weights (read-only).
 
     Examples
     --------

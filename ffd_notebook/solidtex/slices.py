@@ -28,6 +28,18 @@ def as_rgb8(image: Any, name: str = "image") -> NDArray[np.uint8]:
     Floating-point images are taken to be in [0, 1]; integer images in [0, 255] (uint16 images
     are scaled down by 257). The alpha channel is dropped.
 
+    Parameters
+    ----------
+    image : array_like
+        ``(H, W)``, ``(H, W, 3)`` or ``(H, W, 4)``; floats in [0, 1] or integers in [0, 255].
+    name : str
+        What error messages call it.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(H, W, 3)`` uint8.
+
     Examples
     --------
     >>> as_rgb8(np.zeros((2, 3))).shape
@@ -167,6 +179,11 @@ def sliding_crops(
         Window shift (rows, columns) from one crop to the next.
     start : (int, int)
         Top-left corner of the first crop.
+
+    Returns
+    -------
+    list of numpy.ndarray
+        ``n_slices`` crops ``(h, w, 3)`` uint8.
 
     Examples
     --------

@@ -115,6 +115,24 @@ def plan_stages(
     exemplar (the target halved until it fits), then one stage per doubling, each with twice the
     previous block (and pooling), drawing from the previous region.
 
+    Parameters
+    ----------
+    exemplar_shape : tuple of int
+        ``(Z, Y, X, 3)`` of the exemplar.
+    shape : tuple of int
+        ``(Z, Y, X)`` of the texture to make.
+    block : int
+        Block size in voxels.
+    overlap : float
+        Overlap as a fraction of the block.
+    reuse : bool
+        Grow by region doubling (each stage draws from the previous stage's result).
+
+    Returns
+    -------
+    list of Stage
+        The passes, the last one making ``shape``.
+
     Examples
     --------
     >>> [(s.region, s.block, s.overlap, s.count) for s in plan_stages((64, 64, 64), (128,) * 3, 16)]
