@@ -217,6 +217,10 @@ class LowRankGP:
             The reference shape; a mesh's triangles become the model's :attr:`cells`.
         meshes : sequence of (N, 3) array_like or meshes
             At least two examples.
+        rank : int, optional
+            Keep this many principal components.
+        variance : float, optional
+            Keep the fewest components holding this fraction of the variance.
 
         Returns
         -------

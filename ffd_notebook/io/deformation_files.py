@@ -123,8 +123,10 @@ def save_deformation(path: str | os.PathLike[str], ffd: FFD | DisplacementField,
     ----------
     path : str or os.PathLike
         The file; its extension chooses the format.
-    ffd : FFD
+    ffd : FFD or DisplacementField
         The deformation to write.
+    format : str, optional
+        One of :data:`FORMATS`, instead of what the extension says.
 
     Raises
     ------

@@ -52,6 +52,9 @@ def color_histogram(voxels: ArrayLike, *, bins: int = 8) -> NDArray[np.float64]:
 def colour_histogram(voxels: ArrayLike, bins: int = 8) -> NDArray[np.float64]:
     """Deprecated spelling of :func:`color_histogram` (the package spells ``color``, as PyVista does).
 
+    .. deprecated:: 0.1.0
+       Use :func:`color_histogram`.
+
     Examples
     --------
     >>> import warnings

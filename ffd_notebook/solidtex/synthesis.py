@@ -49,7 +49,7 @@ DEFAULT_HISTOGRAM_WEIGHT = {"feather": 0.0, "cut": 0.5}  # and its histogram_wei
 class Stage:
     """One pass of block placement.
 
-    Attributes
+    Parameters
     ----------
     region : tuple of int
         ``(Z, Y, X)`` size synthesised in this stage.
@@ -59,6 +59,12 @@ class Stage:
         Blocks along each axis.
     source_shape : tuple of int
         Shape of the volume blocks are drawn from: the exemplar, or the previous stage's region.
+
+    Examples
+    --------
+    >>> stage = plan_stages((32, 32, 32, 3), (64, 64, 64), 16)[-1]
+    >>> stage.region, stage.step == stage.block - stage.overlap
+    ((64, 64, 64), True)
     """
 
     region: tuple[int, ...]
