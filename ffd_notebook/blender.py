@@ -302,8 +302,7 @@ def ffd_from_record(record: dict[str, Any]) -> Any:
         If the lattice cannot be an FFD lattice: an axis with one point, or a transform that
         shears the lattice's axes (a lattice parented to a non-uniformly scaled, rotated parent).
     """
-    from .deform import FFD
-    from .lattice import Lattice
+    from . import FFD, Lattice
 
     shape = tuple(int(n) for n in record["shape"])
     if min(shape) < 2:

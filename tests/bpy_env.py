@@ -3,7 +3,7 @@
 ``bpy`` 4.5 pins NumPy < 2 while ffd_notebook runs on NumPy 2, so Blender cannot live in the test interpreter.
 :func:`bpy_python` creates (once) a virtual environment in a cache folder outside the repository, keyed by the
 bpy version, and returns its interpreter; :func:`run_blender` runs a script there with ffd_notebook's source
-tree on ``sys.path`` and exchanges arrays through ``.npz`` files.
+tree (the one this process imports) on ``sys.path`` and exchanges arrays through ``.npz`` files.
 
 The environment is built next to its final place and renamed into it when complete, under a file lock, so an
 interrupted or concurrent build never leaves a half-made environment that looks ready.
@@ -24,7 +24,6 @@ import numpy as np
 
 BPY_SPEC = "bpy==4.5.*"
 BPY_KEY = "bpy-4.5"
-REPO = Path(__file__).resolve().parents[1]
 
 
 def cache_root() -> Path:
@@ -98,9 +97,12 @@ def run_blender(script: str, inputs: dict | None = None, *, workdir: Path, timeo
     out = workdir / "out.npz"
     if out.exists():
         out.unlink()
+    import ffd_notebook  # Blender imports the same ffd_notebook as this process
+
+    source = Path(os.path.abspath(ffd_notebook.__file__)).parents[1]
     prelude = (
         "import sys, json, numpy as np\n"
-        f"sys.path.insert(0, {str(REPO)!r})\n"
+        f"sys.path.insert(0, {str(source)!r})\n"
         f"_d = np.load({str(workdir / 'in.npz')!r})\n"
         "IN = {k: _d[k] for k in _d.files}\n"
         f"IN['json'] = json.loads(open({str(workdir / 'in.json')!r}).read())\n"

@@ -182,7 +182,7 @@ def random_cases(blender):
 def test_ffd_equals_blender_lattice_modifier(random_cases):
     """The FFD read from Blender's data deforms the mesh's points as Blender's modifier does."""
     cases, result = random_cases
-    worst = 0.0
+    worst, largest_move = 0.0, 0.0
     for c, case in enumerate(cases):
         record = unpack(result, f"{c}_record_")
         size = lattice_size(record)
@@ -191,11 +191,11 @@ def test_ffd_equals_blender_lattice_modifier(random_cases):
             assert ffd.weights is not None and len(ffd.weights) == len(result[f"{c}_points"])
         ours = ffd.deform(result[f"{c}_points"])
         blender = result[f"{c}_blender"]
-        moved = np.abs(blender - result[f"{c}_points"]).max()
-        assert moved > 1e-3 * size or case["strength"] == 0, f"case {c}: Blender's modifier did not deform"
+        largest_move = max(largest_move, np.abs(blender - result[f"{c}_points"]).max() / size)
         error = np.abs(ours - blender).max() / size
         worst = max(worst, error)
         assert error < TOLERANCE, f"case {c} {case}: off by {error:.2e} of the lattice size"
+    assert largest_move > 0.02, "Blender's modifier hardly deformed anything: the comparison proves little"
     print(f"worst difference from Blender: {worst:.2e} of the lattice size over {len(cases)} lattices")
 
 
@@ -285,7 +285,9 @@ def test_ffd_to_blender_and_back(blender):
         back = ffd_from_record(unpack(result, f"{c}_back_"))
         assert back.basis == ffd.basis
         assert np.allclose(back.lattice.control_points(), ffd.lattice.control_points(), atol=1e-5 * size)
-        assert np.allclose(back.lattice.offsets, ffd.lattice.offsets, atol=1e-5 * size)
+        # with "outside", Blender recomputed the inner points: what both use is the same
+        assert np.allclose(back.offsets_in_use(), ffd.offsets_in_use(), atol=1e-5 * size)
+        assert back.outside == ffd.outside
         assert back.strength == pytest.approx(getattr(ffd, "strength", 1.0), abs=1e-6)
 
 
