@@ -7,7 +7,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from ffd_notebook.basis import bspline
+from ffd_notebook.ffd.basis import bspline
 from ffd_notebook.ffd.interpolation import (
     INTERPOLATIONS,
     interpolation_derivative,

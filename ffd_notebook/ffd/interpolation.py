@@ -27,14 +27,22 @@ Examples
 
 from __future__ import annotations
 
+from functools import partial
+from typing import Any
+
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from .basis import BASES, BSPLINE, AxisBasis, bspline_cells
+
 __all__ = [
+    "AXIS_BASES",
     "CARDINAL_TENSION",
     "CATMULL_ROM_TENSION",
     "INTERPOLATIONS",
     "INTERPOLATION_MATRICES",
+    "axis_bases",
+    "check_basis",
     "check_interpolation",
     "interpolation_derivative",
     "interpolation_second_derivative",
@@ -151,3 +159,65 @@ def interpolation_second_derivative(t: ArrayLike, kind: str) -> NDArray[np.float
     [1.0, -2.0, 1.0, 0.0]
     """
     return _powers(t, 2) @ INTERPOLATION_MATRICES[check_interpolation(kind)]
+
+
+#: Each interpolation as a per-axis basis of the engine (:class:`~ffd_notebook.ffd.basis.AxisBasis`): the
+#: same support as the B-spline's (``floor(u) - 1 .. floor(u) + 2``), so the border rule, the cell
+#: grouping and the evaluators serve them all; ``"bspline"`` is the engine's own B-spline.
+AXIS_BASES: dict[str, AxisBasis] = {
+    kind: BSPLINE
+    if kind == "bspline"
+    else AxisBasis(
+        kind,
+        4,
+        bspline_cells,
+        partial(interpolation_weights, kind=kind),
+        partial(interpolation_derivative, kind=kind),
+    )
+    for kind in INTERPOLATIONS
+}
+
+
+def check_basis(basis: Any) -> str | tuple[str, str, str]:
+    """An FFD's ``basis`` argument checked and in its one form.
+
+    ``"bspline"`` and ``"bernstein"`` stay; one of Blender's interpolations alone means it on every
+    axis; a tuple names one per axis, and three B-splines are ``"bspline"``.
+
+    Examples
+    --------
+    >>> check_basis(("bspline", "catmull-rom", "linear"))
+    ('bspline', 'catmull-rom', 'linear')
+    >>> check_basis("linear"), check_basis(["bspline"] * 3)
+    (('linear', 'linear', 'linear'), 'bspline')
+    >>> check_basis(("bspline", "bernstein", "linear"))
+    Traceback (most recent call last):
+    ...
+    ValueError: basis must be 'bspline', 'bernstein' or one interpolation per axis (three of ...), got ('bspline', ...)
+    """
+    if isinstance(basis, str):
+        if basis in BASES:
+            return basis
+        if basis in INTERPOLATIONS:
+            basis = (basis,) * 3
+    if not isinstance(basis, str) and isinstance(basis, (tuple, list)):
+        kinds = tuple(basis)
+        if len(kinds) == 3 and all(isinstance(k, str) and k in INTERPOLATIONS for k in kinds):
+            return "bspline" if kinds == ("bspline",) * 3 else kinds  # type: ignore[return-value]
+        basis = kinds
+    raise ValueError(
+        "basis must be 'bspline', 'bernstein' or one interpolation per axis (three of "
+        f"{', '.join(repr(k) for k in INTERPOLATIONS)}), got {basis!r}"
+    )
+
+
+def axis_bases(basis: str | tuple[str, ...]) -> tuple[AxisBasis, AxisBasis, AxisBasis]:
+    """The per-axis bases of a checked local ``basis`` (see :func:`check_basis`; not ``"bernstein"``).
+
+    Examples
+    --------
+    >>> [b.name for b in axis_bases(("linear", "bspline", "cardinal"))]
+    ['linear', 'bspline', 'cardinal']
+    """
+    kinds = ("bspline",) * 3 if basis == "bspline" else basis
+    return tuple(AXIS_BASES[k] for k in kinds)  # type: ignore[return-value]
