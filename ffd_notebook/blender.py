@@ -103,8 +103,8 @@ def lattice_record(lattice_object: Any, modifier: Any = None) -> dict[str, Any]:
         ``interpolation`` (one FFD basis name per axis), ``outside`` (bool), ``strength``
         (float) and ``weights`` (``(N,)`` array or None).
     """
-    lattice = lattice_object.data
     bpy = _bpy()
+    lattice = lattice_object.data
     if not isinstance(lattice, bpy.types.Lattice):
         raise TypeError(f"{lattice_object.name!r} is not a lattice object (its data is {type(lattice).__name__})")
     shape = (lattice.points_u, lattice.points_v, lattice.points_w)

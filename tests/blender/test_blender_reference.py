@@ -306,3 +306,35 @@ def test_harness_passes_arrays_both_ways(blender):
 def test_cases_json_is_plain():
     cases, _ = make_cases(np.random.default_rng(0), 2)
     assert json.loads(json.dumps(cases)) == cases
+
+
+def test_without_bpy_the_message_says_what_to_do():
+    """This interpreter has no ``bpy`` (NumPy 2): the Blender side says how to get it; the NumPy side works."""
+    import importlib.util
+
+    if importlib.util.find_spec("bpy") is not None:
+        pytest.skip("bpy is importable here")
+    from ffd_notebook.blender import lattice_from_record, lattice_record
+
+    with pytest.raises(ImportError, match="pip install bpy"):
+        lattice_record(object())
+    with pytest.raises(ImportError, match="inside Blender"):
+        lattice_from_record({})
+
+
+def test_what_a_blender_lattice_cannot_hold_is_refused_with_the_reason():
+    lat = Lattice((4, 4, 4), 1.0)
+    with pytest.raises(ValueError, match=r"affine part.*border is 'zero'"):
+        record_from_ffd(FFD(lat, affine=np.diag([2.0, 1.0, 1.0, 1.0])))
+    with pytest.raises(ValueError, match="'bernstein' is none of Blender's interpolations"):
+        record_from_ffd(FFD(lat, "bernstein"))
+    clamp = FFD(Lattice((4, 4, 4), 1.0, border="clamp"), weights="nose")
+    with pytest.raises(ValueError, match="give the array itself"):
+        record_from_ffd(clamp)
+    record = record_from_ffd(FFD(Lattice((3, 3, 3), 1.0, border="clamp")))
+    sheared = dict(record, matrix_world=np.array([[1.0, 0.5, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]))
+    with pytest.raises(ValueError, match="shears its axes"):
+        ffd_from_record(sheared)
+    flat = dict(record, shape=(1, 3, 3), rest=record["rest"][:1], deformed=record["deformed"][:1])
+    with pytest.raises(ValueError, match="one point along an axis"):
+        ffd_from_record(flat)
