@@ -161,6 +161,14 @@ def test_strength_and_weights_scale_the_displacement_everywhere():
     np.testing.assert_allclose(deformer.update(), pts + (1.5 * w)[:, None] * (full - pts), atol=1e-12)
     deformer.weights = None
     np.testing.assert_allclose(deformer.update(), pts + 1.5 * (full - pts), atol=1e-12)
+    # re-weighting keeps the grouping: the same as binding anew, "only inside" and "outside" too
+    ffd.only_inside, ffd.outside = True, True
+    deformer.update()
+    w2 = rng.random(len(pts))
+    deformer.weights = w2
+    np.testing.assert_allclose(deformer.update(), ffd.deform(pts, weights=w2), atol=1e-12)
+    ffd.lattice.offsets[0, 0, 0] += 0.2
+    np.testing.assert_allclose(deformer.update(changed=[(0, 0, 0)]), ffd.deform(pts, weights=w2), atol=1e-12)
     baked = FFD(ffd.lattice, ffd.basis, affine=ffd.affine, strength=0.3, outside=True).baked()
     assert baked.strength == 1.0 and not baked.outside
     np.testing.assert_allclose(
