@@ -45,7 +45,7 @@ def _control(app: Any, control: Control) -> None:
                 v.VSelect(
                     v_model=(name,),
                     items=(f"{control.key}_items",),
-                    label=name[-1],
+                    label=f"{control.key[:6]}. {name[-1]}",  # e.g. "interp. x"
                     id=f"ffd-{name}",
                     disabled=disabled,
                     **_FIELD,
@@ -94,7 +94,7 @@ def _control(app: Any, control: Control) -> None:
                 max=high,
                 step=step,
                 label=control.label,
-                thumb_label=True,
+                thumb_label="always" if control.bounds else True,  # a value of its own (strength) stays visible
                 hide_details=True,
                 density="compact",
                 id=ident,
