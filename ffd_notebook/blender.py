@@ -299,8 +299,9 @@ def ffd_from_record(record: dict[str, Any]) -> Any:
     Raises
     ------
     ValueError
-        If the lattice cannot be an FFD lattice: an axis with one point, or a transform that
-        shears the lattice's axes (a lattice parented to a non-uniformly scaled, rotated parent).
+        If the lattice cannot be an FFD lattice: an axis with one point, or rest points that are
+        not a regular grid. (A lattice under a non-uniformly scaled, rotated parent is sheared: a
+        sheared :class:`~ffd_notebook.Lattice`.)
     """
     from . import FFD, Lattice
 
@@ -318,11 +319,10 @@ def ffd_from_record(record: dict[str, Any]) -> Any:
     if not np.all(spacing > 0):
         raise ValueError("the lattice's rest points coincide along an axis (a zero scale?)")
     rotation = (steps / spacing[:, None]).T
-    if not np.allclose(rotation.T @ rotation, np.eye(3), atol=1e-5):
-        raise ValueError(
-            "the lattice object's transform shears its axes (a parent with a non-uniform scale and a rotation?): "
-            "an FFD lattice has orthogonal axes"
-        )
+    if np.allclose(rotation.T @ rotation, np.eye(3), atol=1e-5):  # float32 data: orthogonal up to rounding
+        u, _, vt = np.linalg.svd(rotation)
+        rotation = u @ vt
+    # else a sheared lattice (an object under a non-uniformly scaled, rotated parent): Lattice holds that too
     lattice = Lattice(shape, spacing, origin=origin, rotation=rotation, border="clamp")
     expected = lattice.control_points()
     if not np.allclose(expected, world_rest, atol=1e-5 * float(spacing.max()) + 1e-9):
@@ -358,7 +358,7 @@ def record_from_ffd(ffd: Any) -> dict[str, Any]:
     ------
     ValueError
         If Blender's lattice cannot hold the FFD: an affine part, the ``"zero"`` border, the
-        Bernstein basis, ``only_inside``, or weights given as a mesh array name.
+        Bernstein basis, ``only_inside``, weights given as a mesh array name, or a sheared lattice.
     """
     reasons = []
     if not np.array_equal(ffd.affine, np.eye(4)):
@@ -374,6 +374,8 @@ def record_from_ffd(ffd: Any) -> dict[str, Any]:
     weights = getattr(ffd, "weights", None)
     if isinstance(weights, str):
         reasons.append(f"its weights name a mesh array ({weights!r}): give the array itself")
+    if getattr(ffd.lattice, "sheared", False):
+        reasons.append("its lattice is sheared, and a Blender object's own transform has no shear")
     if reasons:
         raise ValueError("a Blender lattice cannot hold this FFD: " + "; ".join(reasons))
     lat = ffd.lattice

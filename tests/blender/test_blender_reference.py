@@ -332,9 +332,14 @@ def test_what_a_blender_lattice_cannot_hold_is_refused_with_the_reason():
     with pytest.raises(ValueError, match="give the array itself"):
         record_from_ffd(clamp)
     record = record_from_ffd(FFD(Lattice((3, 3, 3), 1.0, border="clamp")))
+    # a lattice under a non-uniformly scaled, rotated parent is sheared: read as a sheared lattice, not written back
     sheared = dict(record, matrix_world=np.array([[1.0, 0.5, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]))
-    with pytest.raises(ValueError, match="shears its axes"):
-        ffd_from_record(sheared)
+    ffd = ffd_from_record(sheared)
+    assert ffd.lattice.sheared
+    world = record["rest"].reshape(-1, 3) @ sheared["matrix_world"][:3, :3].T
+    np.testing.assert_allclose(ffd.lattice.control_points().reshape(-1, 3), world, atol=1e-12)
+    with pytest.raises(ValueError, match="sheared"):
+        record_from_ffd(ffd)
     flat = dict(record, shape=(1, 3, 3), rest=record["rest"][:1], deformed=record["deformed"][:1])
     with pytest.raises(ValueError, match="one point along an axis"):
         ffd_from_record(flat)

@@ -125,3 +125,20 @@ def test_prm_writes_strength_as_offsets(tmp_path):
     save_deformation(tmp_path / "box.prm", ffd)
     pts = rng.uniform(0, 2, size=(40, 3))
     np.testing.assert_allclose(load_deformation(tmp_path / "box.prm").deform(pts), ffd.deform(pts), atol=1e-12)
+
+
+def test_elastix_writes_strength_and_outside_as_offsets_and_refuses_weights(tmp_path):
+    rng = np.random.default_rng(6)
+    ffd = _ffd(rng, "bspline", border="zero", outside=True, strength=-0.7)
+    path = tmp_path / "TransformParameters.0.txt"
+    save_deformation(path, ffd, format="elastix")
+    back = load_deformation(path)
+    assert back.strength == 1.0 and not back.outside
+    pts = _points(ffd, rng)
+    np.testing.assert_allclose(back.deform(pts), ffd.deform(pts), atol=1e-9)
+    ffd.weights = rng.random(12)
+    with pytest.raises(ValueError, match="per-point weights"):
+        save_deformation(path, ffd, format="elastix")
+    per_axis = _ffd(rng, ("catmull-rom", "bspline", "bspline"), border="zero")
+    with pytest.raises(ValueError, match=r"elastix file cannot hold this FFD exactly.*catmull-rom"):
+        save_deformation(tmp_path / "b.txt", per_axis, format="elastix")
