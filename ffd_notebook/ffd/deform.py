@@ -177,10 +177,13 @@ class FFD:
         """
         s = self.strength
         lattice = self.lattice.copy()
-        lattice.offsets[...] = s * self.offsets_in_use()
         affine = self.affine.copy()
-        affine[:3, :3] = np.eye(3) + s * (affine[:3, :3] - np.eye(3))
-        affine[:3, 3] *= s
+        if self.outside:
+            lattice.offsets[...] = self.offsets_in_use()
+        if s != 1.0:  # (with s == 1 nothing is computed: the copy is bit-identical)
+            lattice.offsets *= s
+            affine[:3, :3] = np.eye(3) + s * (affine[:3, :3] - np.eye(3))
+            affine[:3, 3] *= s
         return FFD(lattice, self.basis, border=self.border, affine=affine, only_inside=self.only_inside)
 
     def _factor(self, points: Any, n: int, strength: Any, weights: Any) -> NDArray[np.float64] | None:
