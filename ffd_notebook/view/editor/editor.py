@@ -159,6 +159,19 @@ class Editor:
         self.session.set_lattice(lattice)
 
     @property
+    def weights(self) -> NDArray[np.float64] | None:
+        """The mesh vertices' weights in [0, 1] (a copy), or None: every vertex follows the lattice fully.
+
+        Assigning an array (one weight per vertex; Blender's vertex group) or None is one undo step;
+        in "paint weights" mode a drag over the mesh paints them (:class:`.session.weights.WeightPaint`).
+        """
+        return self.session.weights
+
+    @weights.setter
+    def weights(self, weights: ArrayLike | None) -> None:
+        self.session.paint.set(weights)
+
+    @property
     def deformed_mesh(self) -> pv.PolyData:
         """A new mesh: the current deformed points with the rest mesh's faces and point data."""
         return self.session.deformed_mesh

@@ -38,6 +38,19 @@ def _control(app: Any, control: Control) -> None:
     from trame.widgets import vuetify3 as v
 
     kind, ident = control.kind, control.dom_id
+    if kind == "choices":  # one select per state key (axis), the same items
+        disabled = (f"!{control.enabled}",) if control.enabled else False
+        for name in control.state:
+            with v.VCol(cols=4):
+                v.VSelect(
+                    v_model=(name,),
+                    items=(f"{control.key}_items",),
+                    label=f"{control.key[:6]}. {name[-1]}",  # e.g. "interp. x"
+                    id=f"ffd-{name}",
+                    disabled=disabled,
+                    **_FIELD,
+                )
+        return
     if kind in ("ints", "floats"):
         labels = [k[-1] if control.limits else k for k in control.state]
         for i, (name, label) in enumerate(zip(control.state, labels, strict=True)):
@@ -74,13 +87,14 @@ def _control(app: Any, control: Control) -> None:
         elif kind == "text":
             v.VTextField(v_model=(control.key,), label=control.label, id=ident, classes="mt-1", **_FIELD)
         elif kind == "slider":
+            low, high, step = control.bounds or (0.0, 0.95, 0.05)
             v.VSlider(
                 v_model=(control.key,),
-                min=0,
-                max=0.95,
-                step=0.05,
+                min=low,
+                max=high,
+                step=step,
                 label=control.label,
-                thumb_label=True,
+                thumb_label="always" if control.bounds else True,  # a value of its own (strength) stays visible
                 hide_details=True,
                 density="compact",
                 id=ident,

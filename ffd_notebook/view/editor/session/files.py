@@ -129,10 +129,11 @@ class SessionFiles:
         installing it (the deformer's weights) is done here too.
         """
         mesh = self.session.mesh_io.read(path)
+        # vertex weights belong to the old mesh's vertices: the new mesh starts without
         if self.session.lattice_source in ("ffd-placed", "given", "file"):
-            ffd = copy_ffd(self.session.ffd)
+            ffd = copy_ffd(self.session.ffd, weights=None)
         elif self.session.lattice_source == "ffd-min":
-            ffd = copy_ffd(self.session.ffd, place_at_mesh_minimum(self.session.lattice, mesh))
+            ffd = copy_ffd(self.session.ffd, place_at_mesh_minimum(self.session.lattice, mesh), weights=None)
         else:
             ffd = FFD(fitted_lattice(mesh, self.session.lattice.shape, self.session.basis), self.session.basis)
         return mesh, ffd.bind(mesh.points)
