@@ -41,6 +41,8 @@ _LAZY = {
     "save_prm": "ffd_notebook.io",
     "load_deformation": "ffd_notebook.io",
     "save_deformation": "ffd_notebook.io",
+    "face_from_photo": "ffd_notebook.face",
+    "NoFaceError": "ffd_notebook.errors",
     "edit": "ffd_notebook.view",
     "Editor": "ffd_notebook.view",
 }

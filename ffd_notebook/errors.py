@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import os
 
-__all__ = ["FileFormatError"]
+__all__ = ["FileFormatError", "NoFaceError"]
 
 
 class FileFormatError(ValueError):
@@ -28,3 +28,21 @@ class FileFormatError(ValueError):
 
     def __reduce__(self):  # keep it picklable (multiprocessing, pytest-xdist)
         return (type(self), (self.path, self.line, self.problem))
+
+
+class NoFaceError(ValueError):
+    """A photo has no face the face models can use: names the photo and says what was (not) found.
+
+    Examples
+    --------
+    >>> str(NoFaceError("coins.png", "no face found in the photo"))
+    'coins.png: no face found in the photo'
+    """
+
+    def __init__(self, photo: str, problem: str) -> None:
+        self.photo = photo
+        self.problem = problem
+        super().__init__(f"{photo}: {problem}")
+
+    def __reduce__(self):
+        return (type(self), (self.photo, self.problem))

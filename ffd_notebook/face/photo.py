@@ -1,0 +1,112 @@
+"""Photos in: a file (PNG, JPEG, anything Pillow reads) or an array, as an ``(H, W, 3)`` uint8 RGB array."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import FileFormatError
+
+__all__ = ["Photo", "read_photo"]
+
+# Pillow refuses images above 2 x MAX_IMAGE_PIXELS as "decompression bombs"; a real photo stays far below this
+_MAX_PIXELS = 400_000_000
+
+
+class Photo:
+    """An RGB photo and the name errors use for it (the path, or a description of the array).
+
+    Examples
+    --------
+    >>> photo = Photo.of(np.zeros((4, 6), np.uint8))
+    >>> photo.rgb.shape, photo.name
+    ((4, 6, 3), 'the photo (a 6x4 array)')
+    """
+
+    def __init__(self, rgb: np.ndarray, name: str, path: str | None = None) -> None:
+        self.rgb = rgb
+        self.name = name
+        self.path = path
+
+    @property
+    def height(self) -> int:
+        return int(self.rgb.shape[0])
+
+    @property
+    def width(self) -> int:
+        return int(self.rgb.shape[1])
+
+    @classmethod
+    def of(cls, photo: str | os.PathLike[str] | np.ndarray | Photo) -> Photo:
+        """A path is read with :func:`read_photo`; an array is checked and made RGB."""
+        if isinstance(photo, Photo):
+            return photo
+        if isinstance(photo, (str, os.PathLike)):
+            return cls(read_photo(photo), os.fspath(photo), os.fspath(photo))
+        array = np.asarray(photo)
+        if array.ndim not in (2, 3) or (array.ndim == 3 and array.shape[2] not in (1, 3, 4)):
+            raise ValueError(f"a photo array must be (H, W, 3) RGB, (H, W, 4) RGBA or (H, W) grey; got {array.shape}")
+        if array.dtype != np.uint8:
+            raise ValueError(
+                f"a photo array must be uint8 (0-255), got {array.dtype}: convert it, e.g. skimage.util.img_as_ubyte"
+            )
+        return cls(_as_rgb(array), f"the photo (a {array.shape[1]}x{array.shape[0]} array)")
+
+
+def _as_rgb(array: np.ndarray) -> np.ndarray:
+    if array.ndim == 2:
+        array = array[:, :, None]
+    if array.shape[2] == 1:
+        array = np.repeat(array, 3, axis=2)
+    return np.ascontiguousarray(array[:, :, :3])  # RGBA: the colour, without the alpha
+
+
+def read_photo(path: str | os.PathLike[str]) -> np.ndarray:
+    """Read a photo file as an ``(H, W, 3)`` uint8 RGB array, upright.
+
+    A JPEG's EXIF orientation (how a phone held sideways marks its pictures) is applied; grey-scale,
+    palette and RGBA images become RGB (the alpha channel is dropped, not blended).
+
+    Raises
+    ------
+    FileNotFoundError
+        If there is no such file.
+    FileFormatError
+        If the file is not an image Pillow can read, or is damaged.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> path = pathlib.Path(tempfile.mkdtemp()) / "notes.png"
+    >>> _ = path.write_text("not a picture")
+    >>> read_photo(path)
+    Traceback (most recent call last):
+    ...
+    ffd_notebook.errors.FileFormatError: .../notes.png: not an image file (PNG, JPEG, ...): ...
+    """
+    from PIL import Image, ImageOps, UnidentifiedImageError
+
+    path = Path(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"{path}: no such file")
+    try:
+        with Image.open(path) as image:
+            if image.width * image.height > _MAX_PIXELS:
+                raise FileFormatError(path, None, f"{image.width}x{image.height} pixels: too large for a photo")
+            image = ImageOps.exif_transpose(image)
+            if image.mode.startswith(("I", "F")):  # 16-bit or float grey: scale its range to 0-255
+                array = np.asarray(image, dtype=np.float64)
+                array = (array * (255.0 / max(float(array.max()), 1.0))).clip(0, 255).round().astype(np.uint8)
+            else:
+                if image.mode not in ("RGB", "RGBA", "L"):
+                    image = image.convert("RGBA" if "A" in image.mode or "transparency" in image.info else "RGB")
+                array = np.asarray(image)
+    except UnidentifiedImageError as exc:
+        raise FileFormatError(path, None, f"not an image file (PNG, JPEG, ...): {exc}") from None
+    except (OSError, SyntaxError, ValueError, Image.DecompressionBombError) as exc:
+        if isinstance(exc, FileFormatError):
+            raise
+        raise FileFormatError(path, None, f"damaged or unreadable image: {exc}") from None
+    return _as_rgb(array)
