@@ -41,16 +41,35 @@ class Square:
         local = (np.asarray(st, dtype=np.float64) - 0.5) * self.size
         return np.asarray(self.center) + local @ np.array([[c, s], [-s, c]])
 
-    def sample(self, rgb: np.ndarray, n: int, *, outside: str = "nearest", scale: float = 1.0) -> np.ndarray:
-        """The crop as an ``(n, n, 3)`` float array (0-255), sampled bilinearly at the ``n x n`` pixel centres.
+    def sample(self, rgb: np.ndarray, n: int, *, outside: str = "nearest") -> np.ndarray:
+        """The crop as an ``(n, n, C)`` float array (0-255), sampled bilinearly at the ``n x n`` pixel centres.
 
-        ``rgb`` may be a reduced copy of the photo (``scale`` photo pixels per pixel of ``rgb``, see
-        :func:`reduced`); ``outside`` is ``"nearest"`` (repeat the border) or ``"zero"`` (black).
+        A square more than twice as large as ``n`` is first shrunk by a whole factor (block means of
+        the part of the photo it covers, :func:`reduced`), so a large photo gives the models the
+        same picture as a small one, without aliasing. ``outside`` is ``"nearest"`` (repeat the
+        photo's border) or ``"zero"`` (black), for the part of the square beyond the photo.
+
+        Examples
+        --------
+        >>> rgb = np.zeros((40, 60, 3), np.uint8)
+        >>> rgb[:, 30:] = 200                                   # the right half is bright
+        >>> Square((30.0, 20.0), 8.0).sample(rgb, 4)[:, :, 0]
+        array([[  0.,   0., 200., 200.],
+               [  0.,   0., 200., 200.],
+               [  0.,   0., 200., 200.],
+               [  0.,   0., 200., 200.]])
         """
+        factor = max(1, int(self.size // (2 * n)))
+        corners = self.to_photo(np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0], [1.0, 1.0]]))
+        x0, y0 = np.clip(np.floor(corners.min(axis=0)).astype(int) - factor, 0, None)
+        x1, y1 = np.ceil(corners.max(axis=0)).astype(int) + factor
+        region = rgb[y0:y1, x0:x1]  # the part of the photo under the square (beyond it: beyond the photo)
+        if region.size == 0:
+            return np.zeros((n, n, rgb.shape[2]))
         centres = (np.arange(n) + 0.5) / n
         t, s = np.meshgrid(centres, centres, indexing="ij")
-        xy = self.to_photo(np.stack([s.ravel(), t.ravel()], axis=1)) / scale
-        return bilinear(rgb, xy, outside=outside).reshape(n, n, rgb.shape[2])
+        xy = (self.to_photo(np.stack([s.ravel(), t.ravel()], axis=1)) - (x0, y0)) / factor
+        return bilinear(reduced(region, factor), xy, outside=outside).reshape(n, n, rgb.shape[2])
 
 
 def bilinear(rgb: np.ndarray, xy: np.ndarray, *, outside: str = "nearest") -> np.ndarray:
@@ -75,16 +94,19 @@ def bilinear(rgb: np.ndarray, xy: np.ndarray, *, outside: str = "nearest") -> np
 
 
 def reduced(rgb: np.ndarray, factor: int) -> np.ndarray:
-    """The photo shrunk by an integer ``factor``, each pixel the mean of a ``factor x factor`` block (no aliasing).
+    """An ``(H, W, C)`` uint8 image shrunk by a whole ``factor``, each pixel the mean of a ``factor x factor`` block.
+
+    Pixel ``(i, j)`` of the result covers pixels ``[i f, (i + 1) f) x [j f, (j + 1) f)`` of the
+    image (a partial block at the far edges: the mean of what there is). Pillow's ``reduce``.
 
     Examples
     --------
-    >>> reduced(np.arange(16, dtype=np.uint8).reshape(4, 4, 1), 2)[:, :, 0]
-    array([[ 2.5,  4.5],
-           [10.5, 12.5]], dtype=float32)
+    >>> reduced(np.arange(16, dtype=np.uint8).reshape(4, 4, 1).repeat(3, axis=2), 2)[:, :, 0]
+    array([[ 3,  5],
+           [11, 13]], dtype=uint8)
     """
     if factor <= 1:
         return rgb
-    h, w = (rgb.shape[0] // factor) * factor, (rgb.shape[1] // factor) * factor
-    blocks = rgb[:h, :w].reshape(h // factor, factor, w // factor, factor, rgb.shape[2])
-    return blocks.mean(axis=(1, 3), dtype=np.float32)
+    from PIL import Image
+
+    return np.asarray(Image.fromarray(np.ascontiguousarray(rgb)).reduce(factor))

@@ -26,7 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import NoFaceError
-from .crop import Square, reduced
+from .crop import Square
 from .detection import FaceDetection, detect_faces
 from .models import landmark_model
 from .photo import Photo
@@ -77,9 +77,7 @@ class FaceLandmarks:
 
 
 def _run(photo: Photo, crop: Square) -> tuple[np.ndarray, float]:
-    factor = max(1, int(crop.size // INPUT_SIZE))
-    small = reduced(photo.rgb, factor)
-    tensor = crop.sample(small, INPUT_SIZE, outside="nearest", scale=factor) / 255.0
+    tensor = crop.sample(photo.rgb, INPUT_SIZE, outside="nearest") / 255.0
     outputs = landmark_model()(tensor[None])
     raw = next(o for o in outputs if o.size == 468 * 3).reshape(468, 3).astype(np.float64) / INPUT_SIZE
     logit = float(next(o for o in outputs if o.size == 1).ravel()[0])
