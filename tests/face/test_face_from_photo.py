@@ -351,3 +351,26 @@ def test_without_litert_the_package_imports_and_face_from_photo_says_what_to_ins
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     assert out.startswith("LiteRTMissingError") and "install ai-edge-litert" in out, out
+
+
+@pytest.mark.parametrize("crop", [(0, 512, 100, 350), (30, 230, 0, 512)], ids=["portrait", "landscape"])
+def test_a_photo_that_is_not_square(astronaut, crop):
+    """The letterbox and the crops are placed in pixels: a cut-out of the photo gives the same landmarks, shifted."""
+    y0, y1, x0, x1 = crop
+    part = np.ascontiguousarray(astronaut[y0:y1, x0:x1])
+    points = face_landmarks(part).points[:, :2] + (x0, y0)
+    reference = face_landmarks(astronaut).points[:, :2]
+    assert np.median(np.linalg.norm(points - reference, axis=1)) < 1.0  # pixels
+    check_face(fn.face_from_photo(part), part)
+
+
+def test_threads_share_the_models(astronaut, astronaut_mesh):
+    """The editor builds faces in worker threads: calls at once give the same meshes as one at a time."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    photos = [astronaut, np.ascontiguousarray(astronaut[:, ::-1])] * 3
+    with ThreadPoolExecutor(3) as pool:
+        meshes = list(pool.map(fn.face_from_photo, photos))
+    mirrored = fn.face_from_photo(photos[1])
+    for k, mesh in enumerate(meshes):
+        assert np.array_equal(mesh.points, (astronaut_mesh if k % 2 == 0 else mirrored).points)

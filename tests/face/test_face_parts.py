@@ -123,3 +123,15 @@ def test_sampling_a_crop_reads_the_photo():
     turned = Square((35.0, 15.0), 10.0, np.pi / 2).sample(rgb, 10)
     assert np.allclose(turned, patch)
     assert np.allclose(bilinear(rgb, np.array([[30.0, 15.0]])), [(127.5, 64, 0)])
+
+
+def test_the_triangle_file_is_made_by_the_topology_command(tmp_path, capsys):
+    connections = tmp_path / "face_mesh_connections.py"
+    triangles = topology.face_triangles()
+    _write_connections(connections, [(int(t[i]), int(t[(i + 1) % 3])) for t in triangles for i in range(3)])
+    out = tmp_path / "triangles.npy"
+    assert topology.main([str(connections), str(out)]) == 0
+    assert "852 triangles" in capsys.readouterr().out
+    made = np.load(out)
+    assert made.dtype == np.uint16 and np.array_equal(made, triangles)
+    assert topology.main([]) == 2
