@@ -23,7 +23,7 @@ from .detection import FaceDetection, detect_faces
 from .landmarks import FaceLandmarks, face_landmarks
 from .mesh import face_from_photo
 from .models import LiteRTMissingError
-from .photo import read_photo
+from .photo import Photo, decode_photo, read_photo
 from .topology import face_triangles
 
 __all__ = [
@@ -31,6 +31,8 @@ __all__ = [
     "FaceLandmarks",
     "LiteRTMissingError",
     "NoFaceError",
+    "Photo",
+    "decode_photo",
     "detect_faces",
     "face_from_photo",
     "face_landmarks",

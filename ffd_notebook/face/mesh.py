@@ -54,7 +54,7 @@ def face_frame(points: np.ndarray, *, width_mm: float = FACE_WIDTH_MM) -> tuple[
 
 
 def face_from_photo(
-    photo: str | os.PathLike[str] | np.ndarray,
+    photo: str | os.PathLike[str] | np.ndarray | Photo,
     *,
     index: int = 0,
     subdivisions: int = 3,
@@ -70,10 +70,11 @@ def face_from_photo(
 
     Parameters
     ----------
-    photo : path or array
-        A PNG or JPEG file (anything Pillow reads; EXIF orientation applied), or an ``(H, W, 3)``
-        uint8 RGB array (``(H, W)`` grey and ``(H, W, 4)`` RGBA work too). A large photo is
-        shrunk for the models, and coloured at full resolution.
+    photo : path, array or Photo
+        A PNG or JPEG file (anything Pillow reads; EXIF orientation applied), an ``(H, W, 3)``
+        uint8 RGB array (``(H, W)`` grey and ``(H, W, 4)`` RGBA work too), or the
+        :class:`~ffd_notebook.face.Photo` of an upload's bytes (:func:`~ffd_notebook.face.decode_photo`).
+        A large photo is shrunk for the models, and coloured at full resolution.
     index : int
         Which face, counted from the largest (0).
     subdivisions : int

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import io
 import os
 from pathlib import Path
 
@@ -9,10 +10,7 @@ import numpy as np
 
 from ..errors import FileFormatError
 
-__all__ = ["Photo", "read_photo"]
-
-# Pillow refuses images above 2 x MAX_IMAGE_PIXELS as "decompression bombs"; a real photo stays far below this
-_MAX_PIXELS = 400_000_000
+__all__ = ["Photo", "decode_photo", "read_photo"]
 
 
 class Photo:
@@ -40,7 +38,7 @@ class Photo:
 
     @classmethod
     def of(cls, photo: str | os.PathLike[str] | np.ndarray | Photo) -> Photo:
-        """A path is read with :func:`read_photo`; an array is checked and made RGB."""
+        """A path is read with :func:`read_photo`; an array is checked and made RGB; a Photo is itself."""
         if isinstance(photo, Photo):
             return photo
         if isinstance(photo, (str, os.PathLike)):
@@ -86,15 +84,37 @@ def read_photo(path: str | os.PathLike[str]) -> np.ndarray:
     ...
     ffd_notebook.errors.FileFormatError: .../notes.png: not an image file (PNG, JPEG, ...): ...
     """
-    from PIL import Image, ImageOps, UnidentifiedImageError
-
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"{path}: no such file")
+    return _decode(path, path)
+
+
+def decode_photo(content: bytes, name: str) -> Photo:
+    """A photo from the bytes of an image file (an upload), called ``name`` in errors: as :func:`read_photo`.
+
+    Examples
+    --------
+    >>> import io
+    >>> from PIL import Image
+    >>> buffer = io.BytesIO()
+    >>> Image.new("L", (40, 30), 90).save(buffer, format="PNG")
+    >>> photo = decode_photo(buffer.getvalue(), "me.png")
+    >>> photo.rgb.shape, photo.name, int(photo.rgb[0, 0, 2])
+    ((30, 40, 3), 'me.png', 90)
+    >>> decode_photo(b"GIF89a...", "me.gif")
+    Traceback (most recent call last):
+    ...
+    ffd_notebook.errors.FileFormatError: me.gif: not an image file (PNG, JPEG, ...): ...
+    """
+    return Photo(_decode(io.BytesIO(bytes(content)), name), name)
+
+
+def _decode(source: Path | io.BytesIO, name: str | os.PathLike[str]) -> np.ndarray:
+    from PIL import Image, ImageOps, UnidentifiedImageError
+
     try:
-        with Image.open(path) as image:
-            if image.width * image.height > _MAX_PIXELS:
-                raise FileFormatError(path, None, f"{image.width}x{image.height} pixels: too large for a photo")
+        with Image.open(source) as image:
             image = ImageOps.exif_transpose(image)
             if image.mode.startswith(("I", "F")):  # 16-bit or float grey: scale its range to 0-255
                 array = np.asarray(image, dtype=np.float64)
@@ -104,9 +124,9 @@ def read_photo(path: str | os.PathLike[str]) -> np.ndarray:
                     image = image.convert("RGBA" if "A" in image.mode or "transparency" in image.info else "RGB")
                 array = np.asarray(image)
     except UnidentifiedImageError as exc:
-        raise FileFormatError(path, None, f"not an image file (PNG, JPEG, ...): {exc}") from None
-    except (OSError, SyntaxError, ValueError, Image.DecompressionBombError) as exc:
-        if isinstance(exc, FileFormatError):
-            raise
-        raise FileFormatError(path, None, f"damaged or unreadable image: {exc}") from None
+        raise FileFormatError(name, None, f"not an image file (PNG, JPEG, ...): {exc}") from None
+    except Image.DecompressionBombError as exc:  # over 2 x Image.MAX_IMAGE_PIXELS (~179 million pixels)
+        raise FileFormatError(name, None, f"too large for a photo: {exc}") from None
+    except (OSError, SyntaxError, ValueError) as exc:
+        raise FileFormatError(name, None, f"damaged or unreadable image: {exc}") from None
     return _as_rgb(array)

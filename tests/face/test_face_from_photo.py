@@ -374,3 +374,16 @@ def test_threads_share_the_models(astronaut, astronaut_mesh):
     mirrored = fn.face_from_photo(photos[1])
     for k, mesh in enumerate(meshes):
         assert np.array_equal(mesh.points, (astronaut_mesh if k % 2 == 0 else mirrored).points)
+
+
+def test_an_upload_s_bytes(tmp_path, astronaut_mesh):
+    from PIL import Image
+
+    Image.fromarray(data.astronaut()).save(tmp_path / "me.jpg", quality=98)
+    mesh = fn.face_from_photo(fn.face.decode_photo((tmp_path / "me.jpg").read_bytes(), "me.jpg"))
+    assert np.median(np.linalg.norm(mesh.points[:468] - astronaut_mesh.points[:468], axis=1)) < 2.0
+    with pytest.raises(NoFaceError, match=r"^coins\.png: no face found"):
+        Image.fromarray(data.coins()).save(tmp_path / "coins.png")
+        fn.face_from_photo(fn.face.decode_photo((tmp_path / "coins.png").read_bytes(), "coins.png"))
+    with pytest.raises(FileFormatError, match=r"^notes\.jpg: not an image"):
+        fn.face.decode_photo(b"shopping list", "notes.jpg")
