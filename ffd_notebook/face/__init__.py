@@ -23,10 +23,11 @@ from .detection import FaceDetection, detect_faces
 from .landmarks import FaceLandmarks, face_landmarks
 from .mesh import face_from_photo
 from .models import LiteRTMissingError
-from .photo import Photo, decode_photo, read_photo
+from .photo import PHOTO_SUFFIXES, Photo, decode_photo, is_photo, read_photo
 from .topology import face_triangles
 
 __all__ = [
+    "PHOTO_SUFFIXES",
     "FaceDetection",
     "FaceLandmarks",
     "LiteRTMissingError",
@@ -37,5 +38,6 @@ __all__ = [
     "face_from_photo",
     "face_landmarks",
     "face_triangles",
+    "is_photo",
     "read_photo",
 ]

@@ -10,7 +10,10 @@ import numpy as np
 
 from ..errors import FileFormatError
 
-__all__ = ["Photo", "decode_photo", "read_photo"]
+__all__ = ["PHOTO_SUFFIXES", "Photo", "decode_photo", "is_photo", "read_photo"]
+
+#: file name endings taken for photos (what the editor and ``python -m ffd_notebook`` make a face from)
+PHOTO_SUFFIXES = (".jpg", ".jpeg", ".png", ".bmp", ".tif", ".tiff", ".webp")
 
 
 class Photo:
@@ -51,6 +54,24 @@ class Photo:
                 f"a photo array must be uint8 (0-255), got {array.dtype}: convert it, e.g. skimage.util.img_as_ubyte"
             )
         return cls(_as_rgb(array), f"the photo (a {array.shape[1]}x{array.shape[0]} array)")
+
+
+def is_photo(source: object) -> bool:
+    """Whether ``source`` is a photo to make a face from: a path ending as :data:`PHOTO_SUFFIXES`, an
+    ``(H, W, 3)`` or ``(H, W, 4)`` uint8 array, or a :class:`Photo` (a mesh, a point array or a mesh file is not).
+
+    Examples
+    --------
+    >>> is_photo("me.JPG"), is_photo("face.obj"), is_photo(np.zeros((5, 5, 3), np.uint8)), is_photo(np.zeros((5, 3)))
+    (True, False, True, False)
+    """
+    if isinstance(source, Photo):
+        return True
+    if isinstance(source, (str, os.PathLike)):
+        return Path(source).suffix.lower() in PHOTO_SUFFIXES
+    return (
+        isinstance(source, np.ndarray) and source.dtype == np.uint8 and source.ndim == 3 and source.shape[2] in (3, 4)
+    )
 
 
 def _as_rgb(array: np.ndarray) -> np.ndarray:
