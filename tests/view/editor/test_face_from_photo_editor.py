@@ -205,3 +205,22 @@ def test_the_command_line_opens_a_photo(photos, tmp_path):
     )  # fmt: skip
     assert result.returncode == 1
     assert f"error: {photos / 'coins.png'}: no face found in the photo" in result.stderr
+
+
+def test_the_view_turns_to_the_new_face(editor, photos):
+    """Whatever the camera looked at before, the face is seen from the front and fills the view."""
+    editor.plotter.camera.azimuth = 120  # the user turned the sphere round
+    editor.plotter.camera.zoom(0.3)
+    editor.load_face(photos / "astronaut.png")
+    fresh = Editor(photos / "astronaut.png", window_size=(240, 180))  # a new editor frames the face
+    try:
+
+        def looking(camera) -> np.ndarray:
+            towards = np.subtract(camera.position, camera.focal_point)
+            return towards / np.linalg.norm(towards)
+
+        assert np.allclose(looking(editor.plotter.camera), looking(fresh.plotter.camera), atol=1e-6)
+        assert looking(editor.plotter.camera)[2] > 0.9  # from the front (+z), a little right and above
+        assert np.allclose(editor.plotter.camera.focal_point, fresh.plotter.camera.focal_point, atol=0.5)  # mm
+    finally:
+        fresh.close()
