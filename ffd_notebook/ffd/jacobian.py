@@ -41,7 +41,7 @@ Factors = list[tuple[NDArray[np.float64], NDArray[np.float64]]]
 
 
 def jacobian_to_world(lattice: Lattice, affine: NDArray[np.float64], d_uvw: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Whole Jacobian from ``d T_local / d(u, v, w)``: ``A + d_uvw @ (R^T / spacing)``.
+    """Whole Jacobian from ``d T_local / d(u, v, w)``: ``A + d_uvw @ (R^-1 / spacing)`` (``R^-1 = R^T`` unless sheared).
 
     Examples
     --------
@@ -51,7 +51,7 @@ def jacobian_to_world(lattice: Lattice, affine: NDArray[np.float64], d_uvw: NDAr
     True
     """
     # one (3N x 3) @ (3 x 3) product: a batched matmul of N tiny matrices is 3x slower
-    local = (d_uvw.reshape(-1, 3) @ (lattice.rotation.T / lattice.spacing[:, None])).reshape(-1, 3, 3)
+    local = (d_uvw.reshape(-1, 3) @ (lattice.rotation_inverse / lattice.spacing[:, None])).reshape(-1, 3, 3)
     return affine[:3, :3] + local
 
 

@@ -62,7 +62,7 @@ def lattice_rows(lattice: Lattice, points: NDArray[np.float64]) -> NDArray[np.fl
     """Lattice coordinates of ``(N, 3)`` points as rows ``(3, N)``: ``Lattice.to_lattice(points).T``.
 
     One ``(3, 3) @ (3, N)`` product and a shift along the rows: ``to_lattice``'s
-    ``((p - origin) @ rotation) / spacing`` broadcasts over the short last axis, several times
+    ``((p - origin) @ rotation_inverse.T) / spacing`` broadcasts over the short last axis, several times
     slower. The two differ by rounding only (about ``1e-16 * |p| / spacing``).
 
     Examples
@@ -73,7 +73,7 @@ def lattice_rows(lattice: Lattice, points: NDArray[np.float64]) -> NDArray[np.fl
     >>> lattice_rows(lat, np.array([[3.0, 2.0, 1.0]])).tolist()
     [[1.0], [0.5], [0.0]]
     """
-    to_rows = (lattice.rotation / lattice.spacing).T
+    to_rows = lattice.rotation_inverse / lattice.spacing[:, None]
     rows = to_rows @ points.T
     rows -= (to_rows @ lattice.origin)[:, None]
     return rows

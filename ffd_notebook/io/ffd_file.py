@@ -369,6 +369,9 @@ def save_ffd(path: str | os.PathLike[str], lattice: Lattice, placement: bool | N
     for name in ("offsets", "spacing", "origin"):
         if not np.isfinite(getattr(lattice, name)).all():
             raise ValueError(f"cannot save a lattice whose {name} contain NaN or infinite values")
+    if lattice.sheared:
+        raise ValueError("the lattice is sheared (its axes are not orthogonal): a .ffd file places its lattice by a "
+                         "rotation (the #quaternion# section), which cannot hold a shear")  # fmt: skip
     if placement is None:
         at_rest = not lattice.origin.any() and np.array_equal(lattice.rotation, np.eye(3))
         placement = lattice.metadata.get("placement") is not None or not at_rest

@@ -121,7 +121,7 @@ class FileRoot:
     def for_writing(self, typed: str | os.PathLike[str], suffixes: tuple[str, ...]) -> Path:
         """The file to write for ``typed``: inside the root, in an existing folder, with one of ``suffixes``."""
         path = self._inside(typed)
-        if path.suffix.lower() not in suffixes:
+        if not path.name.lower().endswith(suffixes):  # endswith: ".nii.gz" is one suffix here
             raise PathRefused(f"{os.fspath(typed).strip()!r}: the file name must end with {' or '.join(suffixes)}")
         if path.exists() and not path.is_file():
             raise PathRefused(f"{self.shown(path)} exists and is not a regular file")

@@ -275,7 +275,7 @@ class AppFiles:
         name, content = received
         shown = f"{Path(name).name} (uploaded)"
         try:
-            if Path(name).suffix.lower() not in suffixes:
+            if not Path(name).name.lower().endswith(suffixes):  # endswith: ".nii.gz" is one suffix here
                 raise PathRefused(f"{Path(name).name!r}: expected a file ending with {', '.join(suffixes)}")
             if len(content) > self.root.max_bytes:
                 raise PathRefused(f"{Path(name).name!r} is bigger than the limit of "

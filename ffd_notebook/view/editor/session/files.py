@@ -1,7 +1,11 @@
 """File commands of an :class:`~.session.EditingSession` (``session.files``): lattice files and meshes.
 
 Lattice files are any deformation file :func:`ffd_notebook.io.load_deformation` reads, by
-extension: ``.ffd``, ITK transforms (``.tfm``, ``.txt``, ``.h5``, ``.hdf5``) and PyGeM ``.prm``.
+extension: ``.ffd``, ITK transforms (``.tfm``, ``.txt``, ``.h5``, ``.hdf5``), elastix transform
+parameter files (``.txt``, by content: the whole chain, as one FFD), PyGeM ``.prm``, and
+displacement fields (``.nii``, ``.nii.gz``, ``.nrrd``, ``.mha``), which become a lattice of the
+session's shape fitted to the field over its voxels (:func:`ffd_notebook.io.fit_lattice`; the
+message tells the residual).
 A loaded file brings its whole FFD (basis, border, affine part, ``only_inside``); saving writes the
 session's FFD, or refuses (a message, no file) where the format cannot hold it exactly.
 
@@ -32,7 +36,7 @@ from typing import TYPE_CHECKING, Any
 from ....ffd.deform import FFD
 from ....ffd.deformer import Deformer
 from ....ffd.lattice import Lattice
-from ....io import load_deformation, place_at_mesh_minimum, save_deformation
+from ....io import DisplacementField, fit_lattice, load_deformation, place_at_mesh_minimum, save_deformation
 from .lattices import copy_ffd, fitted_lattice
 
 if TYPE_CHECKING:
@@ -91,7 +95,10 @@ class SessionFiles:
         ``"ffd-min"`` (a .ffd without one, put at the current mesh's minimum corner) or ``"file"``
         (ITK, PyGeM: by the file's own numbers). Safe to run in a worker thread.
         """
-        ffd = load_deformation(path)
+        loaded = load_deformation(path)
+        if isinstance(loaded, DisplacementField):  # a lattice of the session's shape, fitted over the field's voxels
+            return fit_lattice(loaded, tuple(max(4, n) for n in self.session.lattice.shape)), "file"
+        ffd = loaded
         if _PathType(path).suffix.lower() != ".ffd":
             return ffd, "file"
         if isinstance(ffd.lattice.metadata.get("placement"), dict):
@@ -101,8 +108,13 @@ class SessionFiles:
     def use_lattice(self, ffd: FFD, source: str, name: str) -> None:
         """Install an FFD from :meth:`read_lattice` (one undo step); ``name`` is what messages call the file."""
         self.session.swap_ffd(ffd, label="load lattice", source=source)
-        self.session.info(f"loaded a {'x'.join(map(str, ffd.lattice.shape))} lattice from {name} "
-                     f"({ffd.basis}, at {_PLACES[source]})")  # fmt: skip
+        shape = "x".join(map(str, ffd.lattice.shape))
+        fit = ffd.lattice.metadata.get("fit")
+        if isinstance(fit, dict):
+            self.session.info(f"loaded a {shape} lattice fitted to the displacement field {name} (residual RMS "
+                              f"{fit['rms']:.3g}, max {fit['max']:.3g})")  # fmt: skip
+            return
+        self.session.info(f"loaded a {shape} lattice from {name} ({ffd.basis}, at {_PLACES[source]})")
 
     def load_lattice(self, path: Path) -> Lattice:
         """Load a lattice file (.ffd, ITK, PyGeM .prm; undoable) and return its lattice (the session's
