@@ -12,6 +12,8 @@ from __future__ import annotations
 import re
 from typing import Any
 
+from ....face.photo import PHOTO_SUFFIXES
+from ....io import MESH_SUFFIXES
 from ...file_root import FFD_SUFFIXES
 from ..session.controls import Control
 
@@ -21,6 +23,8 @@ _FIELD = {"density": "compact", "hide_details": True, "variant": "outlined"}
 _COLS = {"button": 4, "choice": 6, "switch": 6, "slider": 8, "text": 12, "label": 12, "messages": 12}
 #: the upload's file filter: every lattice file suffix the app reads, in both cases
 _LATTICE_ACCEPT = ",".join(s for suffix in FFD_SUFFIXES for s in (suffix, suffix.upper()))
+#: the mesh upload's filter: meshes, and photos (the face in a photo becomes the mesh)
+_MESH_ACCEPT = ",".join(s for suffix in (*MESH_SUFFIXES, *PHOTO_SUFFIXES) for s in (suffix, suffix.upper()))
 _DOWNLOAD_MESH = "utils.download('deformed.' + mesh_format, trigger('ffd_download_mesh', [mesh_format]))"
 _HINTS = {"Control point": "Control point (drag a sphere or type)"}
 
@@ -152,8 +156,8 @@ def _browser_files() -> None:
     )
     v.VFileInput(
         v_model=("mesh_upload",),
-        label="upload a mesh",
-        accept=".obj,.ply,.stl,.vtp,.vtk,.vtu",
+        label="upload a mesh, or a photo of a face",
+        accept=_MESH_ACCEPT,
         id="ffd-mesh-upload",
         prepend_icon="",
         classes="mt-2",

@@ -136,6 +136,10 @@ class ControlPanel(widgets.VBox):
             made = widgets.Checkbox(value=False, description=control.label, indent=False)
         elif kind == "text":
             made = widgets.Text(value=control.default, placeholder=control.placeholder, layout=_stretch())
+        elif kind == "upload":
+            made = widgets.FileUpload(accept="image/*", multiple=False, description=control.label, icon="upload")
+            made.tooltip = control.tooltip
+            made.layout = widgets.Layout(width="auto", flex="0 0 auto")
         elif kind == "slider":
             low, high, step = control.bounds or (0.0, 0.95, 0.05)
             made = widgets.FloatSlider(
@@ -150,7 +154,7 @@ class ControlPanel(widgets.VBox):
             made = widgets.HTML(value="")
         if not isinstance(made, list):
             self._fields[control.state[0] if control.state else control.key] = made
-            if kind in ("text", "choice"):
+            if kind in ("text", "choice", "upload"):
                 made.add_class(css)
         setattr(self, control.key, made)
         self._widgets[control.key] = made
@@ -170,6 +174,12 @@ class ControlPanel(widgets.VBox):
         if self._syncing:
             return
         self.act(control, [self._fields[k].value for k in control.state])
+        if control.kind == "upload":  # empty it, so that the same file can be uploaded again
+            self._syncing = True
+            try:
+                self._fields[control.state[0]].value = ()
+            finally:
+                self._syncing = False
 
     # ------------------------------------------------------------------ following the editor
     def _follow(self, change: Change) -> None:

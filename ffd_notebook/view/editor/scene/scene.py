@@ -140,6 +140,8 @@ class EditorScene:
             self._build_mesh()
             if change.label == "load mesh":
                 self.plotter.renderer.reset_camera(render=False)  # (the plotter's own renders anyway)
+            elif change.label == "face from photo":  # a face looks along +z: see it from the front, fitted
+                self.frame()  # (the session holds the new mesh and its lattice already)
             if self.session.lattice is not self._shown_lattice:
                 return  # a "lattice" change follows (a lattice fitted to the new mesh): render once, then
         elif kind == "select":

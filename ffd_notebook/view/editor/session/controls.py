@@ -100,6 +100,7 @@ class Control:
     kind : str
         ``"ints"``/``"floats"`` (three fields), ``"choice"``, ``"choices"`` (three choices, one per
         state key, from the same ``choices``), ``"switch"``, ``"text"``, ``"slider"``, ``"button"``,
+        ``"upload"`` (a file from the browser, notebook only: the app has its own uploads),
         ``"label"`` (text from the state) or ``"messages"``.
     label : str
         What the panels show (a button's text; a label's template with ``{state_key}`` fields).
@@ -178,6 +179,25 @@ _IJK, _XYZ = ("sel_i", "sel_j", "sel_k"), ("dx", "dy", "dz")
 
 def _index_and_vector(values: Sequence[Any]) -> tuple[Any, ...]:
     return numbers(values[:3], "index", int), numbers(values[3:], "displacement")
+
+
+def _uploaded_file(values: Sequence[Any]) -> tuple[str, bytes]:
+    """``(name, content)`` of the file in an upload widget's value (ipywidgets' FileUpload: a tuple of dicts).
+
+    Examples
+    --------
+    >>> _uploaded_file([({"name": "me.jpg", "content": memoryview(b"...")},)])
+    ('me.jpg', b'...')
+    >>> _uploaded_file([()])
+    Traceback (most recent call last):
+    ...
+    ValueError: no file uploaded
+    """
+    files = values[0] if values else ()
+    if not files:
+        raise ValueError("no file uploaded")  # the widget emptied: nothing to do
+    first = files[0]
+    return str(first.get("name") or "upload"), bytes(first["content"])
 
 
 CONTROLS: tuple[Control, ...] = (
@@ -366,6 +386,31 @@ CONTROLS: tuple[Control, ...] = (
         row=2,
         app_trigger="ffd_save_mesh",
         tooltip="Save the deformed mesh: OBJ keeps colours; PLY, VTP, STL...",
+    ),
+    Control("photo_path", "text", "photo of a face", "Files", default="", placeholder="me.jpg / .png", row=3),
+    Control(
+        "load_face",
+        "button",
+        "Face from photo",
+        "Files",
+        command="files.load_face",
+        args=("photo_path",),
+        row=3,
+        app_trigger="ffd_load_face",
+        tooltip="Replace the mesh with the coloured 3D face in a photo (JPEG, PNG), made offline",
+    ),
+    Control(
+        "face_upload",
+        "upload",
+        "Face from photo",
+        "Files",
+        state=("face_upload",),
+        default=(),  # the widget's value: the uploaded files (none yet)
+        command="files.load_face_upload",
+        parse=_uploaded_file,
+        row=4,
+        panels=frozenset({"notebook"}),  # the app's mesh upload takes photos too
+        tooltip="Upload a photo (JPEG, PNG): its face replaces the mesh",
     ),
     Control(
         "colors",

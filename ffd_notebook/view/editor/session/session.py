@@ -58,6 +58,7 @@ class MeshIO:
     decimate: Callable[[Any, float], Any]  # (mesh, reduction) -> new mesh
     with_points: Callable[[Any, Any], Any]  # (mesh, points) -> new mesh with those points
     color_array: Callable[[Any], str | None]  # mesh -> name of its per-vertex color array, or None
+    face: Callable[[Any], Any]  # photo (path, array, face.Photo) -> a coloured face mesh (face.face_from_photo)
 
 
 class EditingSession:
