@@ -75,6 +75,8 @@ _LAZY = {
     "save_displacement_field": "ffd_notebook.io",
     "sample_displacement_field": "ffd_notebook.io",
     "fit_lattice": "ffd_notebook.io",
+    "face_from_photo": "ffd_notebook.face",
+    "NoFaceError": "ffd_notebook.errors",
     "edit": "ffd_notebook.view",
     "Editor": "ffd_notebook.view",
 }

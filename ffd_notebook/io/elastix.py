@@ -554,6 +554,10 @@ def save_elastix(path: str | os.PathLike[str], ffd: FFD) -> None:
         raise ValueError(f"{os.fspath(path)}: an elastix file cannot hold this FFD exactly: border="
                          f"{ffd.border!r}; elastix's B-spline treats control points outside its grid as zero "
                          "(border='zero')")  # fmt: skip
+    if ffd.weights is not None:
+        raise ValueError(f"{os.fspath(path)}: an elastix file cannot hold this FFD exactly: it has per-point "
+                         "weights, which belong to one mesh")  # fmt: skip
+    ffd = ffd.baked()  # a strength and "outside" mode are the offsets and affine part they give
     lat = ffd.lattice
     offsets, origin = lat.offsets, lat.origin
     if not ffd.only_inside:

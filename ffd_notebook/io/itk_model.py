@@ -215,6 +215,9 @@ def _check_writable(ffd: FFD) -> None:
     if ffd.basis != "bspline":
         raise ValueError(f"an FFD with the {ffd.basis!r} basis has no ITK transform: only the cubic B-spline "
                          "basis (BSplineTransform) can be written exactly")  # fmt: skip
+    if ffd.weights is not None:
+        raise ValueError("an FFD with per-point weights has no ITK transform: a transform moves every point of "
+                         "space the same way, whatever mesh it belongs to")  # fmt: skip
     border = ffd.border
     if border != "zero":
         raise ValueError(f"an FFD with border={border!r} has no ITK transform: ITK's BSplineTransform treats "
@@ -238,6 +241,7 @@ def ffd_to_transforms(ffd: FFD) -> list[RawTransform]:
     ValueError: an FFD with the 'bernstein' basis has no ITK transform: ...
     """
     _check_writable(ffd)
+    ffd = ffd.baked()  # a strength and "outside" mode are the offsets and affine part they give
     lat = ffd.lattice
     offsets, origin, shape = lat.offsets, lat.origin, lat.shape
     if not ffd.only_inside:

@@ -107,6 +107,7 @@ class EditorApp:
             ("ffd_load_ffd", self.files.load_deformation_in_background),
             ("ffd_save_ffd", self.files.save_deformation_in_background),
             ("ffd_load_mesh", self.files.load_mesh_in_background),
+            ("ffd_load_face", self.files.load_face_in_background),
             ("ffd_save_mesh", self.files.save_mesh_in_background),
             ("ffd_download_ffd", self.files.download_ffd),
             ("ffd_download_mesh", self.files.download_mesh),

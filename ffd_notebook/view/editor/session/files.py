@@ -45,7 +45,7 @@ from .lattices import copy_ffd, fitted_lattice
 if TYPE_CHECKING:
     from .session import EditingSession
 
-__all__ = ["SessionFiles"]
+__all__ = ["SessionFiles", "photo_name"]
 
 Path = str | os.PathLike[str]
 
@@ -55,6 +55,24 @@ _PLACES = {
     "ffd-min": "the mesh's minimum corner",
     "file": "the file's own placement",
 }
+
+
+def photo_name(photo: Any) -> str:
+    """What messages call a photo: its path quoted, an upload's name, or "the photo (an HxW array)".
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> photo_name("me.jpg"), photo_name(np.zeros((30, 40, 3), np.uint8))
+    ("'me.jpg'", 'the photo (a 40x30 array)')
+    """
+    if isinstance(photo, (str, os.PathLike)):
+        return repr(os.fspath(photo))
+    name = getattr(photo, "name", None)
+    if isinstance(name, str):
+        return name
+    shape = getattr(photo, "shape", (0, 0))
+    return f"the photo (a {shape[1]}x{shape[0]} array)"
 
 
 class SessionFiles:
@@ -132,11 +150,24 @@ class SessionFiles:
         Safe to run in a worker thread: the file is read into new objects, and the slow part of
         installing it (the deformer's weights) is done here too.
         """
-        mesh = self.session.mesh_io.read(path)
+        return self._bound(self.session.mesh_io.read(path))
+
+    def read_face(self, photo: Any) -> tuple[Any, Deformer]:
+        """Make the coloured face of a photo and bind the lattice it will get, without changing anything.
+
+        ``photo`` is a path, an ``(H, W, 3)`` uint8 array or a :class:`ffd_notebook.face.Photo`
+        (:func:`ffd_notebook.face.decode_photo` of an upload). Like :meth:`read_mesh`: ``(surface,
+        deformer)``, safe in a worker thread.
+        """
+        return self._bound(self.session.mesh_io.face(photo))
+
+    def _bound(self, mesh: Any) -> tuple[Any, Deformer]:
+        """``mesh`` and its deformer: the lattice the session gives a new mesh, bound to its points."""
+        # vertex weights belong to the old mesh's vertices: the new mesh starts without
         if self.session.lattice_source in ("ffd-placed", "given", "file"):
-            ffd = copy_ffd(self.session.ffd)
+            ffd = copy_ffd(self.session.ffd, weights=None)
         elif self.session.lattice_source == "ffd-min":
-            ffd = copy_ffd(self.session.ffd, place_at_mesh_minimum(self.session.lattice, mesh))
+            ffd = copy_ffd(self.session.ffd, place_at_mesh_minimum(self.session.lattice, mesh), weights=None)
         else:
             ffd = FFD(fitted_lattice(mesh, self.session.lattice.shape, self.session.basis), self.session.basis)
         return mesh, ffd.bind(mesh.points)
@@ -158,6 +189,38 @@ class SessionFiles:
             raise
         self.use_mesh(mesh, deformer, os.fspath(path))
         return mesh
+
+    def use_face(self, mesh: Any, deformer: Deformer, name: str) -> None:
+        """Use a face from :meth:`read_face` as the mesh (a new undo history, as a loaded mesh)."""
+        self.session.replace_mesh(mesh, deformer, label="face from photo", new_document=True)
+        self.session.info(f"made the face in {name}: {mesh.n_points} vertices, {mesh.n_cells} faces")
+
+    def load_face(self, photo: Any) -> Any:
+        """Replace the mesh with the coloured face of a photo (path, array or :class:`ffd_notebook.face.Photo`).
+
+        A new undo history, as for a loaded mesh. A photo with no face (:class:`~ffd_notebook.errors.NoFaceError`),
+        a file that is not an image, or no face runtime raise with a message and change nothing.
+        """
+        name = photo_name(photo)
+        try:
+            mesh, deformer = self.read_face(photo)
+        except (OSError, ValueError, ImportError) as exc:  # ImportError: no LiteRT (it says what to install)
+            detail = getattr(exc, "problem", None) or str(exc)  # NoFaceError, FileFormatError name the photo
+            self.session.error(f"could not make a face from {name}: {detail}")
+            raise
+        self.use_face(mesh, deformer, name)
+        return mesh
+
+    def load_face_upload(self, name: str, content: bytes) -> Any:
+        """:meth:`load_face` for the bytes of an uploaded photo file called ``name`` (a notebook's FileUpload)."""
+        from ....face import decode_photo
+
+        try:
+            photo = decode_photo(content, name)
+        except ValueError as exc:
+            self.session.error(f"could not make a face from {name}: {getattr(exc, 'problem', exc)}")
+            raise
+        return self.load_face(photo)
 
     def save_mesh(self, path: Path) -> None:
         """Save the deformed mesh (OBJ with colors, PLY, VTP, ... by extension), atomically."""
