@@ -19,6 +19,8 @@ PUBLIC: dict[str, str] = {
     "ffd_notebook.batch": "Batch deformation on Dask",
     "ffd_notebook.solidtex": "Solid textures",
     "ffd_notebook.meshing": "Mesh processing",
+    "ffd_notebook.face": "A face from a photo",
+    "ffd_notebook.blender": "Blender exchange",
     "ffd_notebook.datasets": "Sample meshes",
     "ffd_notebook.errors": "Errors",
     "ffd_notebook.view": "Views: the editor and the viewers",

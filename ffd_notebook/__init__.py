@@ -26,6 +26,8 @@ from .ffd import FFD, Deformer, Lattice
 
 # the lazy names below, declared for type checkers and IDEs (tests/test_typing.py keeps both in step)
 if TYPE_CHECKING:
+    from .errors import NoFaceError as NoFaceError
+    from .face import face_from_photo as face_from_photo
     from .io import DisplacementField as DisplacementField
     from .io import ElastixTransform as ElastixTransform
     from .io import fit_lattice as fit_lattice
