@@ -271,11 +271,6 @@ class FFD:
             ``(N,)`` weights in [0, 1], or the name of a point-data array of ``points`` (a mesh);
             by default :attr:`weights` (none: every point gets the whole deformation).
 
-        Parameters
-        ----------
-        points : array_like
-            ``(N, 3)`` points in world coordinates.
-
         Returns
         -------
         numpy.ndarray
