@@ -41,6 +41,7 @@ _LAZY = {
     "save_prm": "ffd_notebook.io",
     "load_deformation": "ffd_notebook.io",
     "save_deformation": "ffd_notebook.io",
+    "warp_image": "ffd_notebook.images",
     "edit": "ffd_notebook.view",
     "Editor": "ffd_notebook.view",
 }
