@@ -152,7 +152,7 @@ def test_bad_inputs_get_clear_errors(tmp_path):
         warp_image(image, ffd, reference=ImageGrid((4, 4)))
     bad = tmp_path / "broken.nrrd"
     bad.write_bytes(b"NRRD0004\ntype: float\ndimension: 3\nsizes: 10 10 10\nencoding: raw\n\n" + b"\0" * 100)
-    with pytest.raises(FileFormatError, match="broken.nrrd"):
+    with pytest.raises(FileFormatError, match=r"broken\.nrrd"):
         warp_image(bad, ffd)
     with pytest.raises(FileNotFoundError):
         warp_image(tmp_path / "missing.nii", ffd)
@@ -162,7 +162,7 @@ def test_write_image_is_atomic(tmp_path):
     """A write that fails (PNG holds no 3D float image) leaves the previous file and no temporary one."""
     path = tmp_path / "out.png"
     write_image(path, sitk.GetImageFromArray(np.full((3, 4), 7, dtype=np.uint8)))
-    with pytest.raises(ValueError, match="out.png: SimpleITK cannot write"):
+    with pytest.raises(ValueError, match=r"out\.png: SimpleITK cannot write"):
         write_image(path, sitk.Image([4, 4, 4], sitk.sitkFloat64))
     assert sitk.GetArrayFromImage(read_image(path)).tolist() == np.full((3, 4), 7).tolist()
     assert sorted(p.name for p in tmp_path.iterdir()) == ["out.png"]
