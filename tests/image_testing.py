@@ -32,12 +32,26 @@ def awkward_grid(size: tuple[int, ...]) -> ImageGrid:
     return ImageGrid(size, spacing=(0.8, 1.7), origin=(-31.0, 57.5), direction=direction)
 
 
-def lattice_over(grid: ImageGrid, shape: tuple[int, int, int], scale: float, rng: np.random.Generator) -> FFD:
-    """A B-spline FFD ("zero" border) over the grid's box with random offsets (in-plane for a 2D grid)."""
+def lattice_over(
+    grid: ImageGrid, shape: tuple[int, int, int], scale: float, rng: np.random.Generator, aligned: bool = False
+) -> FFD:
+    """A B-spline FFD ("zero" border) over the grid's box with random offsets (in-plane for a 2D grid).
+
+    ``aligned``: the lattice's axes along the grid's (its rotation is the grid's direction), else
+    along x, y, z (turned against a rotated grid).
+    """
     lo, hi = grid.bounds()
     if grid.dim == 2:
         lo[2], hi[2] = -1.0, 1.0
-    lat = Lattice.around(np.array([lo, hi]), shape=shape)
+    if aligned:
+        rotation = np.eye(3)
+        rotation[: grid.dim, : grid.dim] = grid.direction
+        extent = np.append((np.array(grid.size) - 1) * grid.spacing, [2.0] * (3 - grid.dim))
+        spacing = extent / (np.array(shape) - 3)
+        corner = np.append(grid.origin, [-1.0] * (3 - grid.dim))
+        lat = Lattice(shape, spacing, origin=corner - rotation @ spacing, rotation=rotation)
+    else:
+        lat = Lattice.around(np.array([lo, hi]), shape=shape)
     lat.offsets[...] = rng.normal(scale=scale, size=lat.offsets.shape)
     if grid.dim == 2:
         lat.offsets[..., 2] = 0.0

@@ -15,8 +15,18 @@ Examples
 
 from __future__ import annotations
 
-from .files import read_image, read_image_information, write_image
+from .files import image_suffix, read_image, read_image_information, write_image
 from .geometry import ImageGrid
+from .inverse import invert_points
 from .warp import INTERPOLATIONS, warp_image
 
-__all__ = ["INTERPOLATIONS", "ImageGrid", "read_image", "read_image_information", "warp_image", "write_image"]
+__all__ = [
+    "INTERPOLATIONS",
+    "ImageGrid",
+    "image_suffix",
+    "invert_points",
+    "read_image",
+    "read_image_information",
+    "warp_image",
+    "write_image",
+]
