@@ -93,7 +93,7 @@ class Instrument:
         ren = plotter.renderer
         w, h = plotter.render_window.GetSize()
         shown = set(self.editor.scene.lattice_actor.shown.tolist())
-        from ffd_notebook.fit import control_weights
+        from ffd_notebook.ffd.fit import control_weights
 
         index, weight = control_weights(self.editor.ffd, self.editor.session.rest_points)
         rows = np.repeat(np.arange(len(index)), index.shape[1])

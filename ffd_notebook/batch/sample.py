@@ -27,7 +27,7 @@ from typing import Any
 
 import numpy as np
 
-from ..blas import one_blas_thread
+from .._util.blas import one_blas_thread
 from ..images import image_suffix, invert_points, read_image, warp_image, write_image
 from ..io import load_ffd, read_mesh, save_ffd, write_mesh
 from ..io._atomic import folder_syncs_deferred

@@ -33,8 +33,8 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from .._util.points import as_points
 from . import lowrank_ops as ops
-from .kernels import as_points
 from .linalg import as_generator
 from .lowrank_build import LowRankBuilders
 from .space import Space, joined_space

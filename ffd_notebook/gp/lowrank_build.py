@@ -12,9 +12,9 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from .._util.points import as_points
 from . import lowrank_ops as ops
 from .approximation import choose_rank, nystrom_basis, pivoted_cholesky_basis, select
-from .kernels import as_points
 from .linalg import as_generator
 from .process import GaussianProcess
 from .space import example_space, kernel_space, matrix_space

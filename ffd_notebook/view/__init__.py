@@ -6,7 +6,7 @@ Importing it applies the headless rendering settings where they help
 
 from __future__ import annotations
 
-from ..lazy import lazy_getattr
+from .._util.lazy import lazy_getattr
 from .rendering import configure_rendering, is_headless
 
 configure_rendering()

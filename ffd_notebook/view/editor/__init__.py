@@ -6,7 +6,7 @@ on first use.
 
 from __future__ import annotations
 
-from ...lazy import lazy_getattr
+from ..._util.lazy import lazy_getattr
 from .changes import Change
 from .editor import Editor, edit
 from .session import EditingSession, MeshIO

@@ -18,7 +18,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ...basis import BASES
+from ...ffd.basis import BASES
 from .surface_drag import MODES
 
 if TYPE_CHECKING:

@@ -10,7 +10,7 @@ the notebook widget (``editor.widget``)
     The scene's trame view next to a :class:`~.notebook_panel.ControlPanel`; follows the session too.
 
 Data flows one way: a move of the drag handle -> :meth:`EditingSession.drag` (the lattice's offsets; the
-cached :class:`~ffd_notebook.deformer.Deformer` recomputes only the points the moved control point
+cached :class:`~ffd_notebook.ffd.deformer.Deformer` recomputes only the points the moved control point
 influences) -> one :class:`~.changes.Change` naming that control point -> the scene rewrites the
 plotted points and the lattice lines in place -> the next render shows them.
 """
@@ -26,9 +26,9 @@ import numpy as np
 import pyvista as pv
 from numpy.typing import ArrayLike, NDArray
 
-from ...deform import FFD
+from ...ffd.deform import FFD
+from ...ffd.lattice import Lattice
 from ...io import write_mesh
-from ...lattice import Lattice
 from ...meshing import as_surface, color_array_name, decimate_keeping_colors, deformed_copy
 from . import session_files
 from .history import History
@@ -162,7 +162,7 @@ class Editor:
 
     @property
     def ffd(self) -> FFD:
-        """The :class:`~ffd_notebook.deform.FFD` applied to the mesh (lattice, basis, border, affine part)."""
+        """The :class:`~ffd_notebook.ffd.deform.FFD` applied to the mesh (lattice, basis, border, affine part)."""
         return self.session.ffd
 
     @property

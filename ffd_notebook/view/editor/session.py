@@ -28,9 +28,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ...deform import FFD
-from ...deformer import Deformer
-from ...lattice import Lattice
+from ...ffd.deform import FFD
+from ...ffd.deformer import Deformer
+from ...ffd.lattice import Lattice
 from .changes import Change, Subscribers
 from .history import History, LatticeSwap, OffsetEdit
 from .message_log import MessageLog
@@ -136,7 +136,7 @@ class EditingSession(SurfaceDragging):
 
     @property
     def ffd(self) -> FFD:
-        """The :class:`~ffd_notebook.deform.FFD` applied to the mesh: lattice, basis, border, affine
+        """The :class:`~ffd_notebook.ffd.deform.FFD` applied to the mesh: lattice, basis, border, affine
         part and ``only_inside`` (a loaded deformation file brings all of them)."""
         return self.deformer.ffd
 

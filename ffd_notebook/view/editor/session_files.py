@@ -29,10 +29,10 @@ import os
 from pathlib import Path as _PathType
 from typing import TYPE_CHECKING, Any
 
-from ...deform import FFD
-from ...deformer import Deformer
+from ...ffd.deform import FFD
+from ...ffd.deformer import Deformer
+from ...ffd.lattice import Lattice
 from ...io import load_deformation, place_at_mesh_minimum, save_deformation
-from ...lattice import Lattice
 from .session import copy_ffd, fitted_lattice
 
 if TYPE_CHECKING:

@@ -1,7 +1,7 @@
 """Grabbing the mesh itself: pins and surface drags of an editing session (NumPy and the model only).
 
 A surface drag takes a point of the rest mesh and moves its deformed position onto a target by
-changing the lattice offsets the least (:meth:`ffd_notebook.deform.FFD.fit_points`), while pinned
+changing the lattice offsets the least (:meth:`ffd_notebook.ffd.deform.FFD.fit_points`), while pinned
 points keep their deformed position. Every drag event solves again from the offsets the drag
 started with, not from the previous event's: the result depends on where the mouse is, not on
 the path it took, and the grabbed point lands exactly on the target each time.
@@ -24,7 +24,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ...fit import control_weights
+from ...ffd.fit import control_weights
 
 __all__ = ["MODES", "SurfaceDragging", "ray_hit"]
 

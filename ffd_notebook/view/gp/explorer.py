@@ -26,7 +26,7 @@ import pyvista as pv
 import vtk
 from numpy.typing import ArrayLike, NDArray
 
-from ...deprecation import renamed_keyword
+from ..._util.deprecation import renamed_keyword
 from ...gp import ExponentialKernel, GaussianKernel, GaussianProcess, Kernel, LowRankGP, grid_points
 from ...meshing import as_surface
 from ..jupyter import show_changes, show_plotter
