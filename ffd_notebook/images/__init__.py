@@ -18,11 +18,14 @@ from __future__ import annotations
 from .files import image_suffix, read_image, read_image_information, write_image
 from .geometry import ImageGrid
 from .inverse import invert_points
-from .warp import INTERPOLATIONS, warp_image
+from .pixels import INTERPOLATIONS
+from .slices import WarpedSlices
+from .warp import warp_image
 
 __all__ = [
     "INTERPOLATIONS",
     "ImageGrid",
+    "WarpedSlices",
     "image_suffix",
     "invert_points",
     "read_image",

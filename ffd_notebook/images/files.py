@@ -18,9 +18,11 @@ from typing import Any
 from ..errors import FileFormatError
 from .geometry import ImageGrid
 
-__all__ = ["image_suffix", "read_image", "read_image_information", "write_image"]
+__all__ = ["IMAGE_WRITE_SUFFIXES", "image_suffix", "read_image", "read_image_information", "write_image"]
 
 _MULTI_SUFFIXES = (".nii.gz", ".hdr.gz", ".img.gz")
+#: last extensions of the files :func:`write_image` writes (SimpleITK's formats; ``.gz`` for ``.nii.gz``)
+IMAGE_WRITE_SUFFIXES = (".nii", ".gz", ".nrrd", ".nhdr", ".mha", ".mhd", ".png", ".tif", ".tiff", ".jpg", ".bmp")
 
 
 def image_suffix(path: str | os.PathLike[str]) -> str:

@@ -71,10 +71,10 @@ class IndexSampler:
         self.deformation = deformation
         self.reference = reference
         self.source = source
-        self._to_physical = reference.index_to_physical()
-        self._to_index = source.physical_to_index()
+        self.to_physical = reference.index_to_physical()
+        self.to_index = source.physical_to_index()
 
-    def _slab_index(self, start: int, stop: int) -> NDArray[np.float64]:
+    def slab_index(self, start: int, stop: int) -> NDArray[np.float64]:
         """``(4, n)`` homogeneous reference indices ``(i, j, k, 1)`` of array rows ``start:stop``, C order."""
         shape = (stop - start, *self.reference.shape[1:])
         axes = [np.arange(start, stop, dtype=np.float64)] + [np.arange(n, dtype=np.float64) for n in shape[1:]]
@@ -92,12 +92,12 @@ class IndexSampler:
         Row ``m`` of the result is the input array's axis ``m`` (``k, j, i`` for a 3D input), ready
         for :func:`scipy.ndimage.map_coordinates`.
         """
-        points = (self._to_physical @ self._slab_index(start, stop))[:3].T
+        points = (self.to_physical @ self.slab_index(start, stop))[:3].T
         moved = np.asarray(self.deformation.deform(points), dtype=np.float64)
         if moved.shape != points.shape:
             raise ValueError(f"deformation.deform returned shape {moved.shape} for {points.shape} points")
-        index = self._to_index[:3, :3] @ moved.T
-        index += self._to_index[:3, 3, None]
+        index = self.to_index[:3, :3] @ moved.T
+        index += self.to_index[:3, 3, None]
         dim = self.source.dim
         shape = (stop - start, *self.reference.shape[1:])
         return np.ascontiguousarray(index[:dim][::-1]).reshape(dim, *shape)

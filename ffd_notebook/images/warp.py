@@ -2,17 +2,16 @@
 
 The output voxel at physical point ``x`` of the reference grid takes the input's value at
 ``T(x)``, as ``sitk.Resample(image, reference, transform)`` does. ``T(x)`` is evaluated a slab of
-output rows at a time (:mod:`.sample`) and the input is interpolated there with
-:func:`scipy.ndimage.map_coordinates`, with ITK's rules at the border: a point is inside if its
-continuous index lies in ``[-0.5, size - 0.5)`` on every axis (half a voxel beyond the outer
-voxel centres), the interpolation there uses the border voxels (``mode="nearest"``; B-splines
-mirror the image, as ITK's B-spline interpolator does), and points outside get
-``default_value``.
+output rows at a time, in the input's index frame (:mod:`.sample`; separably for an FFD whose
+lattice runs along the grid, :mod:`.separable`), and the input is read there by
+:class:`~.pixels.Interpolator` (SciPy's ``map_coordinates`` with ITK's border rules).
 
-SciPy rather than SimpleITK's resampler with a displacement field: measured on a 256^3 float32
-image here (``tests/benchmarks/bench_images.py``), ``map_coordinates`` on precomputed indices took
-about 3/4 of the time of ``sitk.Resample`` with a ``DisplacementFieldTransform`` slab by slab (which
-also interpolates the field it is given), and it needs no field image per slab.
+SciPy rather than SimpleITK's resampler with a displacement field, because it was faster here:
+on a 256^3 float32 image, interpolating given indices slab by slab took 2.8 s with
+``map_coordinates`` against 12.0 s with ``sitk.Resample`` and a ``DisplacementFieldTransform``
+per slab (load average 8 on 2 cores; 3.1 s against 4.2 s on a quieter machine, SimpleITK using
+both cores). SimpleITK must also interpolate the displacement field it is given and needs a
+field image per slab; ``tests/benchmarks/bench_images.py`` measures both.
 """
 
 from __future__ import annotations
@@ -21,58 +20,16 @@ import os
 from typing import Any
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
-from scipy import ndimage
+from numpy.typing import ArrayLike
 
-from .files import read_image, read_image_information
-from .geometry import ImageGrid, is_sitk_image
-from .sample import Deformation, IndexSampler, slab_rows
+from .._util.blas import one_blas_thread
+from .files import read_image_information
+from .geometry import ImageGrid
+from .pixels import Interpolator, as_pixels, check_interpolation
+from .sample import Deformation, slab_rows
+from .separable import index_sampler
 
-__all__ = ["INTERPOLATIONS", "warp_image"]
-
-#: Interpolation names and their spline orders.
-INTERPOLATIONS = {"nearest": 0, "linear": 1, "bspline": 3}
-
-
-def _source(image: Any, spacing: ArrayLike, origin: ArrayLike, direction: ArrayLike) -> tuple[NDArray, ImageGrid, Any]:
-    """Pixels (array order, components last), grid and the SimpleITK image (None for an array) of ``image``."""
-    geometry_given = any(v is not None for v in (spacing, origin, direction))
-    if isinstance(image, str | os.PathLike):
-        image = read_image(image)
-    if is_sitk_image(image):
-        if geometry_given:
-            raise ValueError("spacing, origin and direction are for a NumPy array; a SimpleITK image has its own")
-        import SimpleITK as sitk
-
-        if image.GetDimension() not in (2, 3):
-            raise ValueError(f"only 2D and 3D images can be warped, got a {image.GetDimension()}D image")
-        return sitk.GetArrayViewFromImage(image), ImageGrid.of(image), image
-    if not isinstance(image, np.ndarray):
-        raise TypeError(f"image must be a SimpleITK image, an image file or a NumPy array, got {type(image).__name__}")
-    if image.dtype.kind not in "biuf":
-        raise TypeError(f"image pixels must be numbers, got dtype {image.dtype}")
-    dim = next((np.size(v) for v in (spacing, origin) if v is not None and np.size(v) > 1), None)
-    if dim is None and direction is not None:
-        dim = round(float(np.sqrt(np.size(direction))))
-    dim = image.ndim if dim is None else dim
-    if dim not in (2, 3) or image.ndim not in (dim, dim + 1):
-        raise ValueError(
-            f"a {dim}D image is an array of {dim} axes (or {dim + 1} with components last), got shape {image.shape}"
-        )
-    pixels = image.view(np.uint8) if image.dtype == bool else image
-    return pixels, ImageGrid(image.shape[:dim][::-1], spacing, origin, direction), None
-
-
-def _output_dtype(dtype: np.dtype, order: int) -> np.dtype:
-    return np.dtype(dtype) if dtype.kind == "f" or order == 0 else np.dtype(np.float64)
-
-
-def _store(values: NDArray, out: NDArray) -> None:
-    """Values interpolated in floating point into an integer output: rounded and clipped to its range."""
-    info = np.iinfo(out.dtype)
-    np.rint(values, out=values)
-    np.clip(values, info.min, info.max, out=values)
-    out[...] = values
+__all__ = ["warp_image"]
 
 
 def warp_image(
@@ -136,13 +93,8 @@ def warp_image(
     >>> warped.dtype.name, sorted(np.unique(warped).tolist())
     ('uint8', [0, 3])
     """
-    if interpolation not in INTERPOLATIONS:
-        raise ValueError(f"interpolation must be one of {tuple(INTERPOLATIONS)}, got {interpolation!r}")
-    order = INTERPOLATIONS[interpolation]
-    default = float(default_value)
-    if not np.isfinite(default):
-        raise ValueError(f"default_value must be a finite number, got {default_value!r}")
-    pixels, source, sitk_image = _source(image, spacing, origin, direction)
+    check_interpolation(interpolation, default_value)
+    pixels, source, sitk_image = as_pixels(image, spacing=spacing, origin=origin, direction=direction)
     if reference is None:
         grid = source
     elif isinstance(reference, str | os.PathLike):
@@ -151,38 +103,19 @@ def warp_image(
         grid = ImageGrid.of(reference)
     if grid.dim != source.dim:
         raise ValueError(f"the reference grid is {grid.dim}D and the image {source.dim}D")
-    vector = pixels.ndim == source.dim + 1
-    components = [pixels[..., c] for c in range(pixels.shape[-1])] if vector else [pixels]
-    if order == 3:  # B-spline coefficients, once (ITK's mirror boundary)
-        components = [ndimage.spline_filter(c, order=3, output=np.float64, mode="mirror") for c in components]
-    out = np.empty(grid.shape + ((pixels.shape[-1],) if vector else ()), dtype=pixels.dtype)
-    work_dtype = _output_dtype(pixels.dtype, order)
-    sampler = IndexSampler(deformation, grid, source)
+    reader = Interpolator(pixels, source, interpolation, default_value)
+    out = np.empty(grid.shape + reader.component_shape, dtype=reader.dtype)
+    sampler = index_sampler(deformation, grid, source)
     step = slab_rows(grid)
-    upper = np.array(source.shape, dtype=np.float64) - 0.5
-    mode = "mirror" if order == 3 else "nearest"
     for start in range(0, grid.shape[0], step):
         stop = min(start + step, grid.shape[0])
-        index = sampler.rows(start, stop)
-        outside = np.zeros(index.shape[1:], dtype=bool)
-        for axis in range(source.dim):
-            outside |= index[axis] < -0.5
-            outside |= index[axis] >= upper[axis]
-        slab = out[start:stop]
-        for c, values in enumerate(components):
-            target = slab[..., c] if vector else slab
-            if work_dtype == target.dtype:
-                ndimage.map_coordinates(values, index, output=target, order=order, mode=mode, prefilter=False)
-            else:
-                buffer = ndimage.map_coordinates(
-                    values, index, output=work_dtype, order=order, mode=mode, prefilter=False
-                )
-                _store(buffer, target)
-            target[outside] = default
+        with one_blas_thread():  # small products: a second BLAS thread waiting for a busy core costs 10x
+            index = sampler.rows(start, stop)
+        reader.read(index, out=out[start:stop])
     if sitk_image is None:
         return out
     import SimpleITK as sitk
 
-    result = sitk.GetImageFromArray(out, isVector=vector)
+    result = sitk.GetImageFromArray(out, isVector=bool(reader.component_shape))
     del out
     return grid.to_sitk(result)

@@ -9,6 +9,7 @@ from image_testing import awkward_grid, lattice_over, sitk_image, smooth_volume
 
 from ffd_notebook import FFD, Lattice, save_transform
 from ffd_notebook.images import ImageGrid, warp_image
+from ffd_notebook.images.separable import GridFFDSampler, index_sampler
 
 ITK_INTERPOLATORS = {"linear": sitk.sitkLinear, "nearest": sitk.sitkNearestNeighbor}
 
@@ -29,14 +30,18 @@ def itk_resample(image: sitk.Image, ffd: FFD, path, reference: sitk.Image, inter
     return out[:, :, 0]
 
 
+@pytest.mark.parametrize("aligned", [False, True], ids=["lattice-along-xyz", "lattice-along-image"])
 @pytest.mark.parametrize("size", [(26, 21, 15), (40, 33)], ids=["3D", "2D"])
 @pytest.mark.parametrize("interpolation", ["linear", "nearest"])
-def test_equals_sitk_resample_with_saved_transform(tmp_path, size, interpolation):
+def test_equals_sitk_resample_with_saved_transform(tmp_path, size, interpolation, aligned):
+    """Both ways of evaluating T: point by point (a lattice turned against the image) and separably (along it)."""
     rng = np.random.default_rng(len(size) * 10 + len(interpolation))
     grid = awkward_grid(size)
     array = smooth_volume(grid.shape, rng)
     image = sitk_image(array, grid)
-    ffd = lattice_over(grid, (7, 6, 6), scale=3.0, rng=rng)
+    ffd = lattice_over(grid, (7, 6, 6), scale=3.0, rng=rng, aligned=aligned)
+    sampler = index_sampler(ffd, grid, grid)
+    assert isinstance(sampler, GridFFDSampler) == aligned
     expected = sitk.GetArrayFromImage(itk_resample(image, ffd, tmp_path / "t.tfm", image, interpolation, -7.0))
     got = warp_image(image, ffd, interpolation=interpolation, default_value=-7.0)
     assert isinstance(got, sitk.Image)
@@ -52,8 +57,9 @@ def test_equals_sitk_resample_with_saved_transform(tmp_path, size, interpolation
         np.testing.assert_allclose(got, expected, atol=tolerance, rtol=0)
 
 
+@pytest.mark.parametrize("separable", [True, False], ids=["reference-along-lattice", "reference-turned"])
 @pytest.mark.parametrize("dim", [3, 2])
-def test_other_reference_grid_and_affine_part(tmp_path, dim):
+def test_other_reference_grid_and_affine_part(tmp_path, dim, separable):
     """Output on a grid other than the input's, through an FFD with an affine part (a CompositeTransform)."""
     rng = np.random.default_rng(7)
     grid = awkward_grid((24, 20, 14) if dim == 3 else (36, 30))
@@ -67,7 +73,9 @@ def test_other_reference_grid_and_affine_part(tmp_path, dim):
     ffd = FFD(ffd.lattice, affine=affine)
     lo, hi = grid.bounds()
     size = (30, 22, 12) if dim == 3 else (44, 25)
-    reference = ImageGrid(size, spacing=(hi - lo)[:dim] / np.array(size), origin=lo[:dim] + 0.3)
+    turned = None if separable else grid.direction
+    reference = ImageGrid(size, spacing=(hi - lo)[:dim] / np.array(size), origin=lo[:dim] + 0.3, direction=turned)
+    assert isinstance(index_sampler(ffd, reference, grid), GridFFDSampler) == separable
     ref_image = reference.to_sitk(sitk.Image(list(size), sitk.sitkFloat32))
     expected = sitk.GetArrayFromImage(itk_resample(image, ffd, tmp_path / "t.h5", ref_image, "linear", 0.0))
     got = warp_image(image, ffd, reference=reference)
