@@ -15,7 +15,7 @@ Examples
 
 from __future__ import annotations
 
-from .files import image_suffix, read_image, read_image_information, write_image
+from .files import image_data_files, image_suffix, read_image, read_image_information, write_image
 from .geometry import ImageGrid
 from .inverse import invert_points
 from .pixels import INTERPOLATIONS
@@ -26,6 +26,7 @@ __all__ = [
     "INTERPOLATIONS",
     "ImageGrid",
     "WarpedSlices",
+    "image_data_files",
     "image_suffix",
     "invert_points",
     "read_image",

@@ -10,17 +10,30 @@ from __future__ import annotations
 
 import contextlib
 import os
+import re
 import shutil
 import tempfile
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from ..errors import FileFormatError
 from .geometry import ImageGrid
 
-__all__ = ["IMAGE_WRITE_SUFFIXES", "image_suffix", "read_image", "read_image_information", "write_image"]
+__all__ = [
+    "IMAGE_WRITE_SUFFIXES",
+    "MAX_IMAGE_BYTES",
+    "image_data_files",
+    "image_suffix",
+    "read_image",
+    "read_image_information",
+    "write_image",
+]
 
 _MULTI_SUFFIXES = (".nii.gz", ".hdr.gz", ".img.gz")
+#: the most pixel memory a header may claim (a hostile header must not make the reader allocate the machine away)
+MAX_IMAGE_BYTES = 16 * 2**30
 #: last extensions of the files :func:`write_image` writes (SimpleITK's formats; ``.gz`` for ``.nii.gz``)
 IMAGE_WRITE_SUFFIXES = (".nii", ".gz", ".nrrd", ".nhdr", ".mha", ".mhd", ".png", ".tif", ".tiff", ".jpg", ".bmp")
 
@@ -40,12 +53,59 @@ def image_suffix(path: str | os.PathLike[str]) -> str:
     return Path(name).suffix
 
 
+_TEXT_HEADERS = {  # format -> (separator, dimension key, sizes key, largest dimension)
+    ".mha": ("=", "ndims", "dimsize", 3),
+    ".mhd": ("=", "ndims", "dimsize", 3),
+    ".nrrd": (":", "dimension", "sizes", 4),  # 4: a vector image's component axis
+    ".nhdr": (":", "dimension", "sizes", 4),
+}
+
+
+def _check_text_header(path: str) -> None:
+    """The dimension and sizes of a MetaImage or NRRD header, checked before SimpleITK sees them.
+
+    ITK's MetaImage reader loops forever on ``NDims = -1``; refusing what warping cannot use
+    (more than 3 dimensions, sizes that are not positive whole numbers) keeps such headers away.
+    """
+    suffix = image_suffix(path)
+    if suffix not in _TEXT_HEADERS:
+        return
+    separator, dim_key, sizes_key, largest = _TEXT_HEADERS[suffix]
+    with open(path, "rb") as f:
+        head = f.read(65536).decode("latin-1")
+    values: dict[str, tuple[int, str]] = {}
+    for number, raw in enumerate(head.splitlines(), start=1):
+        key, sep, value = raw.partition(separator)
+        key = key.strip().lower()
+        if suffix in (".nrrd", ".nhdr") and not raw.strip():
+            break  # the end of a NRRD header
+        if sep and key in (dim_key, sizes_key) and key not in values:
+            values[key] = (number, value.strip())
+        if key.replace(" ", "") == "elementdatafile":
+            break  # the end of a MetaImage header
+    if dim_key not in values:
+        raise FileFormatError(path, None, f"no {dim_key!r} line in the header")
+    line, text = values[dim_key]
+    if not re.fullmatch(r"[0-9]{1,2}", text) or not 1 <= int(text) <= largest:
+        raise FileFormatError(path, line, f"{dim_key} must be a whole number from 1 to {largest}, got {text!r}")
+    if sizes_key in values:
+        line, text = values[sizes_key]
+        sizes = text.split()
+        if len(sizes) != int(values[dim_key][1]) or not all(
+            re.fullmatch(r"[0-9]{1,12}", v) and int(v) > 0 for v in sizes
+        ):
+            raise FileFormatError(
+                path, line, f"{sizes_key} must be {values[dim_key][1]} positive whole numbers, got {text!r}"
+            )
+
+
 def _reader(path: str | os.PathLike[str]) -> Any:
     import SimpleITK as sitk
 
     path = os.fspath(path)
     if not os.path.isfile(path):
         raise FileNotFoundError(2, "No such file", path)
+    _check_text_header(path)
     reader = sitk.ImageFileReader()
     reader.SetFileName(path)
     try:
@@ -54,7 +114,65 @@ def _reader(path: str | os.PathLike[str]) -> Any:
         raise FileFormatError(path, None, f"not an image SimpleITK can read ({_itk_message(exc)})") from None
     if reader.GetDimension() not in (2, 3):
         raise FileFormatError(path, None, f"a {reader.GetDimension()}D image; only 2D and 3D images are supported")
+    try:  # spacing, origin and direction as warping needs them (finite, positive, invertible)
+        ImageGrid(reader.GetSize(), reader.GetSpacing(), reader.GetOrigin(), reader.GetDirection())
+    except ValueError as exc:
+        raise FileFormatError(path, None, f"unusable geometry: {exc}") from None
+    voxels = int(np.prod(np.array(reader.GetSize(), dtype=np.float64)))
+    claimed = voxels * reader.GetNumberOfComponents() * _component_bytes(reader)
+    if claimed > MAX_IMAGE_BYTES:
+        raise FileFormatError(path, None, f"the header claims {claimed / 2**30:.3g} GiB of pixels, more than "
+                                          f"the limit of {MAX_IMAGE_BYTES / 2**30:.0f} GiB")  # fmt: skip
     return reader
+
+
+def _component_bytes(reader: Any) -> int:
+    """Bytes of one pixel component of the image ``reader`` describes ("32-bit float" -> 4; unknown: 8)."""
+    import SimpleITK as sitk
+
+    name = sitk.GetPixelIDValueAsString(reader.GetPixelID())
+    for bits in (8, 16, 32, 64):
+        if f"{bits}-bit" in name:
+            return bits // 8
+    return 8
+
+
+def image_data_files(path: str | os.PathLike[str]) -> list[Path]:
+    r"""Files other than ``path`` that its header names for the pixels (MetaImage, NRRD), resolved.
+
+    A ``.mhd`` or ``.nhdr`` header (and even a ``.mha`` or ``.nrrd`` one) may point at any file
+    for its data; a server confining its users to a folder checks these too. Only the header's
+    first 64 KiB are read.
+
+    Examples
+    --------
+    >>> import pathlib, tempfile
+    >>> folder = pathlib.Path(tempfile.mkdtemp())
+    >>> _ = (folder / "a.mhd").write_text("NDims = 3\nElementDataFile = a.raw\n")
+    >>> [p.name for p in image_data_files(folder / "a.mhd")]
+    ['a.raw']
+    >>> image_data_files(folder / "scan.nii")
+    []
+    """
+    target = Path(path)
+    suffix = image_suffix(target)
+    if suffix not in (".mha", ".mhd", ".nrrd", ".nhdr"):
+        return []
+    with open(target, "rb") as f:
+        head = f.read(65536)
+    text = head.split(b"\n\n", 1)[0] if suffix in (".nrrd", ".nhdr") else head
+    found = []
+    for raw in text.decode("latin-1").splitlines():
+        key, sep, value = raw.partition("=" if suffix in (".mha", ".mhd") else ":")
+        key = key.strip().lower().replace(" ", "")
+        if not sep or key not in ("elementdatafile", "datafile"):
+            continue
+        value = value.strip()
+        if value.upper() in ("LOCAL", "") or value.upper().startswith("LIST"):
+            continue
+        name = value.split()[0] if "%" in value else value  # a file-name pattern: its folder is what matters
+        found.append((target.parent / name).resolve())
+    return found
 
 
 def _itk_message(exc: RuntimeError) -> str:

@@ -98,6 +98,10 @@ class ImageGrid:
             if isinstance(value, np.ndarray):
                 value.flags.writeable = False
             object.__setattr__(self, name, value)
+        with np.errstate(over="ignore", invalid="ignore"):
+            finite = np.isfinite(self.bounds()).all() and np.isfinite(self.physical_to_index()).all()
+        if not finite:
+            raise ValueError(f"the image's extent is not finite (spacing {spacing!r}, origin {origin!r})")
 
     @classmethod
     def of(cls, image: Any) -> ImageGrid:
