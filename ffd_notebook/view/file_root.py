@@ -22,12 +22,11 @@ import tempfile
 from pathlib import Path
 
 from ..errors import FileFormatError, PathRefused
-from ..io import MESH_SUFFIXES, check_regular_file
+from ..io import check_regular_file
 from ..io.deformation_files import DEFORMATION_SUFFIXES
 
 __all__ = [
     "DEFAULT_MAX_FILE_BYTES",
-    "MESH_SUFFIXES",
     "FileRoot",
     "PathRefused",
     "ScratchFolder",

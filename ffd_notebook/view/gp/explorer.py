@@ -30,7 +30,7 @@ from ..._util.deprecation import renamed_keyword
 from ...gp import ExponentialKernel, GaussianKernel, GaussianProcess, Kernel, LowRankGP, grid_points
 from ...meshing import as_surface
 from ..jupyter import show_changes, show_plotter
-from ..rendering import configure_rendering
+from ..rendering import new_plotter
 from .model_modes import (
     VARIANCE_ARRAY,
     ModelModes,
@@ -40,8 +40,6 @@ from .model_modes import (
 )
 
 __all__ = ["KERNELS", "VARIANCE_ARRAY", "GPExplorer"]
-
-configure_rendering()
 
 #: Kernel families the explorer offers: name -> class taking ``(sigma, scale)``.
 KERNELS = {"gaussian": GaussianKernel, "exponential": ExponentialKernel}
@@ -147,7 +145,7 @@ class GPExplorer(ModelModes):
             self.sigma: float | None = float(sigma if sigma is not None else 0.25 * self.size)
             self.grid = grid_points(np.asarray(self.mesh.bounds, dtype=np.float64), grid_shape, margin=0.05)
             self.model: LowRankGP = self._build_model()
-        self.plotter = plotter if plotter is not None else pv.Plotter(**plotter_kwargs)
+        self.plotter = plotter if plotter is not None else new_plotter(**plotter_kwargs)
         self._add_actors()
         if widgets:
             self._add_widgets()

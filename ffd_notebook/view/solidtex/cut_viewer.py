@@ -27,6 +27,7 @@ from ...meshing.organ import REST, organ_surface, rest_points, texture_surface
 from ...solidtex.sampling import SolidTexture, TextureSampler  # noqa: F401  (SolidTexture: the doctests)
 from ..camera import frame_camera, unit_vector, view_direction
 from ..jupyter import show_changes, show_plotter
+from ..rendering import new_plotter
 
 __all__ = ["CutViewer", "TexturedOrgan", "add_cut"]
 
@@ -269,7 +270,7 @@ class CutViewer:
         self.plotter = (
             plotter
             if plotter is not None
-            else pv.Plotter(off_screen=True if off_screen is None else off_screen, window_size=window_size)
+            else new_plotter(off_screen=True if off_screen is None else off_screen, window_size=window_size)
         )
         self.origin = np.asarray(organ.grid.center if origin is None else origin, dtype=np.float64)
         self.normal = _unit(normal)
