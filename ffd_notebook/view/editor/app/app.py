@@ -110,6 +110,8 @@ class EditorApp:
             ("ffd_download_ffd", self.files.download_ffd),
             ("ffd_download_mesh", self.files.download_mesh),
             ("ffd_rebuild", self.files.rebuild),
+            ("ffd_load_image", self.files.load_image),
+            ("ffd_save_image", self.files.save_image),
         ):
             self.server.controller.trigger(name_)(method)
         self.layout, self.view = build_layout(self)
