@@ -172,6 +172,13 @@ def test_the_app_loads_shows_and_saves_an_image_inside_its_folder(tmp_path, ct):
         editor.close()
 
 
+def test_the_command_line_takes_an_image():
+    from ffd_notebook.__main__ import build_parser
+
+    args = build_parser().parse_args(["--image", "ct.nii.gz", "--shape", "6", "6", "6"])
+    assert args.image == "ct.nii.gz" and args.mesh is None
+
+
 def test_the_notebook_panel_loads_an_image_and_sets_its_window(ct):
     from ffd_notebook.view import ControlPanel
 
