@@ -156,6 +156,8 @@ class Editor:
         self.session = EditingSession(
             _surface_of(mesh_or_path, image), mesh_io=PYVISTA_MESH_IO, lattice=lattice, shape=shape, basis=basis
         )
+        if image is not None and mesh_or_path is None:
+            self.session.image.box = self.session.mesh  # the image's box stands in for a mesh
         if image is not None:
             self.session.image.use(self.session.image.read(image), path if path is not None else image,
                                    os.path.basename(os.fspath(path)) if path is not None else "image")  # fmt: skip

@@ -3,8 +3,11 @@
 Each slice is a :class:`pyvista.StructuredGrid` through the slice's voxel centres (at rest: the
 image is resampled onto its own grid, ITK's convention), coloured by the warped values: a grey
 image through a lookup table spanning the window (level +- width / 2), a colour image directly.
-A change copies only the pixels the session re-read (``session.image.regions``) into the plotted
-arrays, in place; no actor is created or removed while dragging.
+Just before each render (an observer of the render window's start), the session's slices are
+brought up to date and only the pixels re-read since the last frame
+(:meth:`~..session.image.SessionImage.take_unshown`) are copied into the plotted arrays, in place:
+a drag's mouse events between two frames cost one update. No actor is created or removed while
+dragging.
 """
 
 from __future__ import annotations
@@ -37,6 +40,9 @@ class ImageSlices:
         slices = image.slices
         for axis in slices.axes:
             self._add(axis)
+        image.take_unshown()  # the planes were made from the current values
+        window = plotter.render_window
+        self._observer = window.AddObserver("StartEvent", lambda *_: self.update()) if window is not None else None
 
     def _add(self, axis: int) -> None:
         slices = self.image.slices
@@ -61,14 +67,15 @@ class ImageSlices:
         return level - width / 2.0, level + width / 2.0
 
     def update(self, rebuild: bool = False) -> None:
-        """Copy the re-read pixels (``image.regions``) into the planes; rebuild them if the slices moved."""
+        """Copy the pixels re-read since the last update into the planes; move the planes if the slices moved."""
         slices = self.image.slices
+        unshown = self.image.take_unshown()
         for axis in slices.axes:
             plane = self.planes[axis]
             if rebuild:
                 plane.points[:] = slices.slice_points(axis)
                 plane.GetPoints().Modified()
-            region = self.image.regions.get(axis)
+            region = unshown.get(axis)
             if region is None or not region.any():
                 continue
             shown = plane.point_data[VALUES]  # a view of the VTK array
@@ -89,6 +96,10 @@ class ImageSlices:
         return np.asarray(self.planes[axis].point_data[VALUES]).reshape(values.shape)
 
     def remove(self) -> None:
+        """Remove the slice actors and stop following renders."""
+        if self._observer is not None and self.plotter.render_window is not None:
+            self.plotter.render_window.RemoveObserver(self._observer)
+        self._observer = None
         for actor in self.actors.values():
             self.plotter.remove_actor(actor, reset_camera=False, render=False)
         self.actors.clear()

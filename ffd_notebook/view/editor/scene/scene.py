@@ -38,8 +38,8 @@ __all__ = ["EditorScene", "PreparedDisplay", "prepare_display"]
 
 #: where the camera looks from (towards the mesh): the front (+z), a little right and above
 FRONT = (0.3, 0.2, 1.0)
-#: the mesh's opacity while an image's slices are shown (they are inside it)
-IMAGE_MESH_OPACITY = 0.35
+#: the opacity of an image's box drawn as the mesh (a lattice over the image alone): the slices are inside it
+IMAGE_BOX_OPACITY = 0.35
 
 
 class PreparedDisplay:
@@ -159,8 +159,8 @@ class EditorScene:
                 self._build_image()
             elif self.image_slices is not None:
                 self.image_slices.update(rebuild=change.label == "slices")
-        if kind in ("drag", "offsets", "lattice") and self.image_slices is not None:
-            self.image_slices.update()  # the session re-read the pixels the change reached: copy those
+        if kind in ("offsets", "lattice") and self.image_slices is not None:
+            self.image_slices.update()  # (a drag's slices are updated just before the frame is rendered)
         self.surface_picking.follow(change)
         if kind != "drag" and change.label != "drag":
             self.render()
@@ -251,8 +251,11 @@ class EditorScene:
         self._mesh_opacity()
 
     def _mesh_opacity(self) -> None:
-        """A see-through mesh while an image is shown, so the slices inside it show."""
-        self.mesh_actor.prop.opacity = IMAGE_MESH_OPACITY if self.session.image.loaded else 1.0
+        """The image's box (the mesh of a lattice over an image alone) is see-through: the slices are inside it.
+        A real mesh stays opaque (a see-through mesh of 100k triangles costs a render much more)."""
+        image = self.session.image
+        box = image.loaded and image.box is not None and self.session.mesh is image.box
+        self.mesh_actor.prop.opacity = IMAGE_BOX_OPACITY if box else 1.0
 
     def _write_mesh_points(self, only_if_changed: bool = False) -> None:
         """The session's deformed points into the plotted mesh (and its normals, at the next render)."""
