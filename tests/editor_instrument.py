@@ -163,6 +163,8 @@ class Instrument:
             "offsets_abs_sum": float(np.abs(self.editor.lattice.offsets).sum()),
             "n_callbacks": self.n_drags,
             "selected": None if self.editor.session.selected is None else list(self.editor.session.selected),
+            "n_points": int(self.editor.mesh.n_points),
+            "messages": list(self.editor.messages)[-3:],
         }
 
     def register_triggers(self, server: Any) -> None:

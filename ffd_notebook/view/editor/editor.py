@@ -37,7 +37,7 @@ from .scene.scene import EditorScene
 from .session.message_log import MessageLog
 from .session.session import EditingSession, MeshIO
 
-__all__ = ["PYVISTA_MESH_IO", "Editor", "edit"]
+__all__ = ["PYVISTA_MESH_IO", "Editor", "edit", "face_surface"]
 
 Path = str | os.PathLike[str]
 
@@ -49,6 +49,13 @@ def read_surface(path: Path) -> pv.PolyData:
     return as_surface(read_mesh(path))
 
 
+def face_surface(photo: Any) -> pv.PolyData:
+    """The coloured face in a photo (path, array or ``face.Photo``): :func:`ffd_notebook.face_from_photo`."""
+    from ...face import face_from_photo
+
+    return face_from_photo(photo)
+
+
 #: PyVista's mesh operations, for sessions of PyVista meshes
 PYVISTA_MESH_IO = MeshIO(
     read=read_surface,
@@ -56,6 +63,7 @@ PYVISTA_MESH_IO = MeshIO(
     decimate=decimate_keeping_colors,
     with_points=deformed_copy,
     color_array=color_array_name,
+    face=face_surface,
 )
 
 
@@ -81,12 +89,16 @@ def image_box(image: Any) -> pv.PolyData:
 
 
 def _surface_of(mesh_or_path: Any, image: Any = None) -> pv.PolyData:
+    from ...face import is_photo
+
     if mesh_or_path is None and image is not None:
         return image_box(image)
     if mesh_or_path is None:
         from ...datasets import sample_mesh
 
         return as_surface(sample_mesh())
+    if is_photo(mesh_or_path):  # a photo path (.jpg, .png...) or an (H, W, 3) uint8 array: the face in it
+        return face_surface(mesh_or_path)
     if isinstance(mesh_or_path, (str, os.PathLike)):
         return read_surface(mesh_or_path)
     return as_surface(mesh_or_path)
@@ -97,8 +109,10 @@ class Editor:
 
     Parameters
     ----------
-    mesh_or_path : pyvista.DataSet or path, optional
-        The mesh to deform (its surface is used), or a file to read; the bundled sample mesh
+    mesh_or_path : pyvista.DataSet, path or photo, optional
+        The mesh to deform (its surface is used), or a file to read; a photo of a face (a
+        ``.jpg``/``.png``... path or an ``(H, W, 3)`` uint8 array) gives the coloured face in it
+        (:func:`ffd_notebook.face_from_photo`); the bundled sample mesh
         (:func:`ffd_notebook.datasets.sample_mesh`) if omitted.
     lattice : Lattice, optional
         The control lattice (used as is); fitted around the mesh with ``shape`` if omitted.
@@ -199,6 +213,19 @@ class Editor:
         self.session.set_lattice(lattice)
 
     @property
+    def weights(self) -> NDArray[np.float64] | None:
+        """The mesh vertices' weights in [0, 1] (a copy), or None: every vertex follows the lattice fully.
+
+        Assigning an array (one weight per vertex; Blender's vertex group) or None is one undo step;
+        in "paint weights" mode a drag over the mesh paints them (:class:`.session.weights.WeightPaint`).
+        """
+        return self.session.weights
+
+    @weights.setter
+    def weights(self, weights: ArrayLike | None) -> None:
+        self.session.paint.set(weights)
+
+    @property
     def deformed_mesh(self) -> pv.PolyData:
         """A new mesh: the current deformed points with the rest mesh's faces and point data."""
         return self.session.deformed_mesh
@@ -269,6 +296,11 @@ class Editor:
         """Save the deformed mesh (OBJ with colours, PLY, VTP, ... by extension), atomically."""
         self.session.files.save_mesh(path)
 
+    def load_face(self, photo: Any) -> pv.PolyData:
+        """Replace the mesh with the coloured face of a photo (path or array; a new undo history), as loading a
+        mesh does. A photo without a face raises :class:`~ffd_notebook.errors.NoFaceError` and changes nothing."""
+        return self.session.files.load_face(photo)
+
     def screenshot(self, path: Path | None = None) -> NDArray[np.uint8]:
         """Render and return the image ``(h, w, 3)`` uint8; also write a PNG if ``path`` is given."""
         return self.scene.screenshot(path)
@@ -317,7 +349,8 @@ def edit(mesh_or_path: Any = None, **kw: Any) -> Editor:
     Parameters
     ----------
     mesh_or_path, **kw
-        As for :class:`Editor` (``lattice``, ``shape``, ``basis``, ``window_size``, ``off_screen``).
+        As for :class:`Editor` (``lattice``, ``shape``, ``basis``, ``window_size``, ``off_screen``):
+        a mesh, a mesh file, or a photo of a face (``fn.edit("me.jpg")``: the face in it).
 
     Returns
     -------

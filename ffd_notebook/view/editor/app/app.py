@@ -106,6 +106,7 @@ class EditorApp:
             ("ffd_load_ffd", self.files.load_ffd),
             ("ffd_save_ffd", self.files.save_ffd),
             ("ffd_load_mesh", self.files.load_mesh),
+            ("ffd_load_face", self.files.load_face),
             ("ffd_save_mesh", self.files.save_mesh),
             ("ffd_download_ffd", self.files.download_ffd),
             ("ffd_download_mesh", self.files.download_mesh),

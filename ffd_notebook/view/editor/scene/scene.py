@@ -145,6 +145,8 @@ class EditorScene:
             self._build_mesh()
             if change.label == "load mesh":
                 self.plotter.renderer.reset_camera(render=False)  # (the plotter's own renders anyway)
+            elif change.label == "face from photo":  # a face looks along +z: see it from the front, fitted
+                self.frame()  # (the session holds the new mesh and its lattice already)
             if self.session.lattice is not self._shown_lattice:
                 return  # a "lattice" change follows (a lattice fitted to the new mesh): render once, then
         elif kind == "select":
@@ -286,11 +288,13 @@ class EditorScene:
         if self.session.field == "displacement":
             shown[coloring.DISPLACEMENT_ARRAY] = values
             coloring.set_field_range(self.mesh_actor, float(values.max()) if len(values) else 1.0)
-        elif coloring.FOLDING_ARRAY in shown:
-            shown[coloring.FOLDING_ARRAY][...] = values  # a view of the VTK array: updated in place
-            shown.GetArray(coloring.FOLDING_ARRAY).Modified()
+            return
+        name = coloring.WEIGHTS_ARRAY if self.session.field == "weights" else coloring.FOLDING_ARRAY
+        if name in shown:
+            shown[name][...] = values  # a view of the VTK array: updated in place
+            shown.GetArray(name).Modified()
         else:
-            shown[coloring.FOLDING_ARRAY] = values
+            shown[name] = values
 
     # ------------------------------------------------------------------ camera, images
     def frame(self) -> None:
