@@ -49,6 +49,7 @@ _LAZY = {
     "fit_lattice": "ffd_notebook.io",
     "face_from_photo": "ffd_notebook.face",
     "NoFaceError": "ffd_notebook.errors",
+    "warp_image": "ffd_notebook.images",
     "edit": "ffd_notebook.view",
     "Editor": "ffd_notebook.view",
 }

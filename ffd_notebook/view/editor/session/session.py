@@ -35,6 +35,7 @@ from ....ffd.lattice import Lattice
 from .changes import Change, Subscribers
 from .files import SessionFiles
 from .history import History, LatticeSwap, OffsetEdit
+from .image import SessionImage
 from .lattices import copy_ffd, fitted_lattice
 from .message_log import MessageLog
 from .surface_drag import SurfaceDrag
@@ -114,6 +115,7 @@ class EditingSession:
         self._dragged: int | None = None
         self.surface = SurfaceDrag(self)  # pins, interaction mode, surface drags
         self.files = SessionFiles(self)  # lattice files and meshes
+        self.image = SessionImage(self)  # an image shown as warped slices, if any
         if lattice is None:
             lattice, self.lattice_source = fitted_lattice(mesh, shape, basis), "fit"
         else:
@@ -210,6 +212,7 @@ class EditingSession:
     def notify(self, kind: str, points: Any = None, label: str = "", started: float | None = None) -> None:
         """Tell every subscriber about one :class:`~.changes.Change` (from the session's commands and parts)."""
         change = Change(kind, points, label) if started is None else Change(kind, points, label, started)
+        self.image.follow(change)  # the warped slices first: every view then sees them up to date
         self._subscribers.emit(change)
 
     def info(self, text: str) -> None:
