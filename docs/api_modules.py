@@ -20,6 +20,7 @@ PUBLIC: dict[str, str] = {
     "ffd_notebook.solidtex": "Solid textures",
     "ffd_notebook.meshing": "Mesh processing",
     "ffd_notebook.face": "A face from a photo",
+    "ffd_notebook.images": "Warping images",
     "ffd_notebook.blender": "Blender exchange",
     "ffd_notebook.datasets": "Sample meshes",
     "ffd_notebook.errors": "Errors",

@@ -28,6 +28,7 @@ from .ffd import FFD, Deformer, Lattice
 if TYPE_CHECKING:
     from .errors import NoFaceError as NoFaceError
     from .face import face_from_photo as face_from_photo
+    from .images import warp_image as warp_image
     from .io import DisplacementField as DisplacementField
     from .io import ElastixTransform as ElastixTransform
     from .io import fit_lattice as fit_lattice
@@ -79,6 +80,7 @@ _LAZY = {
     "fit_lattice": "ffd_notebook.io",
     "face_from_photo": "ffd_notebook.face",
     "NoFaceError": "ffd_notebook.errors",
+    "warp_image": "ffd_notebook.images",
     "edit": "ffd_notebook.view",
     "Editor": "ffd_notebook.view",
 }

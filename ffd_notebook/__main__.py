@@ -50,6 +50,9 @@ def build_parser() -> argparse.ArgumentParser:
                         help="mesh file (OBJ with colours, PLY, VTP, STL, ...), or a photo of a face (JPEG, PNG...: "
                              "the coloured face in it); default: the sample face")  # fmt: skip
     parser.add_argument("--ffd", metavar="FILE", help="a lattice file to start from (.ffd, ITK .tfm/.h5, PyGeM .prm)")
+    parser.add_argument("--image", metavar="IMG",
+                        help="an image to show with the mesh as three slices warped by the lattice (NIfTI, NRRD, "
+                             "MetaImage...); without a mesh, the lattice is fitted to the image's box")  # fmt: skip
     parser.add_argument("--port", type=int, default=8080, help="port to listen on (0: any free port; default 8080)")
     parser.add_argument("--host", default="127.0.0.1", help="address to listen on (default 127.0.0.1: this machine)")
     parser.add_argument("--shape", type=int, nargs=3, default=[5, 5, 5], metavar=("NX", "NY", "NZ"),
@@ -95,7 +98,8 @@ def main(argv: Sequence[str] | None = None, *, setup: Callable[[Any], None] | No
 
     try:
         run_app(args.mesh, ffd=args.ffd, port=args.port, host=args.host, shape=tuple(args.shape), basis=args.basis,
-                root=args.root, max_file_bytes=int(args.max_file_mb * 2**20), setup=setup)  # fmt: skip
+                root=args.root, max_file_bytes=int(args.max_file_mb * 2**20), setup=setup,
+                image=args.image)  # fmt: skip
     except (FileFormatError, ValueError, OSError, LiteRTMissingError) as exc:  # NoFaceError is a ValueError
         print(f"error: {exc}", file=sys.stderr)
         return 1

@@ -18,6 +18,7 @@ MODEL_FILES = sorted(
     + list((PACKAGE / "_util").glob("*.py"))
     + list((PACKAGE / "gp").glob("*.py"))
     + list((PACKAGE / "solidtex").glob("*.py"))
+    + list((PACKAGE / "images").glob("*.py"))
     # batch: drawing and deforming (the engine, output and file loading write and read meshes through io)
     + [PACKAGE / "batch" / f"{name}.py" for name in ("models", "gp_model", "folding", "seeds", "evaluate")]
     # face: everything but the mesh builder (face_from_photo returns PolyData: it imports PyVista when called)

@@ -70,9 +70,32 @@ PYVISTA_MESH_IO = MeshIO(
 )
 
 
-def _surface_of(mesh_or_path: Any) -> pv.PolyData:
+def image_box(image: Any) -> pv.PolyData:
+    """The box of an image's voxel centres as a surface (subdivided so it bends with the lattice), in physical
+    space; a flat rectangle for a 2D image. The editor's mesh when it edits a lattice over an image alone."""
+    from ...images.pixels import as_pixels
+
+    if isinstance(image, tuple):
+        _, grid, _ = as_pixels(image[0], **image[1])
+    else:
+        _, grid, _ = as_pixels(image)
+    size = list(grid.size) + [1] * (3 - grid.dim)
+    if grid.dim == 3:
+        box = pv.Box(bounds=(0, size[0] - 1, 0, size[1] - 1, 0, size[2] - 1), level=8, quads=False)
+    else:
+        centre = ((size[0] - 1) / 2, (size[1] - 1) / 2, 0.0)
+        box = pv.Plane(center=centre, i_size=size[0] - 1, j_size=size[1] - 1, i_resolution=16, j_resolution=16)
+        box = box.triangulate()
+    to_physical = grid.index_to_physical()
+    box.points = box.points @ to_physical[:3, :3].T + to_physical[:3, 3]
+    return box
+
+
+def _surface_of(mesh_or_path: Any, image: Any = None) -> pv.PolyData:
     from ...face import is_photo
 
+    if mesh_or_path is None and image is not None:
+        return image_box(image)
     if mesh_or_path is None:
         from ...datasets import sample_mesh
 
@@ -108,6 +131,11 @@ class Editor:
         While a mouse button is held (a drag, a camera turn), a mesh with at least twice as many
         cells is drawn from a copy with about this many, at the view's reduced drag size; the
         release brings back the full mesh. None always draws the full mesh.
+    image : SimpleITK.Image, path or (array, geometry), optional
+        An image shown with the mesh as three orthogonal slices warped by the lattice, live
+        (``editor.session.image``: slice positions, window/level, saving the warped image); a NumPy
+        array comes with its geometry as ``(array, {"spacing": ..., "origin": ..., "direction": ...})``.
+        Without a mesh (``mesh_or_path=None``), the lattice is fitted to the image's box alone.
 
     Examples
     --------
@@ -134,10 +162,22 @@ class Editor:
         window_size: tuple[int, int] = (800, 600),
         off_screen: bool | None = None,
         interactive_cells: int | None = INTERACTIVE_CELLS,
+        image: Any = None,
     ) -> None:
+        if isinstance(image, str | os.PathLike):
+            from ...images import read_image
+
+            image, path = read_image(image), image  # read once: for its box and for the slices
+        else:
+            path = None
         self.session = EditingSession(
-            _surface_of(mesh_or_path), mesh_io=PYVISTA_MESH_IO, lattice=lattice, shape=shape, basis=basis
+            _surface_of(mesh_or_path, image), mesh_io=PYVISTA_MESH_IO, lattice=lattice, shape=shape, basis=basis
         )
+        if image is not None and mesh_or_path is None:
+            self.session.image.box = self.session.mesh  # the image's box stands in for a mesh
+        if image is not None:
+            self.session.image.use(self.session.image.read(image), path if path is not None else image,
+                                   os.path.basename(os.fspath(path)) if path is not None else "image")  # fmt: skip
         self.scene = EditorScene(
             self.session,
             on_start=self.session.begin_drag,

@@ -112,6 +112,8 @@ class EditorApp:
             ("ffd_download_ffd", self.files.download_ffd),
             ("ffd_download_mesh", self.files.download_mesh),
             ("ffd_rebuild", self.files.rebuild),
+            ("ffd_load_image", self.files.load_image_in_background),
+            ("ffd_save_image", self.files.save_image_in_background),
         ):
             self.server.controller.trigger(name_)(method)
         self.layout, self.view = build_layout(self)
@@ -199,13 +201,15 @@ def run_app(
     root: str | os.PathLike[str] | None = None,
     max_file_bytes: int = DEFAULT_MAX_FILE_BYTES,
     setup: Callable[[EditorApp], None] | None = None,
+    image: str | os.PathLike[str] | None = None,
 ) -> EditorApp:
-    """Build the editor (``mesh`` path or the sample mesh, optional ``ffd`` lattice) and serve it (blocking).
+    """Build the editor (``mesh`` path or the sample mesh, optional ``ffd`` lattice, optional ``image`` shown as
+    warped slices; an image without a mesh gets a lattice fitted to its box) and serve it (blocking).
 
     Typed paths are confined to ``root`` (default: the current folder); uploads are removed at exit.
     ``setup(app)`` runs before the server starts (a hook for code, e.g. tests' instrumentation).
     """
-    editor = Editor(mesh, shape=tuple(shape), basis=basis)
+    editor = Editor(mesh, shape=tuple(shape), basis=basis, image=image)
     if ffd is not None:
         editor.load_deformation(ffd)
     app = EditorApp(editor, root=root, max_file_bytes=max_file_bytes)

@@ -229,6 +229,39 @@ class AppFiles:
         if target is not None:
             self._read_ffd(target, self.root.shown(target))
 
+    def load_image_in_background(self, path: str) -> None:
+        """Start showing an image (NIfTI, NRRD, MetaImage, PNG...) from a path in the app's folder (a worker thread).
+
+        A header that names a data file (MetaImage, NRRD) is refused unless that file is in the folder too.
+        """
+        target = self._typed(path, self._image_for_reading, "load")
+        if target is None:
+            return
+        shown = self.root.shown(target)
+        image = self.session.image
+        self.in_background(f"reading {shown}", lambda: image.read(target),
+                            lambda slices: image.use(slices, target, shown), shown, "load")  # fmt: skip
+
+    def _image_for_reading(self, typed: str) -> Path:
+        from ....images import image_data_files
+
+        target = self.root.for_reading(typed)
+        for data_file in image_data_files(target):
+            self.root.for_reading(data_file)  # PathRefused if it is outside the root
+        return target
+
+    def save_image_in_background(self, path: str) -> None:
+        """Start writing the warped image in the app's folder (format from the extension, atomically)."""
+        from ....images.files import IMAGE_WRITE_SUFFIXES
+
+        target = self._typed(path, lambda p: self.root.for_writing(p, IMAGE_WRITE_SUFFIXES), "save")
+        if target is not None:
+            shown = self.root.shown(target)
+            image = self.session.image
+            self.in_background(f"writing {shown}", lambda: image.save(target, announce=False),
+                                lambda _: self.session.messages.append(f"saved the warped image to {shown}"),
+                                shown, "save")  # fmt: skip
+
     def load_mesh_in_background(self, path: str) -> None:
         """Start loading a mesh (OBJ, PLY, VTP, STL, ...) from a path in the app's folder (a worker thread)."""
         target = self._typed(path, self.root.for_reading, "load")

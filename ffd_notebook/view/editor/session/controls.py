@@ -175,6 +175,7 @@ BRUSH_CHOICES = (("raise", "raise"), ("lower", "lower"))
 _INTERPOLATION = ("interp_x", "interp_y", "interp_z")
 POINTS_CHOICES = (("auto", "all (hull above 1000)"), ("all", "all"), ("near", "near the selected"), ("hull", "hull"))
 _IJK, _XYZ = ("sel_i", "sel_j", "sel_k"), ("dx", "dy", "dz")
+_SLICE = ("img_i", "img_j", "img_k")
 
 
 def _index_and_vector(values: Sequence[Any]) -> tuple[Any, ...]:
@@ -457,6 +458,54 @@ CONTROLS: tuple[Control, ...] = (
         tooltip="Remove this fraction of the faces, keeping colours (0 restores the mesh)",
     ),
     Control("mesh_info", "label", "{mesh_info}", "Display", state=("mesh_info",), row=3),
+    Control("image_path", "text", "image to show", "Image", default="", placeholder="image.nii.gz / .nrrd / .png"),
+    Control(
+        "load_image",
+        "button",
+        "Load image",
+        "Image",
+        command="image.load",
+        args=("image_path",),
+        app_trigger="ffd_load_image",
+        tooltip="Show an image (NIfTI, NRRD, MetaImage, PNG...) as three slices warped by the lattice",
+    ),
+    Control(
+        "image_slices",
+        "ints",
+        "slice i, j, k",
+        "Image",
+        state=_SLICE,
+        command="image.set_positions",
+        limits=("img_max_i", "img_max_j", "img_max_k"),
+        parse=lambda v: (numbers(v, "slice", int),),
+        enabled="has_image",
+        row=1,
+    ),
+    Control(
+        "image_window",
+        "floats",
+        "level, width",
+        "Image",
+        state=("img_level", "img_width"),
+        command="image.set_window",
+        parse=lambda v: ((number(v[0], "level"), number(v[1], "width")),),
+        enabled="grey_image",
+        row=2,
+    ),
+    Control("image_save_path", "text", "save warped image as", "Image", default="warped.nii.gz", row=3),
+    Control(
+        "save_image",
+        "button",
+        "Save image",
+        "Image",
+        command="image.save",
+        args=("image_save_path",),
+        enabled="has_image",
+        app_trigger="ffd_save_image",
+        row=3,
+        tooltip="Write the image warped by the lattice (ITK's convention, as the saved lattice file does it)",
+    ),
+    Control("image_info", "label", "{image_info}", "Image", state=("image_info",), row=4),
     Control("message", "messages", "Messages", "Display", state=("messages",), row=4, element_id="ffd-messages"),
 )
 
@@ -510,10 +559,32 @@ def session_state(session: EditingSession) -> dict[str, Any]:
         "moved_points": int(np.any(lattice.offsets != 0, axis=-1).sum()),
         "messages": [{"text": t, "error": t.startswith("Error")} for t in list(session.messages)[-N_MESSAGES:][::-1]],
     }
+    state.update(_image_state(session))
     if selected is not None:
         state.update(zip(_IJK, selected, strict=True))
         state.update(zip(_XYZ, (float(f"{v:.6g}") for v in lattice.offsets[selected]), strict=True))
     return state
+
+
+def _image_state(session: EditingSession) -> dict[str, Any]:
+    """The image controls' state: slice positions and their limits, window, what is shown."""
+    image = session.image
+    if not image.loaded:
+        none = {"has_image": False, "grey_image": False, "img_level": 0.0, "img_width": 1.0, "image_info": "no image"}
+        return {**none, **dict.fromkeys(_SLICE, 0), **dict.fromkeys(("img_max_i", "img_max_j", "img_max_k"), 0)}
+    slices = image.slices
+    size = list(slices.grid.size) + [1] * (3 - slices.grid.dim)
+    positions = list(slices.positions) + [0] * (3 - slices.grid.dim)
+    level, width = image.window if image.window is not None else (0.0, 1.0)
+    return {
+        "has_image": True,
+        "grey_image": image.window is not None,
+        **dict(zip(_SLICE, positions, strict=True)),
+        **dict(zip(("img_max_i", "img_max_j", "img_max_k"), (n - 1 for n in size), strict=True)),
+        "img_level": float(f"{level:.6g}"),
+        "img_width": float(f"{width:.6g}"),
+        "image_info": f"{image.name}: {' x '.join(map(str, slices.grid.size))} voxels",
+    }
 
 
 def run(session: EditingSession, control: Control, values: Sequence[Any]) -> bool:

@@ -132,7 +132,8 @@ class SessionFiles:
         return self.session.ffd
 
     def save_deformation(self, path: Path) -> None:
-        """Save the session's FFD to a deformation file (format by extension), atomically.
+        """Save the session's FFD to a deformation file (format by extension), atomically; with an image shown,
+        the image warped by it too, beside it (:meth:`~.image.SessionImage.beside`).
 
         A format that cannot hold the FFD exactly (e.g. a Bernstein lattice in an ITK file) raises,
         with a message, and writes nothing.
@@ -143,6 +144,14 @@ class SessionFiles:
             self.session.error(f"could not save the lattice to {os.fspath(path)!r}: {exc}")
             raise
         self.session.info(f"saved the lattice to {os.fspath(path)}")
+        image = self.session.image
+        if image.loaded:  # the image warped by that lattice, beside it: lattice.warped.nii.gz
+            target = image.beside(path)
+            try:
+                image.save(target)
+            except (OSError, ValueError) as exc:
+                self.session.error(f"could not save the warped image to {os.fspath(target)!r}: {exc}")
+                raise
 
     def read_mesh(self, path: Path) -> tuple[Any, Deformer]:
         """Read a mesh and bind the lattice it will get, without changing anything: ``(surface, deformer)``.

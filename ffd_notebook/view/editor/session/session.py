@@ -36,6 +36,7 @@ from ....ffd.lattice import Lattice
 from .changes import Change, Subscribers
 from .files import SessionFiles
 from .history import History, LatticeSwap, OffsetEdit
+from .image import SessionImage
 from .lattices import copy_ffd, fitted_lattice
 from .message_log import MessageLog
 from .surface_drag import SurfaceDrag
@@ -121,6 +122,7 @@ class EditingSession:
         self._committed: NDArray[np.float64]  # the offsets as last recorded in the history
         self.surface = SurfaceDrag(self)  # pins, interaction mode, surface drags
         self.files = SessionFiles(self)  # lattice files and meshes
+        self.image = SessionImage(self)  # an image shown as warped slices, if any
         if lattice is None:
             lattice, self.lattice_source = fitted_lattice(mesh, shape, basis), "fit"
         else:
@@ -217,6 +219,7 @@ class EditingSession:
     def notify(self, kind: Any, points: Any = None, label: str = "", started: float | None = None) -> None:
         """Tell every subscriber about one :class:`~.changes.Change` (from the session's commands and parts)."""
         change = Change(kind, points, label) if started is None else Change(kind, points, label, started)
+        self.image.follow(change)  # the warped slices first: every view then sees them up to date
         self._subscribers.emit(change)
 
     def info(self, text: str) -> None:
