@@ -258,6 +258,7 @@ class LazySolidTexture:
             self._choice[tuple(blocks.T)] = cand[:, 0]
             return
         score = np.zeros(cand.shape, dtype=np.float32)
+        positions = self._pool[cand]  # (B, C, 3)
         for a in range(3):
             odd = self._odd[(a, *blocks.T)]
             for side, shift in ((0, -1), (1, 1)):
@@ -266,9 +267,13 @@ class LazySolidTexture:
                 use = odd & (nb[:, a] >= 0) & (nb[:, a] < self.n_blocks[a])
                 if not use.any():
                     continue
-                target = self._features[(a, 1 - side)][self._choice[tuple(nb[use].T)]]  # the neighbour's side
+                neighbour = self._choice[tuple(nb[use].T)]
+                target = self._features[(a, 1 - side)][neighbour]  # the neighbour's side
                 diff = self._features[(a, side)][cand[use]] - target[:, None, :]
                 score[use] += np.einsum("bcf,bcf->bc", diff, diff)
+                # no block next to itself (as synthesize): candidates within half a block of the neighbour's
+                gap = np.abs(positions[use] - self._pool[neighbour][:, None, :]).max(axis=2)
+                score[use] += np.where(gap < self.block // 2, np.float32(1e30), np.float32(0))
         self._choice[tuple(blocks.T)] = cand[np.arange(len(cand)), np.argmin(score, axis=1)]
 
     def _ensure_blocks(self, needed: NDArray[np.bool_]) -> None:

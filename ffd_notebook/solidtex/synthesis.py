@@ -157,6 +157,7 @@ def _run_stage(
     acc = np.zeros((*padded, 3), dtype=np.float32)
     wsum = np.zeros(padded, dtype=np.float32)  # with cuts: 1 where synthesised, and acc holds the colours
     nz, ny, nx = stage.n_blocks
+    chosen = np.full((nz, ny, nx, 3), -(10**9), dtype=np.int64)  # source position of each placed block
     for iz in range(nz):
         for iy in range(ny):
             for ix in range(nx):
@@ -165,13 +166,17 @@ def _run_stage(
                 has_prev = tuple(bool(i > 0) for i in index)
                 has_next = tuple(bool(i < n - 1) for i, n in zip(index, stage.n_blocks, strict=True))
                 region = tuple(slice(s, s + b) for s in origin)
+                # the blocks placed before this one that touch it (faces, edges, corners)
+                around = chosen[max(iz - 1, 0) : iz + 1, max(iy - 1, 0) : iy + 2, max(ix - 1, 0) : ix + 2]
+                around = around.reshape(-1, 3)
                 if keep is not None and np.all(origin + b <= np.array(keep)):
                     q = origin  # inside the region already synthesised: keep it where it is
                 elif not any(has_prev):
-                    q = matcher.best(None, has_prev, rng, candidates)
+                    q = matcher.best(None, has_prev, rng, candidates, around)
                 else:
                     target = matcher.target(acc[region], wsum[region], has_prev, o, stage.pool)
-                    q = matcher.best(target, has_prev, rng, candidates)
+                    q = matcher.best(target, has_prev, rng, candidates, around)
+                chosen[index] = q
                 matcher.placed(q)
                 new = source[q[0] : q[0] + b, q[1] : q[1] + b, q[2] : q[2] + b]
                 covered = wsum[region].copy()
