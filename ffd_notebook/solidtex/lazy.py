@@ -8,8 +8,10 @@ block is matched against all blocks before it; here the dependency order is fixe
 * blocks sit on a grid (edge ``block``, neighbours sharing ``overlap`` voxels, as in ``synthesize``);
   a block's *pass* is the number of its odd grid coordinates (0 to 3);
 * a block is matched only against its face neighbours along its odd axes, which are one pass
-  lower; pass-0 blocks are drawn at random (with the exemplar's colour-class probabilities). So a
-  block depends on blocks at most one step away along each axis, whatever the texture's size;
+  lower, and never takes a position within half a block of theirs (as in ``synthesize``: a block
+  next to itself is a visible repetition); pass-0 blocks are drawn at random (with the exemplar's
+  colour-class probabilities). So a block depends on blocks at most one step away along each axis,
+  whatever the texture's size;
 * every random draw of a block comes from a hash of ``(seed, iz, iy, ix)`` (SplitMix64, vectorised
   over all the blocks a cut needs): the same seed gives the same block wherever and whenever it is
   computed.
