@@ -90,7 +90,8 @@ def test_progress_bar_and_bad_input(exemplar, capsys):
 @pytest.mark.parametrize("seams, floor", [("cut", 0.8), ("feather", 0.7)])
 def test_twice_the_exemplar_does_not_tile(made, seams, floor):
     # issue 26: slices of a volume twice the exemplar's size as varied as the image (self-similarity
-    # >= 0.8 cut, >= 0.7 feathered; a tiled or repeated block scores ~0, blur ~0.6)
+    # >= 0.8 cut, >= 0.7 feathered; a tiled or repeated block scores ~0, blur ~0.6). The benchmark measures
+    # 192^3 from 96^3: histology 1.37-1.46 cut, 1.33-1.43 feathered; gravel 1.30-1.32 and 1.15-1.19
     name, image, ex = made
     out = synthesize(ex, 2 * ex.shape[0], rng=0, seams=seams, progress=False)
     ratios = self_similarity(out, image, slices=2)
