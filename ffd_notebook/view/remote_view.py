@@ -159,11 +159,19 @@ class FrameScheduler:
         """Nothing to reset: images carry no state between frames."""
 
     async def close(self) -> None:
-        """Stop the frame loop."""
+        """Stop the frame loop and wait until it has stopped."""
+        self.stop()
+        await asyncio.gather(self._task, return_exceptions=True)
+
+    def stop(self) -> None:
+        """Stop the frame loop (it ends at its event loop's next turn) and forget the window and the push
+        callback: a pending task is held by its event loop, so a scheduler left running kept its render
+        window, and the whole scene in it, alive for the rest of the process."""
         self._closing = True
         self._requested.set()
         self._task.cancel()
-        await asyncio.gather(self._task, return_exceptions=True)
+        self._push = self._sent = self.before_render = None
+        self.rca = None
 
     @property
     def period_s(self) -> float:
@@ -237,9 +245,15 @@ class InteractiveSizeAdapter(RcaViewAdapter):
     def __init__(self, window: Any, name: str, *, scheduler: FrameScheduler, ratio: float = 1.0, **kwargs: Any) -> None:
         # renders are asked for here (a kept move asks without being handled), not by trame-rca on every event
         super().__init__(window, name, scheduler=scheduler, do_schedule_render_on_interaction=False, **kwargs)
+        self.scheduler = scheduler
         self.ratio = ratio
         self._move: dict[str, Any] | None = None
         scheduler.before_render = self.flush
+
+    def release(self) -> None:
+        """Stop the frames and drop the window: the view is closed (events for it are no longer delivered)."""
+        self.scheduler.stop()
+        self._rca = self._move = None
 
     def flush(self) -> None:
         """Handle the mouse move kept for the next frame, if any (without asking for another frame)."""
@@ -311,7 +325,6 @@ class RemoteView:
         event_throttle_ms: int = 10,
         **kwargs: Any,
     ) -> None:
-        self.plotter = plotter
         from trame_rca.rca import window_wrapper
 
         self.area = _area_class()(display="image", event_throttle_ms=event_throttle_ms, **kwargs)
@@ -353,4 +366,24 @@ class RemoteView:
 
     def update(self) -> None:
         """Ask for a new frame (rendered and pushed by the scheduler, once per period at most)."""
-        self.handler.update()
+        if self.handler is not None:
+            self.handler.update()
+
+    @property
+    def closed(self) -> bool:
+        """Whether :meth:`close` has run."""
+        return self.handler is None
+
+    def close(self) -> None:
+        """Stop serving the plotter: the area's handler leaves the server (trame-rca keeps every registered
+        handler, and with it the render window, for as long as the server runs), the frame loop stops, and
+        the view keeps no VTK object. Safe to call twice."""
+        handler, self.handler = self.handler, None
+        if handler is None:
+            return
+        # (a view made before the server started waits in its area, which goes with this view)
+        unregister = getattr(self.server.root_server.controller, "rc_area_unregister", None)
+        if unregister is not None:
+            with contextlib.suppress(KeyError):
+                unregister(self.area.name)
+        handler.release()
