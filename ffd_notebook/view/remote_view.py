@@ -46,7 +46,7 @@ from typing import Any
 
 from trame_rca.view_adapter import RcaViewAdapter
 
-__all__ = ["ENCODER", "FrameScheduler", "InteractiveSizeAdapter", "RemoteView"]
+__all__ = ["ENCODER", "FrameScheduler", "InteractiveSizeAdapter", "PointerOwner", "RemoteView"]
 
 #: trame-rca's encoder name: Pillow's JPEG (libjpeg-turbo inside Pillow's wheels; see the module docstring)
 ENCODER = "jpeg"
@@ -225,6 +225,50 @@ class FrameScheduler:
                 await asyncio.wait_for(sent, self.SEND_TIMEOUT_S)
 
 
+class PointerOwner:
+    """One mouse for every browser tab showing a view: while a button is held in one tab (an *origin*), the
+    events of the others are dropped, so two tabs dragging at once make one drag, not two interleaved ones
+    (one interactor holds one pointer: interleaved moves would make the handle jump between the tabs' cursors
+    and end the drag at the other tab's release).
+
+    A tab that holds the pointer and then says nothing for ``timeout_s`` (closed in the middle of a drag)
+    loses it. Tabs that share one origin (trame-rca's default, "anonymous") are one pointer, as before.
+
+    Examples
+    --------
+    >>> owner = PointerOwner(timeout_s=5.0)
+    >>> owner.accepts("tab-a", "StartInteractionEvent", now=0.0), owner.accepts("tab-a", "LeftButtonPress", 0.0)
+    (True, True)
+    >>> owner.accepts("tab-b", "LeftButtonPress", now=0.1), owner.accepts("tab-b", "MouseMove", now=0.2)
+    (False, False)
+    >>> owner.accepts("tab-a", "LeftButtonRelease", now=0.3), owner.accepts("tab-a", "EndInteractionEvent", 0.3)
+    (True, True)
+    >>> owner.accepts("tab-b", "LeftButtonPress", now=0.4)   # free again
+    True
+    >>> owner.accepts("tab-a", "LeftButtonPress", now=9.0)   # tab-b went silent while holding it
+    True
+    """
+
+    def __init__(self, timeout_s: float = 10.0) -> None:
+        self.timeout_s = timeout_s
+        self.holder: Any = None
+        self._last = 0.0
+
+    def accepts(self, origin: Any, kind: str | None, now: float | None = None) -> bool:
+        """Whether the event ``kind`` from ``origin`` reaches the view (and who holds the pointer after it)."""
+        now = monotonic() if now is None else now
+        if self.holder is not None and origin != self.holder and now - self._last <= self.timeout_s:
+            return False
+        if kind in _PRESSES or kind == "StartInteractionEvent":
+            self.holder = origin
+        elif kind in _RELEASES or kind == "EndInteractionEvent":
+            self.holder = None
+        elif self.holder is not None and origin != self.holder:  # the silent holder's time ran out
+            self.holder = None
+        self._last = now
+        return True
+
+
 class InteractiveSizeAdapter(RcaViewAdapter):
     """trame-rca's view adapter, rendering at ``ratio`` of the size between the browser's Start and End of
     an interaction (trame-rca scales the events' coordinates by the same factor).
@@ -240,6 +284,10 @@ class InteractiveSizeAdapter(RcaViewAdapter):
     drag sets positions; a camera turn adds up the steps). In paired runs of
     tests/benchmarks/bench_browser.py (with the editor's 10k-triangle interactive copy, measured
     together) JupyterLab's drag went from 13.2-19.8 to 16.2-29.1 frames/s.
+
+    Several browser tabs may show one view (the app opened twice): the events' ``origin`` tells them
+    apart when the page gives each tab its own, and :class:`PointerOwner` lets one tab at a time hold the
+    mouse.
     """
 
     def __init__(self, window: Any, name: str, *, scheduler: FrameScheduler, ratio: float = 1.0, **kwargs: Any) -> None:
@@ -248,6 +296,7 @@ class InteractiveSizeAdapter(RcaViewAdapter):
         self.scheduler = scheduler
         self.ratio = ratio
         self._move: dict[str, Any] | None = None
+        self.pointer = PointerOwner()
         scheduler.before_render = self.flush
 
     def release(self) -> None:
@@ -263,6 +312,8 @@ class InteractiveSizeAdapter(RcaViewAdapter):
 
     def on_interaction(self, origin: Any, event: dict[str, Any]) -> None:
         kind = event.get("type")
+        if not self.pointer.accepts(origin, kind):
+            return  # another tab holds the mouse
         if kind == "MouseMove":
             self._move = event  # the newest position wins
             self.schedule_render()
@@ -283,6 +334,7 @@ class InteractiveSizeAdapter(RcaViewAdapter):
 
 #: trame-rca's button-press events
 _PRESSES = ("LeftButtonPress", "MiddleButtonPress", "RightButtonPress")
+_RELEASES = ("LeftButtonRelease", "MiddleButtonRelease", "RightButtonRelease")
 
 
 def _area_class() -> type:
