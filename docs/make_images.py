@@ -73,8 +73,8 @@ def editor_image(path: str | Path, window_size: tuple[int, int] = (900, 560)) ->
     spacing = editor.lattice.spacing
     editor.lattice.offsets[:, 3:, :] += (0.6 * spacing[0], 0.0, 0.0)  # shear the top (+y is up), from code
     editor.update()
-    editor.move_control_point((1, 2, 2), (-1.0 * spacing[0], 0.0, 0.0))  # as a drag or the panel would
-    editor.select((1, 2, 2))
+    editor.session.move_control_point((1, 2, 2), (-1.0 * spacing[0], 0.0, 0.0))  # as a drag or the panel would
+    editor.session.select((1, 2, 2))
     pixels = editor.screenshot()
     editor.close()
     _save_png(pixels, Path(path))

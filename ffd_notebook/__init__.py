@@ -18,11 +18,9 @@ True
 
 from __future__ import annotations
 
-from .deform import FFD
-from .deformer import Deformer
+from ._util.lazy import lazy_getattr
 from .errors import FileFormatError
-from .lattice import Lattice
-from .lazy import lazy_getattr
+from .ffd import FFD, Deformer, Lattice
 
 __version__ = "0.1.0"
 

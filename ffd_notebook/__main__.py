@@ -21,7 +21,6 @@ from __future__ import annotations
 
 import argparse
 import importlib
-import ipaddress
 import os
 import sys
 from collections.abc import Callable, Sequence
@@ -60,15 +59,6 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def _is_loopback(host: str) -> bool:
-    if host == "localhost":
-        return True
-    try:
-        return ipaddress.ip_address(host).is_loopback
-    except ValueError:
-        return False
-
-
 def main(argv: Sequence[str] | None = None, *, setup: Callable[[Any], None] | None = None) -> int:
     """Parse ``argv`` (``sys.argv[1:]`` by default), build the editor and serve it until interrupted.
 
@@ -85,7 +75,9 @@ def main(argv: Sequence[str] | None = None, *, setup: Callable[[Any], None] | No
             parser.error(f"no such {what}: {path}")
     if not os.path.isdir(args.root):
         parser.error(f"no such folder: {args.root}")
-    if not _is_loopback(args.host):
+    from .view.web_security import is_loopback  # standard library only
+
+    if not is_loopback(args.host):
         print(
             f"warning: listening on {args.host}: whoever has the printed address (it holds the session token) "
             f"can edit, and read or write mesh and .ffd files in {os.path.abspath(args.root)}, as this user",

@@ -1,10 +1,14 @@
-"""Exceptions raised for bad input."""
+"""The package's exceptions, in one place: bad files, refused paths, failed batches."""
 
 from __future__ import annotations
 
 import os
+from typing import TYPE_CHECKING
 
-__all__ = ["FileFormatError"]
+if TYPE_CHECKING:
+    from .batch.engine import BatchResult
+
+__all__ = ["BatchError", "FileFormatError", "PathRefused"]
 
 
 class FileFormatError(ValueError):
@@ -28,3 +32,24 @@ class FileFormatError(ValueError):
 
     def __reduce__(self):  # keep it picklable (multiprocessing, pytest-xdist)
         return (type(self), (self.path, self.line, self.problem))
+
+
+class PathRefused(ValueError):
+    """A path the app will not read or write (outside its root, a special file, too big, wrong kind).
+
+    Examples
+    --------
+    >>> str(PathRefused("'../a.ffd' is outside the app's folder"))
+    "'../a.ffd' is outside the app's folder"
+    """
+
+
+class BatchError(RuntimeError):
+    """Some samples of a batch failed; the others were written. ``result`` holds everything."""
+
+    def __init__(self, result: BatchResult) -> None:
+        self.result = result
+        shown = "; ".join(result.failed[i] for i in sorted(result.failed)[:5])
+        more = "" if len(result.failed) <= 5 else f"; and {len(result.failed) - 5} more"
+        total = len(result.failed) + len(result.made)
+        super().__init__(f"{len(result.failed)} of {total} samples failed: {shown}{more}")

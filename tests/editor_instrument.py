@@ -62,8 +62,8 @@ class Instrument:
     def _follow(self, change: Any) -> None:
         if change.kind != "drag":
             return
-        if change.label == "surface drag" and self.editor.session.surface_grab is not None:
-            self.last_grab = self.editor.session.surface_grab.tolist()
+        if change.label == "surface drag" and self.editor.session.surface.grabbed is not None:
+            self.last_grab = self.editor.session.surface.grabbed.tolist()
         self.n_drags += 1
         if self._trace is None:
             return
@@ -93,9 +93,9 @@ class Instrument:
         ren = plotter.renderer
         w, h = plotter.render_window.GetSize()
         shown = set(self.editor.scene.lattice_actor.shown.tolist())
-        from ffd_notebook.fit import control_weights
+        from ffd_notebook.ffd.fit import control_weights
 
-        index, weight = control_weights(self.editor.ffd, self.editor.session.rest_points)
+        index, weight = control_weights(self.editor.session.ffd, self.editor.session.rest_points)
         rows = np.repeat(np.arange(len(index)), index.shape[1])
         # a control point's pull on each vertex (repeated indices of the clamp border add up), its largest
         n_points = int(np.prod(self.editor.lattice.shape))
@@ -115,7 +115,7 @@ class Instrument:
     def surface(self, probe: list[list[float]] | None = None) -> dict[str, Any]:
         """What the ``ffd_surface`` trigger answers: the mode, the pins (rest and on screen), the last
         grabbed point (rest and on screen), and for each ``probe`` ``(u, v)`` the rest point under it (or None)."""
-        session, handle = self.editor.session, self.editor.scene.surface_handle
+        session, handle = self.editor.session, self.editor.scene.surface_picking
         w, h = self.editor.plotter.render_window.GetSize()
 
         def on_screen(rest: Any) -> list[list[float]]:
@@ -125,13 +125,13 @@ class Instrument:
 
         hits = [handle.pick(u * w, v * h) for u, v in probe or []]
         return {
-            "mode": session.interaction_mode,
-            "pins": session.pins.tolist(),
-            "pins_uv": on_screen(session.pins),
-            "pins_world": session.pinned_points().tolist(),
+            "mode": session.surface.mode,
+            "pins": session.surface.pins.tolist(),
+            "pins_uv": on_screen(session.surface.pins),
+            "pins_world": session.surface.pinned_points().tolist(),
             "grab": self.last_grab,
             "grab_uv": on_screen(self.last_grab)[0] if self.last_grab is not None else None,
-            "dragging": session.surface_grab is not None,
+            "dragging": session.surface.grabbed is not None,
             "history": len(session.history),
             "probe": [None if hit is None else hit.tolist() for hit in hits],
         }

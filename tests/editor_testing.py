@@ -68,13 +68,13 @@ def line_points(editor) -> np.ndarray:
 
 def shown_points(editor) -> np.ndarray:
     """Points of the plotted mesh (what the renderer draws)."""
-    return np.asarray(editor.mesh_actor.GetMapper().GetInput().GetPoints().GetData()).astype(np.float64)
+    return np.asarray(editor.scene.mesh_actor.GetMapper().GetInput().GetPoints().GetData()).astype(np.float64)
 
 
 def assert_view_matches_model(editor, atol=1e-5):
     """Mesh points, lattice lines, control-point spheres and the handle all follow the lattice
     (FFD.deform as the reference)."""
-    expected = editor.ffd.deform(editor.mesh.points)
+    expected = editor.session.ffd.deform(editor.mesh.points)
     np.testing.assert_allclose(shown_points(editor), expected, atol=atol)
     control = editor.lattice.control_points(deformed=True).reshape(-1, 3)
     np.testing.assert_allclose(line_points(editor), control, atol=1e-6)

@@ -3,7 +3,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from reference_ffd import report_bspline
 
-from ffd_notebook.basis import (
+from ffd_notebook.ffd.basis import (
     BSPLINE_MATRIX,
     bernstein,
     bernstein_derivative,

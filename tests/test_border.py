@@ -8,8 +8,8 @@ from reference_ffd import deform_loop
 from test_deform import random_lattice
 
 from ffd_notebook import FFD, Lattice, read_mesh
-from ffd_notebook.basis import bspline_support
 from ffd_notebook.datasets import sample_mesh
+from ffd_notebook.ffd.support import axis_support
 
 SHAPES = st.tuples(*[st.integers(2, 7)] * 3)
 
@@ -23,10 +23,10 @@ def clamp_lattice(seed, shape, scale=0.5):
 @settings(max_examples=40, deadline=None)
 @given(st.floats(-20, 20, allow_nan=False), st.integers(2, 9))
 def test_clamped_support_folds_onto_the_border_and_sums_to_one(u, n):
-    index, weight = bspline_support(np.array([u]), n, border="clamp")
+    index, weight = axis_support(np.array([u]), n, border="clamp")
     assert index.min() >= 0 and index.max() <= n - 1
     assert weight.sum() == pytest.approx(1.0, abs=1e-12)
-    zero_index, zero_weight = bspline_support(np.array([u]), n, border="zero")
+    zero_index, zero_weight = axis_support(np.array([u]), n, border="zero")
     np.testing.assert_array_equal(index, zero_index)
     # "clamp" gives the same weights where the support is inside; the rest goes to the border
     inside = zero_weight > 0

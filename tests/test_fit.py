@@ -7,7 +7,7 @@ from hypothesis import strategies as st
 from test_deform import random_lattice
 
 from ffd_notebook import FFD, Lattice
-from ffd_notebook.fit import control_weights
+from ffd_notebook.ffd.fit import control_weights
 
 CASES = [("bspline", "zero"), ("bspline", "clamp"), ("bernstein", "zero")]
 

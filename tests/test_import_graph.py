@@ -149,7 +149,7 @@ PRIVATE = {str(MODULES[n].relative_to(PACKAGE.parent)): r for n in MODULES if (r
 
 
 def test_the_graph_is_computed():
-    assert "ffd_notebook.lattice" in GRAPH["ffd_notebook.deform"]
+    assert "ffd_notebook.ffd.lattice" in GRAPH["ffd_notebook.ffd.deform"]
     assert len(MODULES) > 40
 
 
@@ -172,12 +172,12 @@ def test_known_cycles_are_not_stale():
 
 
 def test_the_private_name_check_finds_reaches():
-    tree = ast.parse("from ffd_notebook.lattice import _hidden\nx = obj._secret\nself._mine = 1\ny = self._mine\n")
+    tree = ast.parse("from ffd_notebook.ffd.lattice import _hidden\nx = obj._secret\nself._mine = 1\ny = self._mine\n")
     TREES["ffd_notebook.__probe__"] = tree
-    MODULES["ffd_notebook.__probe__"] = PACKAGE / "lattice.py"
+    MODULES["ffd_notebook.__probe__"] = PACKAGE / "ffd" / "lattice.py"
     try:
         assert private_reaches("ffd_notebook.__probe__") == [
-            "1: from ffd_notebook.lattice import _hidden",
+            "1: from ffd_notebook.ffd.lattice import _hidden",
             "2: obj._secret",
         ]
     finally:

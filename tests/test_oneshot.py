@@ -9,7 +9,8 @@ from hypothesis import strategies as st
 from reference_ffd import bernstein_loop, deform_loop
 
 from ffd_notebook import FFD, Lattice
-from ffd_notebook._oneshot import in_domain, lattice_rows
+from ffd_notebook.ffd.oneshot import lattice_rows
+from ffd_notebook.ffd.support import in_domain
 
 
 def random_lattice(seed: int, low: int = 4, high: int = 9) -> Lattice:

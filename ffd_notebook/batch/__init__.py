@@ -23,7 +23,7 @@ True
 
 from __future__ import annotations
 
-from ..lazy import lazy_getattr
+from .._util.lazy import lazy_getattr
 from .folding import FoldFree, volume_grid
 from .gp_model import RandomGP
 from .models import LatticeSample, RandomLattice
@@ -36,7 +36,7 @@ _LAZY = {
     "local_cluster": "ffd_notebook.batch.cluster",
     "replay": "ffd_notebook.batch.engine",
     "BatchResult": "ffd_notebook.batch.engine",
-    "BatchError": "ffd_notebook.batch.engine",
+    "BatchError": "ffd_notebook.errors",
     "read_manifest": "ffd_notebook.batch.output",
 }
 

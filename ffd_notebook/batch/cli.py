@@ -120,8 +120,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = parser.parse_args(argv)
     if args.model != "files" and args.n is None:
         parser.error("--n is required")
-    from ..errors import FileFormatError
-    from .engine import BatchError, generate
+    from ..errors import BatchError, FileFormatError
+    from .engine import generate
 
     try:
         rule = None if args.no_fold_check else FoldFree(args.min_det, args.grid, args.on_fold, args.max_tries)

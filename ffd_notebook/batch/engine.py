@@ -24,13 +24,14 @@ from typing import Any
 
 import numpy as np
 
-from ..blas import one_blas_thread
+from .._util.blas import one_blas_thread
+from ..errors import BatchError
 from .files import LatticeFiles
 from .folding import FoldFree
 from .output import FORMATS, Layout
 from .sample import Job, context, deformed_mesh, load_sample, mesh_sha256, run_samples
 
-__all__ = ["BatchError", "BatchResult", "generate", "replay"]
+__all__ = ["BatchResult", "generate", "replay"]
 
 LOCAL = ("threads", "processes", "sync")
 MAX_PER_TASK = 8  # samples per Dask task (see task_groups())
@@ -69,17 +70,6 @@ class BatchResult:
     cpu: np.ndarray = field(default_factory=lambda: np.zeros(0))
     wall: float = 0.0
     scheduler: str = ""
-
-
-class BatchError(RuntimeError):
-    """Some samples failed; the others were written. ``result`` holds everything."""
-
-    def __init__(self, result: BatchResult) -> None:
-        self.result = result
-        shown = "; ".join(result.failed[i] for i in sorted(result.failed)[:5])
-        more = "" if len(result.failed) <= 5 else f"; and {len(result.failed) - 5} more"
-        total = len(result.failed) + len(result.made)
-        super().__init__(f"{len(result.failed)} of {total} samples failed: {shown}{more}")
 
 
 def _check_model(model: Any, n: int | None) -> int:

@@ -18,10 +18,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from .._oneshot import in_domain
-from ..basis import bspline, bspline_derivative
-from ..deform import FFD, Deformer
-from ..weights import CellGroups, det3, jacobian_to_world, outer_uv
+from ..ffd import FFD, Deformer
+from ..ffd.jacobian import bspline_jacobian_factors, bspline_lattice_jacobian, det3, jacobian_to_world
+from ..ffd.support import CellGroups, in_domain
 from .models import LatticeSample, with_lattice
 
 __all__ = ["PointEvaluator"]
@@ -33,7 +32,8 @@ class _BsplineJacobian:
     The engine's :meth:`Deformer.jacobian_determinant` recomputes each point's basis values,
     derivatives and their products on every call (a drag changes little else); here they are
     the same for every sample, so only the three cell sums, the chain rule and the determinant
-    remain (the same formula as ``deform._bspline_lattice_jacobian``; the cache holds 416 bytes
+    remain (:func:`~ffd_notebook.ffd.jacobian.bspline_lattice_jacobian` on the factors of
+    :func:`~ffd_notebook.ffd.jacobian.bspline_jacobian_factors`, kept; the cache holds 416 bytes
     a point). The grouping pads the offsets by the FFD's border rule; with ``only_inside`` the
     points outside the lattice's domain get the affine part's Jacobian alone, as in
     :meth:`FFD.jacobian`.
@@ -45,22 +45,13 @@ class _BsplineJacobian:
         # in sorted order, like the cell sums; None when every point may move
         outside = ~in_domain(ffd.basis, ffd.lattice.shape, uvw) if ffd.only_inside else None
         self.outside = None if outside is None else outside[self.cells.order]
-        t = self.cells.t
-        vals = [bspline(t[:, a]) for a in range(3)]
-        ders = [bspline_derivative(t[:, a]) for a in range(3)]
-        self.factors = []
-        for axis in range(3):
-            bu, bv, bw = (ders[a] if a == axis else vals[a] for a in range(3))
-            self.factors.append((outer_uv(bu, bv), self.cells.masked(bw.copy())))
+        self.factors = bspline_jacobian_factors(self.cells.t)
         self.cells.t = None
         self.inverse = np.empty_like(self.cells.order)
         self.inverse[self.cells.order] = np.arange(len(points), dtype=self.cells.order.dtype)
 
     def __call__(self, ffd: FFD) -> NDArray[np.float64]:
-        padded = self.cells.pad(ffd.lattice.offsets)
-        d_uvw = np.empty((len(self.inverse), 3, 3))
-        for axis, (buv, bw) in enumerate(self.factors):
-            d_uvw[:, :, axis] = self.cells.sum(padded, buv, bw)
+        d_uvw = bspline_lattice_jacobian(self.cells, ffd.lattice.offsets, factors=self.factors)
         if self.outside is not None:
             d_uvw[self.outside] = 0.0
         return det3(jacobian_to_world(ffd.lattice, ffd.affine, d_uvw))[self.inverse]

@@ -19,7 +19,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
-from ..deform import FFD
+from ..ffd.deform import FFD
 from ..io.deformation_files import load_deformation
 from .models import LatticeSample, with_lattice
 

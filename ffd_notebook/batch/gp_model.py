@@ -14,8 +14,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from ..ffd.lattice import Lattice
 from ..gp import BSplineKernel, GaussianKernel, GaussianProcess, LowRankGP
-from ..lattice import Lattice
 
 __all__ = ["GPSample", "RandomGP"]
 

@@ -15,9 +15,10 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..basis import check_border
-from ..deform import BASES, FFD
-from ..lattice import Lattice
+from ..ffd.basis import BASES
+from ..ffd.deform import FFD
+from ..ffd.lattice import Lattice
+from ..ffd.support import check_border
 
 __all__ = ["LatticeSample", "RandomLattice"]
 

@@ -19,7 +19,7 @@ from typing import Any
 
 import numpy as np
 
-from ..blas import one_blas_thread
+from .._util.blas import one_blas_thread
 from ..io import load_ffd, read_mesh, save_ffd, write_mesh
 from ..io._atomic import folder_syncs_deferred
 from .evaluate import PointEvaluator

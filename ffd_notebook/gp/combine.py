@@ -23,6 +23,7 @@ from abc import ABC, abstractmethod
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from .._util.points import as_points
 from .linalg import cholesky
 
 __all__ = [
@@ -32,23 +33,10 @@ __all__ = [
     "ProductKernel",
     "ScaledKernel",
     "SumKernel",
-    "as_points",
     "per_axis",
 ]
 
 _CHUNK = 1024  # points per block when a diagonal needs cross terms
-
-
-def as_points(points: ArrayLike, name: str = "points") -> NDArray[np.float64]:
-    """Return an ``(N, 3)`` float64 array (one point may be given as a 3-vector)."""
-    arr = np.asarray(points, dtype=np.float64)
-    if arr.ndim == 1 and arr.shape == (3,):
-        arr = arr[None, :]
-    if arr.ndim != 2 or arr.shape[1] != 3:
-        raise ValueError(f"{name} must be an (N, 3) array, got shape {arr.shape}")
-    if not np.all(np.isfinite(arr)):
-        raise ValueError(f"{name} contain NaN or infinite values")
-    return arr
 
 
 def per_axis(value: ArrayLike, name: str) -> NDArray[np.float64]:

@@ -24,7 +24,7 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .kernels import as_points
+from .._util.points import as_points
 from .process import GaussianProcess
 
 __all__ = ["ArrowField", "arrow_field", "grid_points", "sample_jointly"]

@@ -30,9 +30,10 @@ import scipy.sparse as sp
 from numpy.typing import ArrayLike, NDArray
 from scipy.spatial.distance import cdist
 
-from ..basis import bspline, bspline_cells
-from ..lattice import Lattice
-from .combine import Kernel, as_points, per_axis
+from .._util.points import as_points
+from ..ffd.lattice import Lattice
+from ..ffd.support import axis_support
+from .combine import Kernel, per_axis
 from .linalg import as_generator
 
 __all__ = [
@@ -40,7 +41,6 @@ __all__ = [
     "ExponentialKernel",
     "GaussianKernel",
     "Kernel",
-    "as_points",
     "bspline_weights",
 ]
 
@@ -135,15 +135,10 @@ def bspline_weights(lattice: Lattice, points: ArrayLike) -> sp.csr_matrix:
     >>> W.shape, W.sum(axis=1).round(12).ravel().tolist()
     ((2, 64), [1.0, 1.0])
     """
-    first, t = bspline_cells(lattice.to_lattice(as_points(points)))
-    n = len(t)
-    index, weight = [], []
-    for a, size in enumerate(lattice.shape):
-        i = first[:, a, None] + np.arange(4)  # (N, 4) control-point indices along this axis
-        inside = (i >= 0) & (i < size)
-        index.append(np.where(inside, i, 0))
-        weight.append(np.where(inside, bspline(t[:, a]), 0.0))  # control points outside count zero
-    (ix, iy, iz), (wx, wy, wz) = index, weight
+    uvw = lattice.to_lattice(as_points(points))
+    n = len(uvw)
+    # per axis (N, 4) control-point indices and weights; control points outside count zero
+    (ix, wx), (iy, wy), (iz, wz) = (axis_support(uvw[:, a], size, "zero") for a, size in enumerate(lattice.shape))
     _, ny, nz = lattice.shape
     columns = (ix[:, :, None, None] * ny + iy[:, None, :, None]) * nz + iz[:, None, None, :]
     values = wx[:, :, None, None] * wy[:, None, :, None] * wz[:, None, None, :]

@@ -30,21 +30,27 @@ Examples
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+from typing import TYPE_CHECKING
+
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from .._util.points import as_points
+from . import lowrank_build as build
 from . import lowrank_ops as ops
-from .kernels import as_points
 from .linalg import as_generator
-from .lowrank_build import LowRankBuilders
 from .space import Space, joined_space
+
+if TYPE_CHECKING:
+    from .process import GaussianProcess
 
 __all__ = ["LowRankGP"]
 
 _LOG_2PI = float(np.log(2.0 * np.pi))
 
 
-class LowRankGP(LowRankBuilders):
+class LowRankGP:
     """A Gaussian process on a point set, held by a few basis functions.
 
     Coefficients index the basis functions (decreasing :attr:`eigenvalues` for every model the
@@ -80,6 +86,128 @@ class LowRankGP(LowRankBuilders):
         self._mean_values = space.base_values + (self._mean_shift.T @ space.vectors_t).T
         self._basis = None if variances is None else (factor, np.asarray(variances, dtype=np.float64))
         self.metadata: dict = {}
+
+    # ------------------------------------------------------------------ making one (parts: lowrank_build)
+    @classmethod
+    def nystrom(
+        cls,
+        process: GaussianProcess,
+        points: ArrayLike,
+        n_inducing: int = 500,
+        rank: int | None = None,
+        variance: float | None = None,
+        rng: int | np.random.Generator | None = None,
+        progress: bool = False,
+    ) -> LowRankGP:
+        """Nystrom approximation from ``n_inducing`` points drawn at random from ``points``.
+
+        Parameters
+        ----------
+        process : GaussianProcess
+            The process to approximate (its kernel and mean).
+        points : (N, 3) array_like
+            The point set (a mesh's vertices).
+        n_inducing : int
+            Inducing points ``m``; the rank is at most ``3 m``.
+        rank, variance : optional
+            Keep ``rank`` basis functions, or the fewest that capture the fraction ``variance``
+            of the total variance; by default all numerically non-zero ones.
+        rng : int or Generator, optional
+            Chooses the inducing points.
+        progress : bool
+            Show a progress bar while the kernel matrix is evaluated.
+        """
+        return cls(*build.nystrom_parts(process, points, n_inducing, rank, variance, rng, progress))
+
+    @classmethod
+    def pivoted_cholesky(
+        cls,
+        process: GaussianProcess,
+        points: ArrayLike,
+        tolerance: float = 1e-2,
+        max_rank: int = 1000,
+        rank: int | None = None,
+        variance: float | None = None,
+        progress: bool = False,
+        absolute_tolerance: float = 0.0,
+    ) -> LowRankGP:
+        """Pivoted Cholesky approximation, stopped at a rank or at a trace tolerance.
+
+        Pivots are added greedily (largest remaining variance first) until the trace of the
+        residual ``K - L L^T`` is at most ``tolerance * trace(K)`` (relative) or at most
+        ``absolute_tolerance`` (world units squared, per scalar component), or ``max_rank``
+        pivots are taken. Costs ``O(N r^2)`` for ``r`` pivots. ``rank`` and ``variance`` then
+        truncate the eigenbasis as in :meth:`nystrom`. The variance kept is reported by
+        :attr:`kept_variance` and :attr:`captured_variance`.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from ffd_notebook.gp import GaussianKernel, GaussianProcess, LowRankGP
+        >>> pts = np.random.default_rng(0).random((500, 3))
+        >>> gp = GaussianProcess(GaussianKernel(0.5))
+        >>> model = LowRankGP.pivoted_cholesky(gp, pts, tolerance=0.0, absolute_tolerance=1.0)
+        >>> bool(model.total_variance - model.kept_variance <= 3 * 1.0)     # three components
+        True
+        >>> LowRankGP.pivoted_cholesky(gp, pts, tolerance=0.0, max_rank=4).rank   # 4 pivots, x y z each
+        12
+        """
+        return cls(
+            *build.pivoted_cholesky_parts(
+                process, points, tolerance, max_rank, rank, variance, progress, absolute_tolerance
+            )
+        )
+
+    @classmethod
+    def from_examples(
+        cls,
+        reference: ArrayLike | object,
+        meshes: Sequence[ArrayLike | object],
+        rank: int | None = None,
+        variance: float | None = None,
+    ) -> LowRankGP:
+        """A statistical shape model: the mean and principal components of meshes in correspondence.
+
+        Vertex ``i`` of every mesh corresponds to vertex ``i`` of the reference; the model is of
+        the displacements ``mesh - reference``, with the sample covariance divided by ``n - 1``
+        (Scalismo's ``PointDistributionModel.createUsingPCA``). Only the components with a
+        non-zero variance are kept (at most ``n - 1``), or ``rank`` / a ``variance`` fraction.
+
+        Parameters
+        ----------
+        reference : (N, 3) array_like or mesh
+            The reference shape; a mesh's triangles become the model's :attr:`cells`.
+        meshes : sequence of (N, 3) array_like or meshes
+            At least two examples.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from ffd_notebook.gp import LowRankGP
+        >>> ref = np.random.default_rng(0).random((100, 3))
+        >>> shapes = [ref + [t, 0.0, 0.0] for t in (-1.0, 0.0, 1.0)]       # one mode: a shift in x
+        >>> model = LowRankGP.from_examples(ref, shapes)
+        >>> model.rank, model.eigenvalues.round(6).tolist()
+        (1, [100.0])
+        """
+        return cls(*build.example_parts(reference, meshes, rank, variance))
+
+    @classmethod
+    def from_basis_matrix(
+        cls,
+        reference: ArrayLike,
+        mean: ArrayLike,
+        basis: ArrayLike,
+        variances: ArrayLike,
+        cells: ArrayLike | None = None,
+    ) -> LowRankGP:
+        """A model given as Statismo stores one: instance ``c`` is ``mean + basis @ (sqrt(variances) * c)``.
+
+        ``mean`` is the mean displacement ``(N, 3)``, ``basis`` ``(3N, r)`` with rows
+        ``3 i + a`` (point ``i``, component ``a``), ``variances`` ``(r,)``. The basis is kept as
+        given (it need not be orthonormal), so coefficients mean what they meant in the file.
+        """
+        return cls(*build.matrix_parts(reference, mean, basis, variances, cells))
 
     # ------------------------------------------------------------------ basis
     def _basis_form(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:

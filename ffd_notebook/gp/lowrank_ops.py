@@ -13,7 +13,7 @@ import numpy as np
 import scipy.linalg as sla
 from numpy.typing import ArrayLike, NDArray
 
-from ..blas import one_blas_thread
+from .._util.blas import one_blas_thread
 from .linalg import cholesky
 from .noise import observation_noise
 from .space import Space
@@ -113,7 +113,7 @@ def condition(
 
     The coefficients' posterior is ``N(G^T C^-1 r, I - G^T G)`` with ``C`` the Cholesky factor of
     ``Q Q^T + noise`` and ``G = C^-1 Q``, ``Q`` the factor at the landmarks. Every matrix here is
-    landmark- or rank-sized, so the BLAS runs on one thread (:func:`ffd_notebook.blas.one_blas_thread`:
+    landmark- or rank-sized, so the BLAS runs on one thread (:func:`ffd_notebook._util.blas.one_blas_thread`:
     20 landmarks with 3x3 noise on a rank-49 model, 292 ms with OpenBLAS's threads on a busy
     2-core machine, 12 ms on one).
     """

@@ -31,7 +31,7 @@ from collections.abc import Sequence
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .kernels import as_points
+from .._util.points import as_points
 from .linalg import as_generator
 from .lowrank import LowRankGP
 

@@ -16,7 +16,8 @@ import numpy as np
 import scipy.linalg as sla
 from numpy.typing import ArrayLike, NDArray
 
-from .kernels import Kernel, as_points
+from .._util.points import as_points
+from .kernels import Kernel
 from .linalg import cholesky
 from .noise import observation_noise
 

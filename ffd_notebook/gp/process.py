@@ -27,7 +27,8 @@ from collections.abc import Callable
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .kernels import Kernel, as_points
+from .._util.points import as_points
+from .kernels import Kernel
 from .linalg import as_generator
 from .noise import noise_variances
 from .posterior import PosteriorKernel, PosteriorMean

@@ -12,13 +12,17 @@ The mesh functions return PyVista meshes, so they are imported on first use (PEP
 
 from __future__ import annotations
 
-from ..lazy import lazy_getattr
+from .._util.lazy import lazy_getattr
 from ._safety import MAX_FILE_BYTES, check_regular_file
 from .deformation_files import load_deformation, save_deformation
 from .ffd_file import load_ffd, save_ffd
 from .itk import load_transform, save_transform
 from .placement import place_at_mesh_minimum
 from .prm import load_prm, save_prm
+
+#: Mesh file extensions :func:`read_mesh` and :func:`write_mesh` handle (here, not in the mesh
+#: module, so that code checking a name loads no VTK).
+MESH_SUFFIXES = (".obj", ".ply", ".stl", ".vtk", ".vtp", ".vtu")
 
 # mesh functions (PyVista, hence VTK) -> the module that defines them
 _LAZY = {
@@ -30,6 +34,7 @@ _LAZY = {
 
 __all__ = [
     "MAX_FILE_BYTES",
+    "MESH_SUFFIXES",
     "check_regular_file",
     "load_deformation",
     "load_ffd",

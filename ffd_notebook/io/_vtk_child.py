@@ -23,7 +23,7 @@ _READERS = {  # extension -> (module, class)
 }
 
 
-def convert(source: str, target: str, suffix: str) -> str | None:
+def rewrite_as_vtk_xml(source: str, target: str, suffix: str) -> str | None:
     """Read ``source`` with VTK and write it to ``target`` + .vtp or .vtu; an error message or None."""
     import importlib
 
@@ -62,7 +62,7 @@ def convert(source: str, target: str, suffix: str) -> str | None:
 
 if __name__ == "__main__":
     source, target, suffix = sys.argv[1:4]
-    problem = convert(source, target, suffix)
+    problem = rewrite_as_vtk_xml(source, target, suffix)
     if problem is not None:
         sys.stderr.write(problem)
         sys.exit(2)

@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..deform import FFD
+from ..ffd.deform import FFD
 from .ffd_file import load_ffd, save_ffd
 from .itk import ITK_SUFFIXES, load_transform, save_transform
 from .prm import load_prm, save_prm

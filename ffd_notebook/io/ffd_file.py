@@ -29,9 +29,9 @@ from typing import Any
 
 import numpy as np
 
-from ..basis import BORDERS
 from ..errors import FileFormatError
-from ..lattice import Lattice
+from ..ffd.lattice import Lattice
+from ..ffd.support import BORDERS
 from ._atomic import atomic_open
 from ._text import end_line, parse_float, parse_int, read_lines, split_fields
 from .placement import quaternion_to_rotation, rotation_to_quaternion

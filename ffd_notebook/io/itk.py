@@ -11,7 +11,7 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
-from ..deform import FFD
+from ..ffd.deform import FFD
 from .itk_h5 import read_itk_h5, write_itk_h5
 from .itk_model import ffd_to_transforms, transforms_to_ffd
 from .itk_text import read_itk_text, write_itk_text

@@ -34,9 +34,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..deform import FFD
 from ..errors import FileFormatError
-from ..lattice import Lattice
+from ..ffd.deform import FFD
+from ..ffd.lattice import Lattice
+from ..ffd.support import pad_offsets
 
 __all__ = ["RawTransform", "ffd_to_transforms", "transforms_to_ffd"]
 
@@ -237,7 +238,7 @@ def ffd_to_transforms(ffd: FFD) -> list[RawTransform]:
     lat = ffd.lattice
     offsets, origin, shape = lat.offsets, lat.origin, lat.shape
     if not ffd.only_inside:
-        offsets = np.pad(offsets, ((_PAD, _PAD),) * 3 + ((0, 0),))
+        offsets = pad_offsets(offsets, "zero", _PAD)
         origin = origin - lat.rotation @ (_PAD * lat.spacing)
         shape = offsets.shape[:3]
     a, b = ffd.affine[:3, :3], ffd.affine[:3, 3]

@@ -25,16 +25,16 @@ import numpy as np
 import pyvista as pv
 
 from ..errors import FileFormatError
+from . import MESH_SUFFIXES
 from ._atomic import atomic_path
 from ._safety import MAX_FILE_BYTES, read_bytes
 from .mesh_checks import check_cells, check_header_counts
 from .obj import read_obj, write_obj
 from .ply import read_ply
 
-__all__ = ["MESH_SUFFIXES", "read_mesh", "write_mesh"]
+__all__ = ["read_mesh", "write_mesh"]
 
 #: Extensions :func:`read_mesh` reads (lower case).
-MESH_SUFFIXES = (".obj", ".ply", ".stl", ".vtk", ".vtp", ".vtu")
 _HEADER_BYTES = 1 << 20  # XML headers: counts are looked for in the first MiB
 READ_TIMEOUT = 300  # seconds VTK's reader may take in its child process
 

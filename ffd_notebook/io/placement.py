@@ -17,7 +17,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..lattice import Lattice, as_points
+from .._util.points import as_points
+from ..ffd.lattice import Lattice
 
 __all__ = ["place_at_mesh_minimum", "quaternion_to_rotation", "rotation_to_quaternion"]
 

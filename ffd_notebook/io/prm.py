@@ -25,7 +25,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from ..errors import FileFormatError
-from ..lattice import Lattice
+from ..ffd.lattice import Lattice
 from ._atomic import atomic_open
 from ._text import end_line, parse_float, parse_int, read_lines
 

@@ -64,7 +64,7 @@ from scipy.spatial import cKDTree
 from scipy.stats import special_ortho_group
 from tqdm.auto import tqdm
 
-from ..deprecation import renamed_keyword
+from .._util.deprecation import renamed_keyword
 from .neighbourhoods import image_windows
 from .seeding import RNGLike, integer_seed
 from .slices import as_rgb8

@@ -31,7 +31,7 @@ import math
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..deprecation import renamed_keyword
+from .._util.deprecation import renamed_keyword
 from .blending import axis_ramp
 from .blocks import box_mean, choose_block_size, classify_blocks
 from .seeding import RNGLike, integer_seed

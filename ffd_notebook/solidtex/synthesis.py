@@ -32,7 +32,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from tqdm.auto import tqdm
 
-from ..deprecation import renamed_keyword
+from .._util.deprecation import renamed_keyword
 from .blending import block_weights
 from .blocks import choose_block_size
 from .matching import BlockMatcher, HistogramTerm

@@ -21,13 +21,12 @@ import shutil
 import tempfile
 from pathlib import Path
 
-from ..errors import FileFormatError
+from ..errors import FileFormatError, PathRefused
 from ..io import check_regular_file
 from ..io.deformation_files import DEFORMATION_SUFFIXES
 
 __all__ = [
     "DEFAULT_MAX_FILE_BYTES",
-    "MESH_SUFFIXES",
     "FileRoot",
     "PathRefused",
     "ScratchFolder",
@@ -36,13 +35,8 @@ __all__ = [
 ]
 
 DEFAULT_MAX_FILE_BYTES = 512 * 1024 * 1024
-MESH_SUFFIXES = (".obj", ".ply", ".stl", ".vtp", ".vtk", ".vtu")
 #: lattice files the app reads and writes: every deformation format of :mod:`ffd_notebook.io`
 FFD_SUFFIXES = tuple(DEFORMATION_SUFFIXES)
-
-
-class PathRefused(ValueError):
-    """A path the app will not read or write (outside its root, a special file, too big, wrong kind)."""
 
 
 def refuse_special_or_oversize(path: str | os.PathLike[str], max_bytes: int) -> None:
@@ -57,7 +51,7 @@ def refuse_special_or_oversize(path: str | os.PathLike[str], max_bytes: int) -> 
     >>> refuse_special_or_oversize("/dev/zero", 1024)
     Traceback (most recent call last):
     ...
-    ffd_notebook.view.file_root.PathRefused: /dev/zero is not a regular file
+    ffd_notebook.errors.PathRefused: /dev/zero is not a regular file
     """
     try:
         check_regular_file(path, max_bytes)
@@ -88,11 +82,11 @@ class FileRoot:
     >>> root.for_writing("../lattice.ffd", FFD_SUFFIXES)
     Traceback (most recent call last):
     ...
-    ffd_notebook.view.file_root.PathRefused: '../lattice.ffd' is outside the app's folder
+    ffd_notebook.errors.PathRefused: '../lattice.ffd' is outside the app's folder
     >>> root.for_writing("evil.pth", (".ffd", ".tfm"))
     Traceback (most recent call last):
     ...
-    ffd_notebook.view.file_root.PathRefused: 'evil.pth': the file name must end with .ffd or .tfm
+    ffd_notebook.errors.PathRefused: 'evil.pth': the file name must end with .ffd or .tfm
     """
 
     def __init__(self, root: str | os.PathLike[str], max_bytes: int = DEFAULT_MAX_FILE_BYTES) -> None:

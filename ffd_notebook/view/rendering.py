@@ -1,17 +1,26 @@
-"""Rendering settings that depend on the machine.
+"""Plotters made for the machine they run on.
 
 On Linux with no display and no GPU, VTK renders off-screen through EGL and Mesa's software
-rasteriser. There, selecting the EGL window up front avoids VTK first trying X11 (and printing
-"bad X server connection"), and turning multi-sampling off makes frames ~3x faster. On a
-desktop (macOS, Windows, Linux with a display or a GPU) nothing is changed.
+rasteriser. There, asking for the EGL window avoids VTK first trying X11 (and printing "bad X
+server connection"), and turning multi-sampling off makes frames ~3x faster. These settings are
+applied to the plotters the package makes (:func:`new_plotter`), never to PyVista's or the
+process's global settings: importing the package changes no environment variable and no
+``pyvista.global_theme`` setting, and a user's own plots are left as they are. On a desktop
+(macOS, Windows, Linux with a display or a GPU) nothing is changed.
 """
 
 from __future__ import annotations
 
 import os
 import sys
+import threading
+from typing import Any
 
-__all__ = ["configure_rendering", "is_headless"]
+__all__ = ["headless_settings_apply", "is_headless", "new_plotter"]
+
+#: VTK reads this environment variable when it creates a render window
+WINDOW_VARIABLE = "VTK_DEFAULT_OPENGL_WINDOW"
+_WINDOW_LOCK = threading.Lock()  # the variable is set only while one of our windows is being made
 
 
 def is_headless() -> bool:
@@ -27,27 +36,58 @@ def is_headless() -> bool:
     return not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"))
 
 
-def configure_rendering(force: bool | None = None) -> bool:
-    """Apply the headless settings if this machine is headless; return whether they were applied.
+def headless_settings_apply(force: bool | None = None) -> bool:
+    """Whether :func:`new_plotter` applies the headless settings: on a headless machine
+    (:func:`is_headless`) unless the environment variable ``FFD_NOTEBOOK_NO_HEADLESS=1`` opts out;
+    ``force`` decides instead when given.
 
-    Must run before the first render window is created (``ffd_notebook.view`` calls it on
-    import). Users can opt out with the environment variable ``FFD_NOTEBOOK_NO_HEADLESS=1``
-    or force it with ``force=True``.
+    Examples
+    --------
+    >>> headless_settings_apply(force=False), headless_settings_apply(force=True)
+    (False, True)
+    """
+    if force is not None:
+        return bool(force)
+    return is_headless() and os.environ.get("FFD_NOTEBOOK_NO_HEADLESS") != "1"
+
+
+def new_plotter(*, headless: bool | None = None, **kwargs: Any) -> Any:
+    """A new ``pyvista.Plotter(**kwargs)``; on a headless machine, with an EGL render window and no multi-sampling.
+
+    The EGL window is asked for through ``VTK_DEFAULT_OPENGL_WINDOW`` only while the window is made
+    (a value the user set is kept), and multi-sampling is turned off on this plotter's window
+    only, so neither the environment nor ``pyvista.global_theme`` changes.
 
     Parameters
     ----------
-    force : bool, optional
-        ``True`` to apply the settings anyway, ``False`` to skip them; ``None`` decides by
-        :func:`is_headless`.
+    headless : bool, optional
+        Apply the headless settings (``True``), or not (``False``); ``None`` decides by
+        :func:`headless_settings_apply`.
+    **kwargs
+        Passed to :class:`pyvista.Plotter`.
+
+    Examples
+    --------
+    >>> import os
+    >>> before = dict(os.environ)
+    >>> pl = new_plotter(off_screen=True, window_size=(64, 48), headless=True)
+    >>> pl.render_window.GetMultiSamples(), dict(os.environ) == before
+    (0, True)
+    >>> pl.close()
     """
-    apply = is_headless() if force is None else force
-    if os.environ.get("FFD_NOTEBOOK_NO_HEADLESS") == "1" and force is None:
-        apply = False
-    if not apply:
-        return False
-    os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
     import pyvista as pv
 
-    # Mesa's software rasteriser pays ~3.5x per frame for anti-aliasing
-    pv.global_theme.multi_samples = 0
-    return True
+    if not headless_settings_apply(headless):
+        return pv.Plotter(**kwargs)
+    with _WINDOW_LOCK:
+        preset = os.environ.get(WINDOW_VARIABLE)
+        if preset is None:
+            os.environ[WINDOW_VARIABLE] = "vtkEGLRenderWindow"
+        try:
+            plotter = pv.Plotter(**kwargs)
+        finally:
+            if preset is None:
+                os.environ.pop(WINDOW_VARIABLE, None)
+    # Mesa's software rasteriser pays ~3.5x per frame for anti-aliasing (read at the window's first render)
+    plotter.render_window.SetMultiSamples(0)
+    return plotter

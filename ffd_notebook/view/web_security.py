@@ -38,6 +38,7 @@ from urllib.parse import parse_qsl, urlencode, urlsplit, urlunsplit
 __all__ = [
     "TOKEN_PARAM",
     "AccessPolicy",
+    "is_loopback",
     "new_token",
     "protect",
     "url_with_token",
@@ -84,13 +85,33 @@ def _split_host(netloc: str, scheme: str = "http") -> tuple[str, int | None]:
     return (parsed.hostname or "").lower(), port if port is not None else _DEFAULT_PORTS.get(scheme)
 
 
-def _is_loopback(host: str) -> bool:
-    if host == "localhost" or host.endswith(".localhost"):
+def is_loopback(host: str) -> bool:
+    """Whether ``host`` (a name or an IP address, as in a Host header or a ``--host`` option) is this machine's
+    loopback: ``localhost`` and every name under ``.localhost``, or a loopback address.
+
+    Names under ``.localhost`` are loopback by definition (RFC 6761, section 6.3): browsers resolve
+    them to the loopback address themselves, without asking DNS, so a page cannot rebind them to
+    another machine, and a Host header that carries one comes from a connection to this machine.
+    An IPv4 address mapped into IPv6 (``::ffff:127.0.0.1``) is loopback when the IPv4 one is.
+
+    Examples
+    --------
+    >>> [is_loopback(h) for h in ("localhost", "app.localhost", "LOCALHOST.", "127.8.0.1", "[::1]")]
+    [True, True, True, True, True]
+    >>> [is_loopback(h) for h in ("localhost.example", "mylocalhost", "10.0.0.1", "0.0.0.0", "")]
+    [False, False, False, False, False]
+    """
+    name = host.strip().lower().rstrip(".")
+    if name.startswith("[") and name.endswith("]"):
+        name = name[1:-1]
+    if name == "localhost" or name.endswith(".localhost"):
         return True
     try:
-        return ipaddress.ip_address(host).is_loopback
+        address = ipaddress.ip_address(name)
     except ValueError:
         return False
+    mapped = getattr(address, "ipv4_mapped", None)
+    return bool(address.is_loopback or (mapped is not None and mapped.is_loopback))
 
 
 def _is_ip(host: str) -> bool:
@@ -147,9 +168,9 @@ class AccessPolicy:
         host, _ = _split_host(host_header or "")
         if not host:
             return False
-        if _is_loopback(host) or self.behind_proxy():
+        if is_loopback(host) or self.behind_proxy():
             return True
-        if _is_loopback(self.bind_host):
+        if is_loopback(self.bind_host):
             return False
         return _is_ip(host) or host in _machine_names() or host == self.bind_host.lower()
 

@@ -29,7 +29,7 @@ TARGET_STALL_S = 1.0
 
 async def rebuild_20(app) -> tuple[float, float]:
     """A 20^3 rebuild through the panel's shape control, from a 5^3 lattice."""
-    app.editor.set_shape((5, 5, 5))
+    app.editor.session.set_shape((5, 5, 5))
     return await longest_stall(
         lambda: app.run("rebuild", [20, 20, 20]),
         lambda: app.editor.lattice.shape == (20, 20, 20) and not app.state.busy,
@@ -50,7 +50,7 @@ async def run(resolution: int, steps: list[str]) -> None:
             rows = []
             if "rebuild-face" in steps:
                 rows.append(("rebuild 20^3 on the sample face", *await rebuild_20(app)))
-            total, stall = await longest_stall(lambda: app.load_mesh("big.ply"), lambda: not app.state.busy)
+            total, stall = await longest_stall(lambda: app.files.load_mesh("big.ply"), lambda: not app.state.busy)
             assert editor.mesh.n_points == big.n_points, editor.messages[-1]
             rows.append((f"load big.ply ({big.n_points} points)", total, stall))
             if "rebuild-big" in steps:

@@ -154,8 +154,8 @@ def lattice_size_figures(repeat: int, frames: int) -> None:
             editor.show_points(mode)
             cost = {}
             for n in (5, 20):
-                editor.set_shape((n, n, n))
-                editor.select((n // 2, n // 2, n - 1))
+                editor.session.set_shape((n, n, n))
+                editor.session.select((n // 2, n // 2, n - 1))
                 editor.screenshot()
                 cost[n] = statistics.median(median_ms(render_samples(editor, frames)) for _ in range(repeat))
             ratio = cost[20] / cost[5]

@@ -7,9 +7,9 @@ Run from the repository root (needs ../shared/data):
 Prints, in one run and as medians (of repeats of medians; the machine is shared):
 
 - picking the mesh point under the cursor on a press: the editor's NumPy ray test
-  (:func:`ffd_notebook.view.editor.surface_drag.ray_hit`, bounding spheres then Moller-Trumbore)
+  (:func:`ffd_notebook.view.editor.session.surface_drag.ray_hit`, bounding spheres then Moller-Trumbore)
   against the baseline ``vtkCellPicker`` on the mesh actor, after the points moved (as after a drag);
-- one surface-drag event (``session.drag_surface``: the least-norm fit with two pins, the
+- one surface-drag event (``session.surface.move``: the least-norm fit with two pins, the
   cached FFD update of every control point involved, undo bookkeeping) against the baseline
   sphere-drag event (``session.drag``, one control point), and the one-point ``FFD.fit_points``
   solve alone against its target (<= 5 ms).
@@ -50,7 +50,7 @@ def main() -> None:
     from ffd_notebook.view import Editor
 
     editor = Editor(FACE, shape=(args.shape,) * 3, window_size=(800, 600))
-    session, handle = editor.session, editor.scene.surface_handle
+    session, handle = editor.session, editor.scene.surface_picking
     editor.screenshot()
     print(f"face: {editor.mesh.n_points} vertices, {editor.mesh.n_cells} triangles, lattice {editor.lattice.shape}")
     w, h = editor.plotter.window_size
@@ -59,7 +59,7 @@ def main() -> None:
     picker = vtkCellPicker()
     picker.SetTolerance(0.0005)
     picker.PickFromListOn()
-    picker.AddPickList(editor.mesh_actor)
+    picker.AddPickList(editor.scene.mesh_actor)
 
     def cell_picker():
         editor.scene.display.GetPoints().Modified()  # the points moved since the last press
@@ -76,20 +76,20 @@ def main() -> None:
         rows["pick: NumPy ray test (editor)"].append(timed(ray_test, 3) / 5)
 
     grab = handle.pick(w / 2, h / 2)
-    session.pin(int(np.argmax(editor.mesh.points[:, 1])))
-    session.pin(int(np.argmin(editor.mesh.points[:, 1])))
+    session.surface.pin(int(np.argmax(editor.mesh.points[:, 1])))
+    session.surface.pin(int(np.argmin(editor.mesh.points[:, 1])))
     start = session.ffd.deform(grab[None])[0]
     scale = 0.05 * float(np.ptp(editor.mesh.points, axis=0).max())
     centers = session.control_points()
     index = int(np.ravel_multi_index((args.shape // 2,) * 3, editor.lattice.shape))
     solve_rows = np.array([grab])
     for _ in range(args.repeat):
-        session.begin_surface_drag(grab)
+        session.surface.begin(grab)
         targets = iter(start + rng.normal(0, scale, (args.events, 3)))
         rows.setdefault("event: surface drag, 2 pins (editor)", []).append(
-            timed(lambda it=targets: session.drag_surface(next(it)), args.events)
+            timed(lambda it=targets: session.surface.move(next(it)), args.events)
         )
-        session.end_surface_drag()
+        session.surface.end()
         moves = iter(centers[index] + rng.normal(0, scale, (args.events, 3)))
         session.begin_drag(index)
         rows.setdefault("event: sphere drag (baseline)", []).append(

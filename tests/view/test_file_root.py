@@ -7,9 +7,9 @@ import os
 import pytest
 
 from ffd_notebook.errors import FileFormatError
+from ffd_notebook.io.mesh import MESH_SUFFIXES
 from ffd_notebook.view.file_root import (
     FFD_SUFFIXES,
-    MESH_SUFFIXES,
     FileRoot,
     PathRefused,
     client_message,

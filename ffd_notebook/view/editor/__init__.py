@@ -1,23 +1,34 @@
-"""The FFD editor: an editing session (no VTK), its VTK scene, and panels for Jupyter and the standalone app.
+"""The FFD editor, in layers:
 
-``from ffd_notebook.view.editor import Editor`` gives the editor; the panels and the app are imported
-on first use.
+:mod:`.session`
+    The editing session (NumPy and the model, no VTK): state, commands, undo history, surface drags,
+    messages, and the list of controls both front-ends draw.
+:mod:`.scene`
+    The VTK scene that follows a session: plotter, actors, picking.
+:class:`~.editor.Editor` (:mod:`.editor`)
+    What a notebook user holds: a session shown in a scene, with the notebook widget.
+:mod:`.notebook`, :mod:`.app`
+    The two front-ends: the Jupyter panel and the standalone trame app.
+
+Names are imported on first use: ``from ffd_notebook.view.editor import EditingSession`` loads no VTK.
 """
 
 from __future__ import annotations
 
-from ...lazy import lazy_getattr
-from .changes import Change
-from .editor import Editor, edit
-from .session import EditingSession, MeshIO
+from ..._util.lazy import lazy_getattr
 
 _LAZY = {
-    "ControlPanel": "ffd_notebook.view.editor.notebook_panel",
+    "Change": "ffd_notebook.view.editor.session",
+    "EditingSession": "ffd_notebook.view.editor.session",
+    "MeshIO": "ffd_notebook.view.editor.session",
+    "Editor": "ffd_notebook.view.editor.editor",
+    "edit": "ffd_notebook.view.editor.editor",
+    "ControlPanel": "ffd_notebook.view.editor.notebook",
     "EditorApp": "ffd_notebook.view.editor.app",
     "run_app": "ffd_notebook.view.editor.app",
 }
 
-__all__ = ["Change", "EditingSession", "Editor", "MeshIO", "edit", *sorted(_LAZY)]
+__all__ = sorted(_LAZY)
 
 
 __getattr__ = lazy_getattr(__name__, _LAZY)

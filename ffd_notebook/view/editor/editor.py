@@ -1,17 +1,21 @@
 """The FFD editor: an editing session shown in a PyVista plotter, with a mesh inside a lattice of draggable spheres.
 
-:class:`Editor` is a thin composition, the public face of three parts:
+:class:`Editor` is what a notebook user holds: three parts, and the handful of calls the README and the
+tutorials make (``lattice``, ``update``, ``deformed_mesh``, ``undo``, ``save_ffd``...). Every other command is
+the session's (``editor.session.set_shape(...)``, ``editor.session.surface.pin(...)``): the panels call
+session commands too, so the editor does not repeat them.
 
 :class:`~.session.EditingSession` (``editor.session``)
-    Lattice, basis, mesh, selection, undo history and the commands; NumPy and the model only.
+    Lattice, basis, mesh, selection, undo history, surface drags, files and the commands; NumPy and the
+    model only.
 :class:`~.scene.EditorScene` (``editor.scene``)
     The plotter and its VTK objects; follows the session.
 the notebook widget (``editor.widget``)
-    The scene's trame view next to a :class:`~.notebook_panel.ControlPanel`; follows the session too.
+    The scene's trame view next to a :class:`~.notebook.ControlPanel`; follows the session too.
 
 Data flows one way: a move of the drag handle -> :meth:`EditingSession.drag` (the lattice's offsets; the
-cached :class:`~ffd_notebook.deformer.Deformer` recomputes only the points the moved control point
-influences) -> one :class:`~.changes.Change` naming that control point -> the scene rewrites the
+cached :class:`~ffd_notebook.ffd.deformer.Deformer` recomputes only the points the moved control point
+influences) -> one :class:`~.session.Change` naming that control point -> the scene rewrites the
 plotted points and the lattice lines in place -> the next render shows them.
 """
 
@@ -19,23 +23,19 @@ from __future__ import annotations
 
 import os
 import time
-from collections.abc import Callable
 from typing import Any
 
 import numpy as np
 import pyvista as pv
 from numpy.typing import ArrayLike, NDArray
 
-from ...deform import FFD
+from ...ffd.lattice import Lattice
 from ...io import write_mesh
-from ...lattice import Lattice
 from ...meshing import as_surface, color_array_name, decimate_keeping_colors, deformed_copy
-from . import session_files
-from .history import History
-from .message_log import MessageLog
-from .proxy import INTERACTIVE_CELLS
-from .scene import EditorScene
-from .session import EditingSession, MeshIO
+from .scene.proxy import INTERACTIVE_CELLS
+from .scene.scene import EditorScene
+from .session.message_log import MessageLog
+from .session.session import EditingSession, MeshIO
 
 __all__ = ["PYVISTA_MESH_IO", "Editor", "edit"]
 
@@ -135,16 +135,11 @@ class Editor:
         self._shown_in_cell: int | None = None
         self.scene.frame()
 
-    # ------------------------------------------------------------------ the parts' state
+    # ------------------------------------------------------------------ what a notebook user reads
     @property
     def plotter(self) -> pv.Plotter:
         """The PyVista plotter (``editor.scene.plotter``)."""
         return self.scene.plotter
-
-    @property
-    def mesh_actor(self) -> Any:
-        """The actor of the plotted mesh."""
-        return self.scene.mesh_actor
 
     @property
     def mesh(self) -> pv.PolyData:
@@ -153,7 +148,10 @@ class Editor:
 
     @property
     def lattice(self) -> Lattice:
-        """The control lattice; edit ``lattice.offsets`` in place, then call :meth:`update`."""
+        """The control lattice; edit ``lattice.offsets`` in place, then call :meth:`update`.
+
+        Assigning a new lattice replaces it (one undo step: :meth:`EditingSession.set_lattice`).
+        """
         return self.session.lattice
 
     @lattice.setter
@@ -161,70 +159,21 @@ class Editor:
         self.session.set_lattice(lattice)
 
     @property
-    def ffd(self) -> FFD:
-        """The :class:`~ffd_notebook.deform.FFD` applied to the mesh (lattice, basis, border, affine part)."""
-        return self.session.ffd
-
-    @property
-    def basis(self) -> str:
-        """The FFD basis, ``"bspline"`` or ``"bernstein"``."""
-        return self.session.basis
-
-    @property
     def deformed_mesh(self) -> pv.PolyData:
         """A new mesh: the current deformed points with the rest mesh's faces and point data."""
         return self.session.deformed_mesh
 
     @property
-    def history(self) -> History:
-        """The undo history."""
-        return self.session.history
-
-    @property
     def messages(self) -> MessageLog:
-        """The editor's messages, newest last (bounded)."""
+        """The editor's messages, newest last (bounded): what went wrong, what was loaded or saved."""
         return self.session.messages
-
-    @property
-    def selected(self) -> tuple[int, int, int] | None:
-        """The selected control point ``(i, j, k)`` (last dragged or :meth:`select`-ed), or None."""
-        return self.session.selected
-
-    @property
-    def can_undo(self) -> bool:
-        """Whether :meth:`undo` has a step to revert."""
-        return self.session.can_undo
-
-    @property
-    def can_redo(self) -> bool:
-        """Whether :meth:`redo` has a step to re-apply."""
-        return self.session.can_redo
-
-    @property
-    def field(self) -> str | None:
-        """The deformation field shown on the mesh: None, ``"displacement"`` or ``"jacobian"``."""
-        return self.session.field
-
-    @property
-    def points_shown(self) -> str:
-        """Which control points are drawn: ``"all"``, ``"near"`` (the selection's) or ``"hull"``."""
-        return self.session.points_shown
-
-    @property
-    def colors_shown(self) -> bool:
-        """Whether per-vertex colors are shown (when the mesh has them and no field is shown)."""
-        return self.session.colors_shown
-
-    @property
-    def has_colors(self) -> bool:
-        """Whether the mesh has per-vertex colors."""
-        return self.session.has_colors
 
     # ------------------------------------------------------------------ the drag path
     def on_widget_moved(self, center: ArrayLike, index: int) -> None:
         """Drag-handle callback: control point ``index`` (flat C order) was dragged to ``center``.
 
-        Errors are logged to :attr:`messages` (PyVista would turn them into warnings nobody sees).
+        Errors are logged to :attr:`messages` (PyVista would turn them into warnings nobody sees);
+        :attr:`last_callback_ms` is how long the session's drag took.
         """
         t0 = time.perf_counter()
         try:
@@ -234,124 +183,51 @@ class Editor:
             return
         self.last_callback_ms = (time.perf_counter() - t0) * 1000.0
 
-    # ------------------------------------------------------------------ commands (the session's)
+    # ------------------------------------------------------------------ what a notebook user calls
+    # The session has every command (``editor.session``: select, set_shape, set_basis, show_colors,
+    # surface drags, decimate...); these are the ones the README and the tutorials use on the editor.
     def update(self, changed: Any = None) -> None:
-        """Push in-place edits of ``editor.lattice.offsets`` to the view: :meth:`EditingSession.update`."""
+        """Show edits made in place to ``editor.lattice.offsets`` (one undo step): :meth:`EditingSession.update`."""
         self.session.update(changed)
 
-    def move_control_point(self, ijk: ArrayLike, displacement: ArrayLike) -> None:
-        """Set control point ``ijk``'s offset: :meth:`EditingSession.move_control_point`."""
-        self.session.move_control_point(ijk, displacement)
-
-    def reset(self, ijk: ArrayLike | None = None) -> None:
-        """Zero one offset or all: :meth:`EditingSession.reset`."""
-        self.session.reset(ijk)
-
-    def select(self, ijk: ArrayLike | None) -> None:
-        """Select a control point: :meth:`EditingSession.select`."""
-        self.session.select(ijk)
-
     def undo(self) -> bool:
-        """Revert the last step: :meth:`EditingSession.undo`."""
+        """Revert the last step; False if there was none."""
         return self.session.undo()
 
     def redo(self) -> bool:
-        """Re-apply the last undone step: :meth:`EditingSession.redo`."""
+        """Re-apply the last undone step; False if there was none."""
         return self.session.redo()
 
-    def set_lattice(self, lattice: Lattice, basis: str | None = None, *, label: str = "lattice") -> None:
-        """Replace the lattice: :meth:`EditingSession.set_lattice`."""
-        self.session.set_lattice(lattice, basis, label=label)
-
-    def set_shape(self, shape: ArrayLike) -> None:
-        """Fit a lattice of another size: :meth:`EditingSession.set_shape`."""
-        self.session.set_shape(shape)
-
-    def set_basis(self, basis: str) -> None:
-        """Switch the basis: :meth:`EditingSession.set_basis`."""
-        self.session.set_basis(basis)
+    def reset(self, ijk: ArrayLike | None = None) -> None:
+        """Zero the offset of control point ``ijk``, or of all of them (one undo step)."""
+        self.session.reset(ijk)
 
     def set_field(self, field: str | None) -> None:
-        """Color the mesh by a field: :meth:`EditingSession.set_field`."""
+        """Color the mesh by ``"displacement"``, by folding (``"jacobian"``), or not (None)."""
         self.session.set_field(field)
 
-    def show_colors(self, show: bool = True) -> None:
-        """Show per-vertex colors: :meth:`EditingSession.show_colors`."""
-        self.session.show_colors(show)
-
-    def set_interaction_mode(self, mode: str) -> None:
-        """What a mouse drag moves (spheres or the mesh): :meth:`EditingSession.set_interaction_mode`."""
-        self.session.set_interaction_mode(mode)
-
-    def clear_pins(self) -> None:
-        """Unpin every pinned mesh point: :meth:`EditingSession.clear_pins`."""
-        self.session.clear_pins()
-
     def show_points(self, which: str) -> None:
-        """Draw all control points, those near the selection, or the hull: :meth:`EditingSession.show_points`."""
+        """Draw all control points (``"all"``), those near the selection (``"near"``), the hull or ``"auto"``."""
         self.session.show_points(which)
 
-    def attempt(self, action: Callable[..., Any], *args: Any) -> bool:
-        """Run an action for a user interface, failures as messages: :meth:`EditingSession.attempt`.
-
-        Examples
-        --------
-        >>> import pyvista as pv
-        >>> editor = Editor(pv.Sphere(), shape=(4, 4, 4), window_size=(100, 80))
-        >>> editor.attempt(editor.move_control_point, (9, 9, 9), (0.0, 0.0, 1.0))
-        False
-        >>> editor.messages[-1]
-        'Error: control point index must be (i, j, k) within the lattice (4, 4, 4), got (9, 9, 9)'
-        >>> editor.close()
-        """
-        return self.session.attempt(action, *args)
-
-    def observe(self, callback: Callable[[str], None]) -> None:
-        """Call ``callback(kind)`` after changes (``"drag"``, ``"select"``, ``"offsets"``, ``"lattice"``,
-        ``"mesh"``, ``"display"``, ``"message"``); :meth:`EditingSession.subscribe` gives the whole change."""
-        self.session.subscribe(lambda change: callback(change.kind))
-
-    # ------------------------------------------------------------------ files (session_files)
-    def read_ffd_file(self, path: Path) -> tuple[FFD, str]:
-        """Read a lattice file without changing anything: :func:`.session_files.read_ffd_file`."""
-        return session_files.read_ffd_file(self.session, path)
-
-    def use_ffd(self, ffd: FFD, source: str, name: str) -> None:
-        """Install an FFD read by :meth:`read_ffd_file`: :func:`.session_files.use_ffd`."""
-        session_files.use_ffd(self.session, ffd, source, name)
-
     def load_ffd(self, path: Path) -> Lattice:
-        """Load a lattice file (.ffd, ITK .tfm/.txt/.h5/.hdf5, PyGeM .prm): :func:`.session_files.load_ffd`."""
-        return session_files.load_ffd(self.session, path)
+        """Load a lattice file (.ffd, ITK .tfm/.txt/.h5/.hdf5, PyGeM .prm; one undo step) and return its lattice.
+
+        A bad file raises and changes nothing (:meth:`.session.files.SessionFiles.load_lattice`).
+        """
+        return self.session.files.load_lattice(path)
 
     def save_ffd(self, path: Path) -> None:
-        """Save the FFD to a lattice file (format by extension): :func:`.session_files.save_ffd`."""
-        session_files.save_ffd(self.session, path)
-
-    def read_mesh_file(self, path: Path) -> tuple[pv.PolyData, Any]:
-        """Read a mesh without changing anything: :func:`.session_files.read_mesh_file`."""
-        return session_files.read_mesh_file(self.session, path)
-
-    def use_mesh(self, mesh: pv.PolyData, deformer: Any, name: str) -> None:
-        """Use a mesh read by :meth:`read_mesh_file`: :func:`.session_files.use_mesh`."""
-        session_files.use_mesh(self.session, mesh, deformer, name)
+        """Save the FFD to a lattice file (format by extension), atomically."""
+        self.session.files.save_lattice(path)
 
     def load_mesh(self, path: Path) -> pv.PolyData:
-        """Load a mesh (a new undo history): :func:`.session_files.load_mesh`."""
-        return session_files.load_mesh(self.session, path)
+        """Load a mesh (OBJ with colours, or anything PyVista reads; a new undo history). A bad file changes nothing."""
+        return self.session.files.load_mesh(path)
 
     def save_mesh(self, path: Path) -> None:
-        """Save the deformed mesh: :func:`.session_files.save_mesh`."""
-        session_files.save_mesh(self.session, path)
-
-    def decimate(self, reduction: float) -> pv.PolyData:
-        """Decimate the loaded mesh: :func:`.session_files.decimate`."""
-        return session_files.decimate(self.session, reduction)
-
-    # ------------------------------------------------------------------ the scene's
-    def frame(self) -> None:
-        """Point the camera at the mesh: :meth:`EditorScene.frame`."""
-        self.scene.frame()
+        """Save the deformed mesh (OBJ with colours, PLY, VTP, ... by extension), atomically."""
+        self.session.files.save_mesh(path)
 
     def screenshot(self, path: Path | None = None) -> NDArray[np.uint8]:
         """Render and return the image ``(h, w, 3)`` uint8; also write a PNG if ``path`` is given."""
@@ -362,7 +238,7 @@ class Editor:
     def widget(self) -> Any:
         """The editor's notebook widget: its view next to a control panel (made once)."""
         if self._widget is None:
-            from .notebook import editor_widget
+            from .notebook.output import editor_widget
 
             self._widget = editor_widget(self)
         return self._widget
@@ -372,7 +248,7 @@ class Editor:
         from IPython.display import display
 
         from ..jupyter import execution_count
-        from .notebook import EditorOutput
+        from .notebook.output import EditorOutput
 
         cell = execution_count()
         if cell is not None and cell == self._shown_in_cell:
@@ -391,7 +267,7 @@ class Editor:
     def __repr__(self) -> str:
         return (
             f"Editor(mesh={self.mesh.n_points} points, lattice={'x'.join(map(str, self.lattice.shape))}, "
-            f"basis={self.basis!r}, history={len(self.history)})"
+            f"basis={self.session.basis!r}, history={len(self.session.history)})"
         )
 
 

@@ -27,12 +27,12 @@ import pyvista as pv
 import vtk
 from numpy.typing import ArrayLike, NDArray
 
-from ...deprecation import renamed_keyword
+from ..._util.deprecation import renamed_keyword
 from ...gp import ExponentialKernel, GaussianKernel, GaussianProcess, Kernel, LowRankGP, grid_points
 from ...meshing import as_surface
 from ..jupyter import forget_shown, keep_while_shown, release_views, show_changes, show_plotter
 from ..lifetime import Lifetime, weak_call
-from ..rendering import configure_rendering
+from ..rendering import new_plotter
 from .model_modes import (
     VARIANCE_ARRAY,
     ModelModes,
@@ -42,8 +42,6 @@ from .model_modes import (
 )
 
 __all__ = ["KERNELS", "VARIANCE_ARRAY", "GPExplorer"]
-
-configure_rendering()
 
 #: Kernel families the explorer offers: name -> class taking ``(sigma, scale)``.
 KERNELS = {"gaussian": GaussianKernel, "exponential": ExponentialKernel}
@@ -149,7 +147,7 @@ class GPExplorer(ModelModes):
             self.sigma: float | None = float(sigma if sigma is not None else 0.25 * self.size)
             self.grid = grid_points(np.asarray(self.mesh.bounds, dtype=np.float64), grid_shape, margin=0.05)
             self.model: LowRankGP = self._build_model()
-        self.plotter = plotter if plotter is not None else pv.Plotter(**plotter_kwargs)
+        self.plotter = plotter if plotter is not None else new_plotter(**plotter_kwargs)
         # released when the explorer is closed or collected: its browser views, and the plotter if it made it
         # (PyVista keeps every plotter until it is closed); the widgets' callbacks refer to the explorer weakly
         self.lifetime = Lifetime(self, functools.partial(release_views, self.plotter))

@@ -29,6 +29,7 @@ from ...solidtex.sampling import SolidTexture, TextureSampler  # noqa: F401  (So
 from ..camera import frame_camera, unit_vector, view_direction
 from ..jupyter import forget_shown, keep_while_shown, release_views, show_changes, show_plotter
 from ..lifetime import Lifetime, weak_method
+from ..rendering import new_plotter
 
 __all__ = ["CutViewer", "TexturedOrgan", "add_cut"]
 
@@ -271,7 +272,7 @@ class CutViewer:
         self.plotter = (
             plotter
             if plotter is not None
-            else pv.Plotter(off_screen=True if off_screen is None else off_screen, window_size=window_size)
+            else new_plotter(off_screen=True if off_screen is None else off_screen, window_size=window_size)
         )
         # released when the viewer is closed or collected: its browser views, and the plotter if it made it
         # (PyVista keeps every plotter until it is closed); the plane widget's callback refers to it weakly

@@ -75,13 +75,13 @@ def test_rebuild_basis_colors_field_and_decimate(app):
     app.run("rebuild", ["5", "6", "4"])
     assert app.editor.lattice.shape == (5, 6, 4) and (app.state.nx, app.state.ny) == (5, 6)
     app.run("basis", ["bernstein"])
-    assert app.editor.basis == "bernstein" and app.state.basis == "bernstein"
+    assert app.editor.session.basis == "bernstein" and app.state.basis == "bernstein"
     app.run("colors", [False])
-    assert not app.editor.colors_shown and not app.state.colors
+    assert not app.editor.session.colors_shown and not app.state.colors
     app.run("field", ["displacement"])
-    assert app.editor.field == "displacement"
+    assert app.editor.session.field == "displacement"
     app.run("field", ["none"])
-    assert app.editor.field is None
+    assert app.editor.session.field is None
     n = app.editor.mesh.n_cells
     app.run("decimate", ["0.5"])
     assert app.editor.mesh.n_cells < 0.7 * n and app.state.mesh_info.endswith(f"{app.editor.mesh.n_cells} faces")
@@ -89,28 +89,28 @@ def test_rebuild_basis_colors_field_and_decimate(app):
 
 def test_selection_typed_in_the_panel(app):
     app.run("ijk", ["2", "3", "1"])
-    assert app.editor.selected == (2, 3, 1) and app.state.has_selection
+    assert app.editor.session.selected == (2, 3, 1) and app.state.has_selection
     app.run("ijk", ["2", "", "1"])  # half-typed: ignored
-    assert app.editor.selected == (2, 3, 1)
+    assert app.editor.session.selected == (2, 3, 1)
 
 
 def test_ffd_and_mesh_files_by_path(app, tmp_path):
     app.run("apply", [1, 1, 2, 0.0, 0.5, 0.0])
-    app.save_ffd(str(tmp_path / "a.ffd"))
+    app.files.save_ffd(str(tmp_path / "a.ffd"))
     saved = load_ffd(tmp_path / "a.ffd")
     assert saved.offsets[1, 1, 2].tolist() == [0.0, 0.5, 0.0]
     app.run("reset_all")
-    app.load_ffd(str(tmp_path / "a.ffd"))
+    app.files.load_ffd(str(tmp_path / "a.ffd"))
     assert app.editor.lattice.offsets[1, 1, 2, 1] == 0.5
-    app.load_ffd(str(tmp_path / "missing.ffd"))
+    app.files.load_ffd(str(tmp_path / "missing.ffd"))
     assert app.state.messages[0]["error"] and "missing.ffd" in app.state.messages[0]["text"]
     assert app.editor.lattice.offsets[1, 1, 2, 1] == 0.5  # a failed load changes nothing
 
-    app.save_mesh(str(tmp_path / "deformed.ply"))
+    app.files.save_mesh(str(tmp_path / "deformed.ply"))
     deformed = pv.read(tmp_path / "deformed.ply")
     assert np.allclose(deformed.points, app.editor.deformed_mesh.points)
     pv.Cube().triangulate().save(tmp_path / "cube.vtp")
-    app.load_mesh(str(tmp_path / "cube.vtp"))
+    app.files.load_mesh(str(tmp_path / "cube.vtp"))
     assert app.editor.mesh.n_points == 8 and app.state.mesh_info.startswith("8 vertices")
 
 
@@ -121,12 +121,12 @@ def test_upload_of_a_ffd_file(app, tmp_path):
     save_ffd(tmp_path / "up.ffd", upload)
     content = (tmp_path / "up.ffd").read_bytes()
     # what the trame client sends for a Vuetify file input: a list of file dicts, content possibly chunked
-    app.receive_ffd_upload(
+    app.files.receive_ffd_upload(
         [{"name": "up.ffd", "size": len(content), "type": "", "content": [content[:100], content[100:]]}]
     )
     assert app.editor.lattice.offsets[2, 2, 2, 0] == 0.25
     assert app.state.ffd_upload is None and "up.ffd (uploaded)" in app.state.messages[0]["text"]
-    app.receive_ffd_upload({"name": "bad.ffd", "content": b"#dimension#\nthree\n"})
+    app.files.receive_ffd_upload({"name": "bad.ffd", "content": b"#dimension#\nthree\n"})
     assert app.state.messages[0]["error"] and app.editor.lattice.offsets[2, 2, 2, 0] == 0.25
 
 
@@ -162,27 +162,27 @@ def test_itk_and_pygem_files_by_path_inside_the_root_only(app, tmp_path):
     lattice.offsets[1, 2, 1] = (0.0, 0.2, 0.0)
     affine = np.diag([1.2, 1.0, 0.9, 1.0])
     save_transform(tmp_path / "in.tfm", FFD(lattice, affine=affine))
-    app.load_ffd("in.tfm")
-    assert np.allclose(app.editor.ffd.affine, affine)
+    app.files.load_ffd("in.tfm")
+    assert np.allclose(app.editor.session.ffd.affine, affine)
     expected = load_transform(tmp_path / "in.tfm").deform(app.editor.mesh.points)
     assert np.allclose(app.editor.deformed_mesh.points, expected, atol=1e-5)
-    app.save_ffd("sub/../out.h5")  # inside the root: written, affine part included
+    app.files.save_ffd("sub/../out.h5")  # inside the root: written, affine part included
     assert np.allclose(load_transform(tmp_path / "out.h5").affine, affine)
     assert "saved the lattice to out.h5" in app.state.messages[0]["text"]
 
     outside = tmp_path.parent / f"outside_{uuid.uuid4().hex}.tfm"
-    app.save_ffd(str(outside))
+    app.files.save_ffd(str(outside))
     assert app.state.messages[0]["error"] and "outside the app's folder" in app.state.messages[0]["text"]
     assert not outside.exists()
     save_transform(outside, FFD(lattice))
     try:
-        app.load_ffd(str(outside))
+        app.files.load_ffd(str(outside))
         assert app.state.messages[0]["error"] and "outside the app's folder" in app.state.messages[0]["text"]
-        assert np.allclose(app.editor.ffd.affine, affine)  # a refused load changes nothing
+        assert np.allclose(app.editor.session.ffd.affine, affine)  # a refused load changes nothing
     finally:
         outside.unlink()
 
-    app.save_ffd("out.prm")  # a B-spline FFD with an affine part: PyGeM cannot hold it
+    app.files.save_ffd("out.prm")  # a B-spline FFD with an affine part: PyGeM cannot hold it
     text = app.state.messages[0]["text"]
     assert app.state.messages[0]["error"] and "out.prm" in text and "cannot hold this FFD" in text
     assert str(tmp_path) not in text and not (tmp_path / "out.prm").exists()
@@ -195,8 +195,8 @@ def test_upload_of_an_itk_file(app, tmp_path):
     lattice.offsets[2, 1, 2] = (0.3, 0.0, 0.0)
     save_transform(tmp_path / "up.h5", FFD(lattice))
     content = (tmp_path / "up.h5").read_bytes()
-    app.receive_ffd_upload({"name": "up.h5", "content": content})
+    app.files.receive_ffd_upload({"name": "up.h5", "content": content})
     assert "up.h5 (uploaded)" in app.state.messages[0]["text"] and not app.state.messages[0]["error"]
     assert np.abs(app.editor.deformed_mesh.points - app.editor.mesh.points).max() > 0.01
-    app.receive_ffd_upload({"name": "evil.pth", "content": b"import os"})
+    app.files.receive_ffd_upload({"name": "evil.pth", "content": b"import os"})
     assert app.state.messages[0]["error"] and "expected a file ending with" in app.state.messages[0]["text"]

@@ -31,7 +31,7 @@ def test_the_loop_answers_while_a_big_mesh_loads_and_a_big_lattice_is_rebuilt(tm
     editor.screenshot()
 
     async def scenario():
-        load = await longest_stall(lambda: app.load_mesh("big.ply"), lambda: not app.state.busy, timeout=240)
+        load = await longest_stall(lambda: app.files.load_mesh("big.ply"), lambda: not app.state.busy, timeout=240)
         rebuilt = lambda: editor.lattice.shape == (20, 20, 20) and not app.state.busy  # noqa: E731
         rebuild = await longest_stall(lambda: app.run("rebuild", [20, 20, 20]), rebuilt, timeout=240)
         return load, rebuild
@@ -39,7 +39,7 @@ def test_the_loop_answers_while_a_big_mesh_loads_and_a_big_lattice_is_rebuilt(tm
     try:
         (_, load_stall), (_, rebuild_stall) = asyncio.run(scenario())
         assert editor.mesh.n_points == big.n_points, list(editor.messages)
-        assert editor.scene.lattice_actor.glyphs.n_points == 8000 - 18**3 and editor.can_undo
+        assert editor.scene.lattice_actor.glyphs.n_points == 8000 - 18**3 and editor.session.can_undo
         assert load_stall < MAX_STALL_S, f"loading blocked the loop for {load_stall:.2f} s"
         assert rebuild_stall < MAX_STALL_S, f"the rebuild blocked the loop for {rebuild_stall:.2f} s"
         editor.undo()  # the rebuild is one undo step
@@ -53,7 +53,7 @@ def test_a_bad_rebuild_size_is_a_message_and_changes_nothing(tmp_path):
     try:
         for values, problem in (([4, "x", 4], "lattice size y must be a whole number"), ([1, 3, 3], "cannot build")):
             app.run("rebuild", values)
-            assert app.editor.lattice.shape == (5, 5, 5) and not app.editor.can_undo
+            assert app.editor.lattice.shape == (5, 5, 5) and not app.editor.session.can_undo
             assert app.state.messages[0]["error"] and problem in app.state.messages[0]["text"]
         app.run("rebuild", ["4", "6", "5"])  # no loop running: done at once
         assert app.editor.lattice.shape == (4, 6, 5) and app.state.nx == 4

@@ -3,15 +3,16 @@
 from __future__ import annotations
 
 import uuid
+from operator import attrgetter
 
 import pytest
 import pyvista as pv
 
-from ffd_notebook.view.editor import controls
 from ffd_notebook.view.editor.app import EditorApp
-from ffd_notebook.view.editor.controls import Control, editor_state
 from ffd_notebook.view.editor.editor import Editor
-from ffd_notebook.view.editor.notebook_panel import ControlPanel
+from ffd_notebook.view.editor.notebook.panel import ControlPanel
+from ffd_notebook.view.editor.session import controls
+from ffd_notebook.view.editor.session.controls import Control, session_state
 
 
 @pytest.fixture
@@ -45,34 +46,32 @@ def test_every_control_is_rendered_by_both_panels(editor, tmp_path):
 
 
 def test_every_state_key_comes_from_the_one_mapping(editor):
-    editor.select((1, 1, 1))
-    known = set(editor_state(editor)) | {c.key for c in controls.CONTROLS if c.default is not None}
+    editor.session.select((1, 1, 1))
+    known = set(session_state(editor.session)) | {c.key for c in controls.CONTROLS if c.default is not None}
     for control in controls.CONTROLS:
         used = set(control.state) | set(control.args) | set(control.limits) | {control.enabled} - {None}
         assert used <= known, (control.key, used - known)
-        if control.command is not None:
-            assert callable(getattr(editor, control.command)), control.key
+        if control.command is not None:  # a session command: the controls need no Editor
+            assert callable(attrgetter(control.command)(editor.session)), control.key
 
 
 def test_a_new_control_is_one_entry(editor, tmp_path, monkeypatch):
     """Appending one Control puts a working widget in the notebook panel and on the app's page."""
-    new = Control("frame_view", "button", "Frame", "Display", command="frame", row=9)
+    new = Control("select_corner", "button", "Corner", "Display", command="select", parse=lambda v: ((3, 3, 3),), row=9)
     monkeypatch.setattr(controls, "CONTROLS", (*controls.CONTROLS, new))
     panel = ControlPanel(editor)
     app = EditorApp(editor, name=f"test_{uuid.uuid4().hex}", root=tmp_path)
-    assert 'id="ffd-frame-view"' in app_html(app) and panel.frame_view_button.description == "Frame"
-    editor.plotter.camera.position = (50.0, 0.0, 0.0)
-    panel.frame_view_button.click()
-    framed = editor.plotter.camera.position
-    assert framed != (50.0, 0.0, 0.0)
-    editor.plotter.camera.position = (50.0, 0.0, 0.0)
-    assert app.run("frame_view") and editor.plotter.camera.position == pytest.approx(framed)
+    assert 'id="ffd-select-corner"' in app_html(app) and panel.select_corner_button.description == "Corner"
+    panel.select_corner_button.click()
+    assert editor.session.selected == (3, 3, 3) and panel.ijk[0].value == 3  # the panel follows
+    editor.session.select(None)
+    assert app.run("select_corner") and editor.session.selected == (3, 3, 3) and app.state.sel_k == 3
 
 
 def test_both_panels_show_the_same_state(editor, tmp_path):
     panel = ControlPanel(editor)
     app = EditorApp(editor, name=f"test_{uuid.uuid4().hex}", root=tmp_path)
-    editor.move_control_point((2, 1, 3), (0.0, 0.5, 0.0))
+    editor.session.move_control_point((2, 1, 3), (0.0, 0.5, 0.0))
     editor.set_field("displacement")
     assert [w.value for w in panel.ijk] == [app.state.sel_i, app.state.sel_j, app.state.sel_k] == [2, 1, 3]
     assert [w.value for w in panel.xyz] == [app.state.dx, app.state.dy, app.state.dz] == [0.0, 0.5, 0.0]

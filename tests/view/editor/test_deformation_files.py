@@ -40,16 +40,16 @@ def test_itk_file_with_an_affine_part_and_undo(editor, tmp_path):
     before = editor.mesh.points.copy()
     editor.load_ffd(path)
     assert_shows(editor, load_transform(path))
-    np.testing.assert_allclose(editor.ffd.affine, AFFINE, atol=1e-12)
+    np.testing.assert_allclose(editor.session.ffd.affine, AFFINE, atol=1e-12)
     assert "warp.tfm (bspline, at the file's own placement)" in editor.messages[-1]
     assert np.abs(editor.session.deformed_points - before).max() > 0.1  # the affine part shows
 
     loaded = load_transform(path)
-    editor.set_shape((4, 4, 4))  # a fitted lattice: identity affine part
-    assert np.array_equal(editor.ffd.affine, np.eye(4))
+    editor.session.set_shape((4, 4, 4))  # a fitted lattice: identity affine part
+    assert np.array_equal(editor.session.ffd.affine, np.eye(4))
     editor.undo()  # brings the file's whole FFD back, affine part included
-    np.testing.assert_array_equal(editor.ffd.affine, loaded.affine)
-    assert editor.ffd.only_inside == loaded.only_inside
+    np.testing.assert_array_equal(editor.session.ffd.affine, loaded.affine)
+    assert editor.session.ffd.only_inside == loaded.only_inside
     assert_shows(editor, loaded)
     editor.redo()
     editor.undo()
@@ -86,7 +86,7 @@ def test_pygem_parameters(shared_data):
     editor = Editor(pv.PolyData(original), window_size=(160, 120))
     try:
         editor.load_ffd(folder / "parameters_test_ffd_sphere.prm")
-        assert editor.basis == "bernstein" and editor.ffd.only_inside
+        assert editor.session.basis == "bernstein" and editor.session.ffd.only_inside
         np.testing.assert_allclose(editor.session.deformed_points, np.load(folder / "meshpoints_sphere_mod.npy"),
                                    atol=1e-5)  # fmt: skip
         assert_shows(editor, load_deformation(folder / "parameters_test_ffd_sphere.prm"))
@@ -113,12 +113,12 @@ def test_save_and_reload_each_format(editor, tmp_path, suffix):
     path = tmp_path / f"saved{suffix}"
     editor.save_ffd(path)
     assert editor.messages[-1] == f"saved the lattice to {path}"
-    editor.set_shape((4, 4, 4))
+    editor.session.set_shape((4, 4, 4))
     editor.load_ffd(path)
     np.testing.assert_allclose(editor.session.deformed_points, shown, atol=1e-5)
     np.testing.assert_allclose(load_deformation(path).deform(editor.mesh.points), ffd.deform(editor.mesh.points),
                                atol=1e-9)  # fmt: skip
-    assert editor.basis == ffd.basis
+    assert editor.session.basis == ffd.basis
 
 
 @pytest.mark.parametrize(
@@ -132,28 +132,28 @@ def test_save_and_reload_each_format(editor, tmp_path, suffix):
 )
 def test_a_refused_save_changes_nothing_and_writes_nothing(editor, tmp_path, setup, target, why):
     if setup == "bernstein":
-        editor.set_basis("bernstein")
+        editor.session.set_basis("bernstein")
     else:
         source = tmp_path / "affine.tfm"
         save_transform(source, random_ffd(editor.mesh, np.random.default_rng(2), AFFINE))
         editor.load_ffd(source)
-    editor.move_control_point((1, 1, 1), (0.0, 0.1, 0.0))
-    ffd, points = editor.ffd, editor.session.deformed_points.copy()
-    state = (editor.lattice.copy(), ffd.affine.copy(), len(editor.history), points)
+    editor.session.move_control_point((1, 1, 1), (0.0, 0.1, 0.0))
+    ffd, points = editor.session.ffd, editor.session.deformed_points.copy()
+    state = (editor.lattice.copy(), ffd.affine.copy(), len(editor.session.history), points)
     before = sorted(p.name for p in tmp_path.iterdir())
-    assert not editor.attempt(editor.save_ffd, tmp_path / target)  # the panels' way: a message, no exception
+    assert not editor.session.attempt(editor.save_ffd, tmp_path / target)  # the panels' way: a message, no exception
     assert editor.messages[-1].startswith(f"Error: could not save the lattice to {str(tmp_path / target)!r}")
     assert why in editor.messages[-1]
     assert sorted(p.name for p in tmp_path.iterdir()) == before  # no file, no temporary left over
-    assert editor.lattice == state[0] and np.array_equal(editor.ffd.affine, state[1])
-    assert len(editor.history) == state[2]
+    assert editor.lattice == state[0] and np.array_equal(editor.session.ffd.affine, state[1])
+    assert len(editor.session.history) == state[2]
     np.testing.assert_array_equal(editor.session.deformed_points, state[3])
 
 
 def test_a_bad_itk_file_changes_nothing(editor, tmp_path):
     bad = tmp_path / "bad.tfm"
     bad.write_text("#Insight Transform File V1.0\n#Transform 0\nTransform: Euler3DTransform_double_3_3\n")
-    lattice, n_history = editor.lattice.copy(), len(editor.history)
-    assert not editor.attempt(editor.load_ffd, bad)
+    lattice, n_history = editor.lattice.copy(), len(editor.session.history)
+    assert not editor.session.attempt(editor.load_ffd, bad)
     assert editor.messages[-1].startswith(f"Error: could not load the lattice {str(bad)!r}")
-    assert editor.lattice == lattice and len(editor.history) == n_history
+    assert editor.lattice == lattice and len(editor.session.history) == n_history

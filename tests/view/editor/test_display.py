@@ -7,11 +7,11 @@ import pytest
 import pyvista as pv
 
 from ffd_notebook.view.editor import Editor
-from ffd_notebook.view.editor import coloring as fields
+from ffd_notebook.view.editor.scene import coloring as fields
 
 
 def mapper(editor):
-    return editor.mesh_actor.GetMapper()
+    return editor.scene.mesh_actor.GetMapper()
 
 
 def red_pixels(img) -> int:
@@ -21,21 +21,21 @@ def red_pixels(img) -> int:
 
 
 def test_colours_on_and_off(editor):
-    assert editor.has_colors and editor.colors_shown
+    assert editor.session.has_colors and editor.session.colors_shown
     assert mapper(editor).GetScalarVisibility() and mapper(editor).GetArrayName() == "RGB"
     with_colors = editor.screenshot()
-    editor.show_colors(False)
+    editor.session.show_colors(False)
     assert not mapper(editor).GetScalarVisibility()
     plain = editor.screenshot()
     assert np.abs(with_colors.astype(int) - plain).sum() > 1000
-    editor.show_colors(True)
+    editor.session.show_colors(True)
     np.testing.assert_array_equal(editor.screenshot(), with_colors)
 
 
 def test_colours_requested_on_a_mesh_without_them():
     editor = Editor(pv.Sphere(), shape=(4, 4, 4), window_size=(160, 120))
     try:
-        editor.show_colors(True)
+        editor.session.show_colors(True)
         assert editor.messages[-1] == "this mesh has no per-vertex colours"
         assert not mapper(editor).GetScalarVisibility()
     finally:
@@ -50,7 +50,7 @@ def test_displacement_field_follows_drags(editor):
     center = editor.session.control_points()[index] + (0, 0, 0.5)
     editor.on_widget_moved(center, index)
     shown = editor.scene.display.point_data[fields.DISPLACEMENT_ARRAY]
-    expected = np.linalg.norm(editor.ffd.deform(editor.mesh.points) - editor.mesh.points, axis=1)
+    expected = np.linalg.norm(editor.session.ffd.deform(editor.mesh.points) - editor.mesh.points, axis=1)
     np.testing.assert_allclose(shown, expected, atol=1e-5)
     assert mapper(editor).GetScalarRange() == pytest.approx((0.0, expected.max()), rel=1e-5)
     editor.set_field(None)
@@ -64,7 +64,7 @@ def test_folding_is_highlighted(editor):
     # pull one layer of control points far back through the next: the mapping folds there
     editor.lattice.offsets[3, :, :, 0] = -2.5 * editor.lattice.spacing[0]
     editor.update()
-    folded = editor.ffd.jacobian_determinant(editor.mesh.points) <= 0
+    folded = editor.session.ffd.jacobian_determinant(editor.mesh.points) <= 0
     assert 0 < folded.sum() < editor.mesh.n_points
     np.testing.assert_array_equal(editor.scene.display.point_data[fields.FOLDING_ARRAY] > 0.5, folded)
     editor.plotter.view_zy()  # the folded half faces -x
@@ -77,7 +77,7 @@ def test_folding_is_highlighted(editor):
 
 def test_folding_view_follows_drags(editor):
     """During a drag the folding view is recomputed through the deformer; it equals the FFD's own evaluation."""
-    editor.set_shape((8, 8, 8))  # a control point then reaches only part of the sphere
+    editor.session.set_shape((8, 8, 8))  # a control point then reaches only part of the sphere
     editor.set_field("jacobian")
     spacing = float(editor.lattice.spacing[0])
     folds = []
@@ -87,6 +87,6 @@ def test_folding_view_follows_drags(editor):
         center = editor.session.control_points()[index] + delta
         editor.on_widget_moved(center, index)
         shown = editor.scene.display.point_data[fields.FOLDING_ARRAY] > 0.5
-        np.testing.assert_array_equal(shown, editor.ffd.jacobian_determinant(editor.mesh.points) <= 0)
+        np.testing.assert_array_equal(shown, editor.session.ffd.jacobian_determinant(editor.mesh.points) <= 0)
         folds.append(int(shown.sum()))
     assert folds[0] > 0 and folds[2] < folds[0]  # folded, then partly unfolded again

@@ -39,12 +39,12 @@ def test_widget_callback_updates_mesh_lines_and_history(editor):
     assert_view_matches_model(editor)
     assert np.abs(shown_points(editor) - rest).max() > 0.05  # the mesh really moved
     np.testing.assert_array_equal(editor.mesh.points, rest)  # the rest mesh did not
-    assert editor.selected == (2, 2, 4)
+    assert editor.session.selected == (2, 2, 4)
     assert inst.n_drags == 1 and editor.last_callback_ms > 0
-    assert len(editor.history) == 1 and editor.can_undo
+    assert len(editor.session.history) == 1 and editor.session.can_undo
     # the same drag continues: still one undo step
     drag(editor, (2, 2, 4), (0.1, 0.0, 0.0))
-    assert len(editor.history) == 1
+    assert len(editor.session.history) == 1
     assert_view_matches_model(editor)
     assert editor.undo()
     assert not editor.lattice.offsets.any()
@@ -59,15 +59,15 @@ def test_one_undo_step_per_drag(editor):
     drag(editor, (1, 2, 2), (0.2, 0, 0))
     drag(editor, (1, 2, 2), (0.2, 0, 0))
     drag(editor, (3, 2, 2), (0, 0.2, 0))  # another sphere: a new step
-    assert len(editor.history) == 2
+    assert len(editor.session.history) == 2
     handle_release(editor)  # mouse released
     drag(editor, (3, 2, 2), (0, 0.2, 0))  # grabbed again: a new step
-    assert len(editor.history) == 3
+    assert len(editor.session.history) == 3
     editor.undo()
     np.testing.assert_allclose(editor.lattice.offsets[3, 2, 2], (0, 0.2, 0), atol=1e-12)
     editor.undo()
     editor.undo()
-    assert not editor.lattice.offsets.any() and not editor.can_undo
+    assert not editor.lattice.offsets.any() and not editor.session.can_undo
     assert not editor.undo()
     assert_view_matches_model(editor)
 
@@ -76,7 +76,7 @@ def test_programmatic_edit_and_update(editor):
     editor.lattice.offsets[2, :, 3] += (0, 0, 0.5)
     editor.update()
     assert_view_matches_model(editor)
-    assert len(editor.history) == 1  # picked up as one undoable step
+    assert len(editor.session.history) == 1  # picked up as one undoable step
     editor.undo()
     assert not editor.lattice.offsets.any()
     assert_view_matches_model(editor)
@@ -101,12 +101,12 @@ def test_an_edit_from_code_is_rendered_once(editor):
 
     changes = []
     editor.session.subscribe(changes.append)
-    editor.move_control_point((2, 2, 3), (0.0, 0.0, 0.5))  # two changes: the offsets, then the selection
+    editor.session.move_control_point((2, 2, 3), (0.0, 0.0, 0.5))  # two changes: the offsets, then the selection
     assert len(changes) == 2 and len(renders) == 2  # no view: the scene renders each
     editor.scene.views.add(View())
     renders.clear()
-    editor.move_control_point((2, 2, 3), (0.0, 0.0, 0.8))
-    editor.select((1, 1, 1))
+    editor.session.move_control_point((2, 2, 3), (0.0, 0.0, 0.8))
+    editor.session.select((1, 1, 1))
     assert View.updates == 3 and len(renders) == 3  # the view's renders only
     assert_view_matches_model(editor)
 
@@ -114,7 +114,7 @@ def test_an_edit_from_code_is_rendered_once(editor):
 def test_deformed_mesh_is_a_new_mesh_with_point_data(editor, sphere):
     drag(editor, (2, 3, 2), (0.3, 0.0, 0.0))
     out = editor.deformed_mesh
-    np.testing.assert_allclose(out.points, editor.ffd.deform(sphere.points), atol=1e-5)
+    np.testing.assert_allclose(out.points, editor.session.ffd.deform(sphere.points), atol=1e-5)
     np.testing.assert_array_equal(out.faces, sphere.faces)
     np.testing.assert_array_equal(out.point_data["RGB"], sphere.point_data["RGB"])
     out.points[:] = 0.0
@@ -134,16 +134,16 @@ def test_screenshot_changes_after_an_edit(editor, tmp_path):
 
 
 def test_move_select_reset_undo(editor):
-    editor.move_control_point((1, 2, 3), (0.1, 0.2, 0.3))
-    assert editor.selected == (1, 2, 3)
-    editor.move_control_point((3, 2, 1), (-0.1, 0.0, 0.0))
+    editor.session.move_control_point((1, 2, 3), (0.1, 0.2, 0.3))
+    assert editor.session.selected == (1, 2, 3)
+    editor.session.move_control_point((3, 2, 1), (-0.1, 0.0, 0.0))
     assert_view_matches_model(editor)
     editor.reset((1, 2, 3))
     assert not editor.lattice.offsets[1, 2, 3].any() and editor.lattice.offsets[3, 2, 1].any()
     editor.reset()
     assert not editor.lattice.offsets.any()
     assert_view_matches_model(editor)
-    assert len(editor.history) == 4
+    assert len(editor.session.history) == 4
     editor.undo()  # reset all
     editor.undo()  # reset one
     np.testing.assert_allclose(editor.lattice.offsets[1, 2, 3], (0.1, 0.2, 0.3))
@@ -152,30 +152,30 @@ def test_move_select_reset_undo(editor):
     before = editor.lattice.offsets.copy()
     for bad in [(5, 0, 0), (0, -1, 0), (1, 2), (0.5, 0, 0)]:
         with pytest.raises(ValueError, match="within the lattice"):
-            editor.move_control_point(bad, (1, 1, 1))
+            editor.session.move_control_point(bad, (1, 1, 1))
     with pytest.raises(ValueError, match="finite"):
-        editor.move_control_point((0, 0, 0), (np.nan, 0, 0))
+        editor.session.move_control_point((0, 0, 0), (np.nan, 0, 0))
     np.testing.assert_array_equal(editor.lattice.offsets, before)
-    editor.select((4, 4, 4))
-    assert editor.selected == (4, 4, 4)
+    editor.session.select((4, 4, 4))
+    assert editor.session.selected == (4, 4, 4)
 
 
 def test_set_shape_and_basis_are_undoable(editor):
-    editor.move_control_point((2, 2, 2), (0.0, 0.3, 0.0))
+    editor.session.move_control_point((2, 2, 2), (0.0, 0.3, 0.0))
     n_actors = editor.plotter.renderer.GetActors().GetNumberOfItems()
-    editor.set_shape((4, 5, 6))
+    editor.session.set_shape((4, 5, 6))
     assert editor.lattice.shape == (4, 5, 6) and not editor.lattice.offsets.any()
     assert editor.scene.lattice_actor.glyphs.n_points == 120
     assert line_points(editor).shape == (120, 3)
     assert editor.scene.lattice_actor.lines.n_cells == len(editor.lattice.edges())
     assert_view_matches_model(editor)
-    editor.set_basis("bernstein")
-    assert editor.basis == "bernstein" and editor.ffd.basis == "bernstein"
+    editor.session.set_basis("bernstein")
+    assert editor.session.basis == "bernstein" and editor.session.ffd.basis == "bernstein"
     drag(editor, (1, 1, 1), (0.2, 0.0, 0.0))
     assert_view_matches_model(editor)
     editor.undo()  # the drag
     editor.undo()  # the basis
-    assert editor.basis == "bspline" and editor.lattice.shape == (4, 5, 6)
+    assert editor.session.basis == "bspline" and editor.lattice.shape == (4, 5, 6)
     editor.undo()  # the shape
     assert editor.lattice.shape == (5, 5, 5)
     np.testing.assert_allclose(editor.lattice.offsets[2, 2, 2], (0, 0.3, 0))
@@ -185,15 +185,15 @@ def test_set_shape_and_basis_are_undoable(editor):
 
 
 def test_invalid_lattice_requests_change_nothing(editor):
-    editor.move_control_point((2, 2, 2), (0.0, 0.3, 0.0))
-    before = (editor.lattice.copy(), len(editor.history), len(editor.messages))
+    editor.session.move_control_point((2, 2, 2), (0.0, 0.3, 0.0))
+    before = (editor.lattice.copy(), len(editor.session.history), len(editor.messages))
     with pytest.raises(ValueError):
-        editor.set_shape((1, 3, 3))  # too small for any lattice
+        editor.session.set_shape((1, 3, 3))  # too small for any lattice
     with pytest.raises(ValueError):
-        editor.set_basis("nurbs")
+        editor.session.set_basis("nurbs")
     with pytest.raises(TypeError):
-        editor.set_lattice("not a lattice")
-    assert editor.lattice == before[0] and len(editor.history) == before[1]
+        editor.session.set_lattice("not a lattice")
+    assert editor.lattice == before[0] and len(editor.session.history) == before[1]
     assert len(editor.messages) == before[2] + 2
     assert editor.messages[-2].startswith("Error: cannot build a (1, 3, 3) lattice")
     assert_view_matches_model(editor)
@@ -208,7 +208,7 @@ def test_given_lattice_and_assignment(sphere):
         np.testing.assert_allclose(shown_points(editor), FFD(lattice).deform(sphere.points), atol=1e-5)
         other = Lattice((4, 4, 4), spacing=0.9, origin=(-1.4, -1.4, -1.4))
         editor.lattice = other
-        assert editor.lattice is other and len(editor.history) == 1
+        assert editor.lattice is other and len(editor.session.history) == 1
         assert_view_matches_model(editor)
     finally:
         editor.close()
@@ -290,10 +290,10 @@ def test_widget_display_positions_and_triggers(editor):
 
 def test_observers_follow_changes(editor):
     events = []
-    editor.observe(events.append)
+    editor.session.subscribe(lambda change: events.append(change.kind))
     drag(editor, (2, 2, 2), (0.1, 0, 0))
     editor.undo()
-    editor.set_shape((4, 4, 4))
+    editor.session.set_shape((4, 4, 4))
     assert events[:3] == ["select", "drag", "offsets"]
     assert "lattice" in events
 
@@ -316,7 +316,7 @@ def test_a_click_grabs_the_nearest_sphere(editor, from_below):
         assert np.ptp(u) * w < 0.01 and np.ptp(v) * h < 0.01  # the column's spheres overlap exactly on screen
         assert editor.scene.lattice_actor.index_at(u[0] * w, v[0] * h) == column[nearest_k]
         mouse_drag(editor, (u[0] * w, v[0] * h), (4, 0))
-        assert editor.selected == (i, j, nearest_k)
+        assert editor.session.selected == (i, j, nearest_k)
         moved = np.flatnonzero(np.any(editor.lattice.offsets.reshape(-1, 3) != 0, axis=1))
         assert moved.tolist() == [column[nearest_k]] and editor.lattice.offsets[i, j, nearest_k, 0] != 0
         editor.undo()

@@ -33,9 +33,9 @@ def snapshot(editor):
         editor.mesh.points.copy(),
         editor.mesh.n_cells,
         editor.lattice.copy(),
-        editor.basis,
-        len(editor.history),
-        editor.can_redo,
+        editor.session.basis,
+        len(editor.session.history),
+        editor.session.can_redo,
         shown_points(editor).copy(),
         editor.scene.lattice_actor.glyphs.n_points,
     )
@@ -45,20 +45,20 @@ def assert_unchanged(editor, snap):
     points, n_cells, lattice, basis, n_hist, can_redo, shown, n_widgets = snap
     np.testing.assert_array_equal(editor.mesh.points, points)
     assert editor.mesh.n_cells == n_cells
-    assert editor.lattice == lattice and editor.basis == basis
-    assert len(editor.history) == n_hist and editor.can_redo == can_redo
+    assert editor.lattice == lattice and editor.session.basis == basis
+    assert len(editor.session.history) == n_hist and editor.session.can_redo == can_redo
     np.testing.assert_array_equal(shown_points(editor), shown)
     assert editor.scene.lattice_actor.glyphs.n_points == n_widgets
 
 
 def test_ffd_round_trip_and_undo(editor, tmp_path):
-    editor.move_control_point((1, 2, 3), (0.1, -0.2, 0.3))
-    editor.move_control_point((3, 3, 1), (0.0, 0.05, 0.0))
+    editor.session.move_control_point((1, 2, 3), (0.1, -0.2, 0.3))
+    editor.session.move_control_point((3, 3, 1), (0.0, 0.05, 0.0))
     path = tmp_path / "edited.ffd"
     editor.save_ffd(path)
     saved = editor.lattice.copy()
     assert load_ffd(path) == saved
-    editor.set_shape((6, 6, 6))
+    editor.session.set_shape((6, 6, 6))
     editor.load_ffd(path)
     assert editor.lattice == saved  # its quaternion placement is used as is
     assert editor.messages[-1].startswith("loaded a 5x5x5 lattice") and "quaternion" in editor.messages[-1]
@@ -117,9 +117,9 @@ def test_ffd_without_placement_goes_to_the_mesh_minimum(editor, tmp_path):
     ],
 )
 def test_failed_ffd_load_changes_nothing(editor, tmp_path, content, where):
-    editor.move_control_point((2, 2, 2), (0.1, 0.0, 0.0))
+    editor.session.move_control_point((2, 2, 2), (0.1, 0.0, 0.0))
     editor.undo()  # something to redo: a failed load must not drop it either
-    editor.move_control_point((1, 1, 1), (0.0, 0.1, 0.0))
+    editor.session.move_control_point((1, 1, 1), (0.0, 0.1, 0.0))
     snap = snapshot(editor)
     path = tmp_path / "bad.ffd"
     path.write_text(content)
@@ -134,18 +134,18 @@ def test_failed_ffd_load_changes_nothing(editor, tmp_path, content, where):
 
 
 def test_load_colored_obj_and_save_deformed_meshes(editor, shared_data, tmp_path):
-    editor.move_control_point((2, 2, 2), (0.3, 0.0, 0.0))
+    editor.session.move_control_point((2, 2, 2), (0.3, 0.0, 0.0))
     editor.load_mesh(shared_data / "face" / "james_colored.obj")
-    assert editor.mesh.n_points == 6393 and editor.has_colors
-    assert len(editor.history) == 0 and not editor.lattice.offsets.any()  # a new document, refitted lattice
+    assert editor.mesh.n_points == 6393 and editor.session.has_colors
+    assert len(editor.session.history) == 0 and not editor.lattice.offsets.any()  # a new document, refitted lattice
     assert editor.lattice.shape == (5, 5, 5)
     bounds = editor.lattice.bounds()
     assert np.all(editor.mesh.points.min(axis=0) > bounds[::2]) and np.all(
         editor.mesh.points.max(axis=0) < bounds[1::2]
     )
     span = float(np.ptp(editor.mesh.points, axis=0).max())
-    editor.move_control_point((2, 2, 2), (0.0, 0.0, 0.2 * span))
-    expected = editor.ffd.deform(editor.mesh.points)
+    editor.session.move_control_point((2, 2, 2), (0.0, 0.0, 0.2 * span))
+    expected = editor.session.ffd.deform(editor.mesh.points)
     for name in ("out.obj", "out.ply", "out.vtp"):
         editor.save_mesh(tmp_path / name)
         back = read_obj(tmp_path / name) if name.endswith(".obj") else read_mesh(tmp_path / name)
@@ -175,7 +175,7 @@ def test_load_mesh_keeps_a_placed_lattice(sphere, tmp_path):
     [("bad.obj", "v 1 2 3\nv 1 2\nf 1 2 3\n"), ("bad.ply", "ply\nformat nonsense\n"), ("empty.vtp", "")],
 )
 def test_failed_mesh_load_changes_nothing(editor, tmp_path, name, content):
-    editor.move_control_point((1, 2, 3), (0.1, 0.0, 0.0))
+    editor.session.move_control_point((1, 2, 3), (0.1, 0.0, 0.0))
     snap = snapshot(editor)
     path = tmp_path / name
     path.write_text(content)
@@ -204,25 +204,25 @@ def nearest_color_error(original, decimated) -> float:
 
 def test_decimation_keeps_colours(editor):
     original = editor.mesh
-    editor.move_control_point((2, 3, 2), (0.0, 0.0, 0.3))
-    history = len(editor.history)
-    mesh = editor.decimate(0.6)
+    editor.session.move_control_point((2, 3, 2), (0.0, 0.0, 0.3))
+    history = len(editor.session.history)
+    mesh = editor.session.decimate(0.6)
     assert 0.3 * original.n_cells < mesh.n_cells < 0.5 * original.n_cells
     assert editor.mesh is mesh and mesh.point_data["RGB"].dtype == np.uint8
     assert nearest_color_error(original, mesh) < 6.0  # colours follow their place on the surface
     red_top = mesh.points[:, 2] > 0.8
     assert (mesh.point_data["RGB"][red_top, 0] > 200).all() and (mesh.point_data["RGB"][red_top, 2] < 60).all()
-    assert len(editor.history) == history and editor.lattice.offsets[2, 3, 2, 2] == 0.3  # lattice kept
+    assert len(editor.session.history) == history and editor.lattice.offsets[2, 3, 2, 2] == 0.3  # lattice kept
     assert_view_matches_model(editor)  # the deformer re-bound to the new vertices
-    assert editor.decimate(0.6).n_cells == mesh.n_cells  # from the loaded mesh: does not compound
-    assert editor.decimate(0.0).n_points == original.n_points
+    assert editor.session.decimate(0.6).n_cells == mesh.n_cells  # from the loaded mesh: does not compound
+    assert editor.session.decimate(0.0).n_points == original.n_points
     snap = snapshot(editor)
     with pytest.raises(ValueError):
-        editor.decimate(1.0)
+        editor.session.decimate(1.0)
     assert editor.messages[-1].startswith("Error: could not decimate")
     n_messages = len(editor.messages)
     with pytest.raises(TypeError):
-        editor.decimate(None)
+        editor.session.decimate(None)
     assert len(editor.messages) == n_messages + 1 and editor.messages[-1].startswith("Error: could not decimate")
     assert_unchanged(editor, snap)  # a failed decimation changes nothing
 
@@ -247,15 +247,15 @@ def test_undo_and_assignment_keep_how_the_lattice_follows_a_new_mesh(editor, tmp
     moved.points += (5.0, 0.0, 0.0)
     write_mesh(other, moved)
     path = tmp_path / "placed.ffd"
-    editor.move_control_point((1, 2, 1), (0.0, 0.0, 0.2))
+    editor.session.move_control_point((1, 2, 1), (0.0, 0.0, 0.2))
     editor.save_ffd(path)  # with its quaternion placement
     editor.load_ffd(path)
-    editor.set_shape((6, 6, 6))
+    editor.session.set_shape((6, 6, 6))
     editor.undo()  # back to the placed .ffd lattice: it must stay where it is
     placed = editor.lattice.copy()
     editor.load_mesh(other)
     assert editor.lattice == placed
-    editor.set_shape((5, 5, 5))  # fitted around the moved sphere
+    editor.session.set_shape((5, 5, 5))  # fitted around the moved sphere
     editor.load_ffd(path)
     editor.undo()  # back to the fitted lattice: refitted around the next mesh
     home = tmp_path / "home.vtp"

@@ -17,7 +17,7 @@ import numpy as np
 from ffd_notebook import FFD, Lattice
 from ffd_notebook.datasets import sample_mesh
 from ffd_notebook.view.editor.editor import PYVISTA_MESH_IO
-from ffd_notebook.view.editor.session import EditingSession
+from ffd_notebook.view.editor.session.session import EditingSession
 
 
 def outer_ring(shape):
@@ -84,13 +84,12 @@ def test_refits_keep_the_clamp_border_and_bernstein_is_unchanged():
 
 
 def test_a_fitted_lattice_saves_to_ffd_with_its_border(tmp_path):
-    from ffd_notebook.view.editor import session_files
 
     session = EditingSession(sample_mesh(), mesh_io=PYVISTA_MESH_IO)
     session.move_control_point((0, 2, 4), (3.0, -2.0, 1.0))
     shown = session.deformed_points.copy()
-    session_files.save_ffd(session, tmp_path / "fitted.ffd")
+    session.files.save_lattice(tmp_path / "fitted.ffd")
     session.set_shape((4, 4, 4))
-    session_files.load_ffd(session, tmp_path / "fitted.ffd")
+    session.files.load_lattice(tmp_path / "fitted.ffd")
     assert session.ffd.border == "clamp" and session.lattice_source == "ffd-placed"
     np.testing.assert_allclose(session.deformed_points, shown, atol=1e-4)

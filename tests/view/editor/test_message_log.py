@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import copy
 
-from ffd_notebook.view.editor.message_log import MAX_MESSAGES, MessageLog
+from ffd_notebook.view.editor.session.message_log import MAX_MESSAGES, MessageLog
 
 
 def test_messages_are_bounded_newest_last(editor):
@@ -18,9 +18,9 @@ def test_messages_are_bounded_newest_last(editor):
 def test_attempt_still_explains_failures_once_the_log_is_full(editor):
     for n in range(MAX_MESSAGES):
         editor.session.info(f"message {n}")
-    assert not editor.attempt(int, "not a number")
+    assert not editor.session.attempt(int, "not a number")
     assert editor.messages[-1].startswith("Error: invalid literal")
-    assert not editor.attempt(editor.move_control_point, (99, 0, 0), (0.0, 0.0, 1.0))
+    assert not editor.session.attempt(editor.session.move_control_point, (99, 0, 0), (0.0, 0.0, 1.0))
     assert editor.messages[-1].startswith("Error: control point index") and len(editor.messages) == MAX_MESSAGES
     assert not editor.messages[-2].startswith("Error: control point")  # explained once, not twice
 

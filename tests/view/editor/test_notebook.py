@@ -22,7 +22,7 @@ def test_static_view_follows_the_panel(static_backend):
     from PIL import Image
 
     from ffd_notebook.view.editor import edit
-    from ffd_notebook.view.editor.notebook import EditorOutput
+    from ffd_notebook.view.editor.notebook.output import EditorOutput
 
     editor = edit(colored_sphere(), shape=(4, 4, 4), window_size=(200, 150))
     try:
@@ -67,7 +67,7 @@ print(json.dumps({
     "src": view.src, "port": server.port, "proxied": proxied,
     "state0": state0, "state1": state1,
     "n_px": len(server.controller.trigger_fn("ffd_widget_px")()["widgets"]),
-    "panel": type(panel).__name__, "selected": list(editor.selected),
+    "panel": type(panel).__name__, "selected": list(editor.session.selected),
 }))
 """
 

@@ -9,8 +9,8 @@ import pytest
 from editor_testing import assert_view_matches_model, shown_points, widget_index
 
 from ffd_notebook.io import load_ffd, read_obj
-from ffd_notebook.view.editor.changes import DRAG_SYNC_S
-from ffd_notebook.view.editor.notebook_panel import ControlPanel
+from ffd_notebook.view.editor.notebook.panel import ControlPanel
+from ffd_notebook.view.editor.session.changes import DRAG_SYNC_S
 
 
 @pytest.fixture
@@ -26,7 +26,7 @@ def set_ijk(panel, ijk):
 def test_apply_reset_undo_redo(panel, editor):
     assert panel.undo_button.disabled and panel.redo_button.disabled
     set_ijk(panel, (1, 2, 3))
-    assert editor.selected == (1, 2, 3)
+    assert editor.session.selected == (1, 2, 3)
     for w, v in zip(panel.xyz, (0.1, -0.2, 0.3), strict=True):
         w.value = v
     panel.apply_button.click()
@@ -81,19 +81,19 @@ def test_lattice_size_and_basis(panel, editor):
     assert editor.lattice.shape == (4, 6, 5) and editor.scene.lattice_actor.glyphs.n_points == 120
     assert [w.max for w in panel.ijk] == [3, 5, 4]
     panel.basis.value = "bernstein"
-    assert editor.basis == "bernstein"
+    assert editor.session.basis == "bernstein"
     panel.undo_button.click()
-    assert editor.basis == "bspline" and panel.basis.value == "bspline"
+    assert editor.session.basis == "bspline" and panel.basis.value == "bspline"
     # every size the fields allow (2 or more) is a valid fitted lattice ("clamp" border), so the bad
     # request is a lattice the session refuses: an error in the message area, nothing changed
-    assert not editor.attempt(editor.set_shape, (1, 3, 3))
+    assert not editor.session.attempt(editor.session.set_shape, (1, 3, 3))
     assert editor.lattice.shape == (4, 6, 5)
     assert "Error: cannot build a (1, 3, 3) lattice" in panel.message.value and "#c62828" in panel.message.value
     assert [w.value for w in panel.shape] == [4, 6, 5]  # the panel shows the editor's lattice
 
 
 def test_ffd_files_through_the_panel(panel, editor, tmp_path):
-    editor.move_control_point((2, 2, 2), (0.0, 0.0, 0.2))
+    editor.session.move_control_point((2, 2, 2), (0.0, 0.0, 0.2))
     panel.ffd_path.value = str(tmp_path / "panel.ffd")
     panel.save_ffd_button.click()
     assert load_ffd(tmp_path / "panel.ffd") == editor.lattice
@@ -102,7 +102,7 @@ def test_ffd_files_through_the_panel(panel, editor, tmp_path):
     panel.load_ffd_button.click()
     np.testing.assert_allclose(editor.lattice.offsets[2, 2, 2], (0, 0, 0.2))
     # a bad file: the panel shows the error, the editor keeps everything
-    before = (editor.lattice.copy(), len(editor.history), shown_points(editor).copy())
+    before = (editor.lattice.copy(), len(editor.session.history), shown_points(editor).copy())
     good = (tmp_path / "panel.ffd").read_text().splitlines()
     size_line = good.index("#control grid size#") + 2  # the ny line, 0-based
     good[size_line] = "twelve"
@@ -110,7 +110,7 @@ def test_ffd_files_through_the_panel(panel, editor, tmp_path):
     panel.ffd_path.value = str(tmp_path / "bad.ffd")
     panel.load_ffd_button.click()  # no exception escapes a button
     assert "Error: could not load the lattice" in panel.message.value and f"line {size_line + 1}" in panel.message.value
-    assert editor.lattice == before[0] and len(editor.history) == before[1]
+    assert editor.lattice == before[0] and len(editor.session.history) == before[1]
     np.testing.assert_array_equal(shown_points(editor), before[2])
 
 
@@ -133,10 +133,10 @@ def test_mesh_files_decimation_and_display(panel, editor, shared_data, tmp_path)
     np.testing.assert_allclose(back.points, editor.deformed_mesh.points, rtol=1e-5, atol=1e-3)
     np.testing.assert_array_equal(back.point_data["RGB"], editor.mesh.point_data["RGB"])
     panel.colors.value = False
-    assert not editor.colors_shown and not editor.mesh_actor.GetMapper().GetScalarVisibility()
+    assert not editor.session.colors_shown and not editor.scene.mesh_actor.GetMapper().GetScalarVisibility()
     panel.field.value = "displacement"
-    assert editor.field == "displacement"
+    assert editor.session.field == "displacement"
     panel.field.value = "jacobian"
-    assert editor.field == "jacobian" and panel.message.value.count("folding (det J") == 1
+    assert editor.session.field == "jacobian" and panel.message.value.count("folding (det J") == 1
     panel.field.value = "none"  # shown as "mesh colours", never as an empty dropdown
-    assert editor.field is None and panel.field.label == "mesh colours"
+    assert editor.session.field is None and panel.field.label == "mesh colours"

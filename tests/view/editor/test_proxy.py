@@ -8,8 +8,8 @@ import pyvista as pv
 from editor_testing import display_xy, widget_index
 
 from ffd_notebook.view.editor import Editor
-from ffd_notebook.view.editor.proxy import INTERACTIVE_CELLS, simplified
-from ffd_notebook.view.editor.scene import prepare_display
+from ffd_notebook.view.editor.scene.proxy import INTERACTIVE_CELLS, simplified
+from ffd_notebook.view.editor.scene.scene import prepare_display
 
 
 @pytest.fixture(scope="module")
@@ -93,7 +93,7 @@ def test_colors_and_a_mesh_hidden_from_code_follow(face_editor):
     np.testing.assert_array_equal(
         scene.proxy.mesh.point_data["RGBA"], scene.display.point_data["RGBA"][scene.proxy.ids]
     )
-    face_editor.show_colors(False)
+    face_editor.session.show_colors(False)
     face_editor.screenshot()
     assert not mapper.GetScalarVisibility()
     scene.set_interacting(False)
@@ -112,7 +112,7 @@ def test_without_a_copy_the_full_mesh_is_always_drawn(face):
         assert editor.scene.proxy is None
         editor.scene.set_interacting(True)
         editor.screenshot()
-        assert visible(editor.mesh_actor)
+        assert visible(editor.scene.mesh_actor)
         assert len(editor.plotter.renderer.actors) == len(Editor(pv.Sphere(), shape=(4, 4, 4)).plotter.renderer.actors)
     finally:
         editor.close()
@@ -125,10 +125,10 @@ def test_a_loaded_mesh_gets_its_copy_from_the_worker_and_loses_it_when_small(fac
     bigger = face.copy()
     bigger.points *= 2.0
     bigger.save(path)
-    mesh, deformer = face_editor.read_mesh_file(path)
+    mesh, deformer = face_editor.session.files.read_mesh(path)
     prepared = prepare_display(mesh, deformer.current(), scene.interactive_cells)  # as the app's worker does
     scene.offer_display(prepared)
-    face_editor.use_mesh(mesh, deformer, "bigger.ply")
+    face_editor.session.files.use_mesh(mesh, deformer, "bigger.ply")
     assert scene.proxy is not None and scene.proxy.ids is prepared.proxy[0]
     assert old not in scene.plotter.renderer.actors.values()
     path = tmp_path / "small.ply"

@@ -1,12 +1,15 @@
 """EditingSession without rendering: commands on real meshes, checked against FFD.deform, and the change path.
 
-No plotter is made here: the session imports no VTK (checked on its source), so these tests exercise
+No plotter is made here: the session imports no VTK (checked in a fresh interpreter), so these tests exercise
 the editor's whole state machine (drag, move, reset, undo/redo, lattices, files, decimation) alone.
 """
 
 from __future__ import annotations
 
 import ast
+import os
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -19,8 +22,8 @@ from ffd_notebook import FFD
 from ffd_notebook.view.editor import Change, EditingSession
 from ffd_notebook.view.editor.editor import PYVISTA_MESH_IO, read_surface
 
-EDITOR_DIR = Path(__file__).resolve().parents[3] / "ffd_notebook" / "view" / "editor"
-NO_VIEW_LIBRARIES = ["session.py", "session_files.py", "changes.py", "history.py", "message_log.py"]
+SESSION_DIR = Path(__file__).resolve().parents[3] / "ffd_notebook" / "view" / "editor" / "session"
+VIEW_LIBRARIES = ("vtk", "vtkmodules", "pyvista", "trame", "ipywidgets")
 
 
 def new_session(mesh=None, **kw) -> EditingSession:
@@ -53,12 +56,31 @@ class Mirror:
             self.offsets[rows] = truth[rows]
 
 
-@pytest.mark.parametrize("name", NO_VIEW_LIBRARIES)
-def test_the_session_imports_no_view_library(name):
-    tree = ast.parse((EDITOR_DIR / name).read_text())
+def test_importing_the_session_loads_no_view_library():
+    """In a fresh interpreter, importing the session package and every module in it loads no VTK, PyVista,
+    trame or ipywidgets (through ``sys.modules``: an import anywhere, also an indirect one, counts)."""
+    modules = ["ffd_notebook.view.editor.session"] + [
+        f"ffd_notebook.view.editor.session.{p.stem}" for p in sorted(SESSION_DIR.glob("*.py")) if p.stem != "__init__"
+    ]
+    code = (
+        "import importlib, sys\n"
+        f"for name in {modules!r}: importlib.import_module(name)\n"
+        "from ffd_notebook.view.editor import EditingSession, Change, MeshIO\n"
+        f"print(','.join(sorted(m for m in sys.modules if m.split('.')[0] in {VIEW_LIBRARIES!r})))\n"
+    )
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(SESSION_DIR.parents[3]), os.environ.get("PYTHONPATH", "")])}
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, env=env)
+    assert out.stdout.strip() == "", f"the session imported: {out.stdout.strip()}"
+    assert len(modules) >= 8  # the package and its seven modules
+
+
+@pytest.mark.parametrize("path", sorted(SESSION_DIR.glob("*.py")), ids=lambda p: p.name)
+def test_the_session_source_imports_no_view_library(path):
+    """A function-level import would escape the check above until the function runs."""
+    tree = ast.parse(path.read_text())
     imported = [a.name for n in ast.walk(tree) if isinstance(n, ast.Import) for a in n.names]
     imported += [n.module or "" for n in ast.walk(tree) if isinstance(n, ast.ImportFrom) and n.level == 0]
-    assert not [m for m in imported if m.split(".")[0] in ("vtk", "vtkmodules", "pyvista", "trame", "ipywidgets")]
+    assert not [m for m in imported if m.split(".")[0] in VIEW_LIBRARIES]
 
 
 def test_commands_follow_the_model_and_undo(shared_data):
@@ -85,7 +107,6 @@ def test_commands_follow_the_model_and_undo(shared_data):
 
 
 def test_lattice_shape_basis_and_files(shared_data, tmp_path):
-    from ffd_notebook.view.editor import session_files
 
     session = new_session()
     session.set_shape((5, 4, 4))
@@ -93,39 +114,38 @@ def test_lattice_shape_basis_and_files(shared_data, tmp_path):
     session.set_basis("bernstein")
     session.move_control_point((2, 1, 1), (0.0, 0.0, 0.3))
     assert_follows_the_model(session)
-    lattice = session_files.load_ffd(session, shared_data / "seed-lineage" / "registration_11x12x11.FFD")
+    lattice = session.files.load_lattice(shared_data / "seed-lineage" / "registration_11x12x11.FFD")
     assert session.lattice is lattice and lattice.shape == (11, 12, 11)
     assert_follows_the_model(session)
     state = (session.lattice, len(session.history), len(session.messages))
     bad = tmp_path / "bad.ffd"
     bad.write_text("#dimension#\nthree\n")
     with pytest.raises(ValueError):
-        session_files.load_ffd(session, bad)
+        session.files.load_lattice(bad)
     assert (session.lattice, len(session.history)) == state[:2] and len(session.messages) == state[2] + 1
     assert session.messages[-1].startswith(f"Error: could not load the lattice {str(bad)!r}")
     session.undo()  # back to the Bernstein lattice with its moved point
     assert session.basis == "bernstein" and session.lattice.offsets[2, 1, 1, 2] == pytest.approx(0.3)
     saved = tmp_path / "saved.ffd"
     with pytest.raises(ValueError, match="cannot hold this FFD exactly"):  # .ffd lattices are B-splines
-        session_files.save_ffd(session, saved)
+        session.files.save_lattice(saved)
     assert not saved.exists()
     assert session.messages[-1].startswith(f"Error: could not save the lattice to {str(saved)!r}")
     session.redo()  # the loaded B-spline .ffd lattice
-    session_files.save_ffd(session, saved)
+    session.files.save_lattice(saved)
     assert session.messages[-1] == f"saved the lattice to {saved}"
 
 
 def test_decimation_keeps_lattice_and_history():
-    from ffd_notebook.view.editor import session_files
 
     session = new_session(pv.Sphere(theta_resolution=40, phi_resolution=40))
     session.move_control_point((1, 1, 2), (0.0, 0.0, 0.2))
     mirror = Mirror(session)
-    mesh = session_files.decimate(session, 0.5)
+    mesh = session.decimate(0.5)
     assert session.mesh is mesh and mesh.n_points < session.source_mesh.n_points
     assert [c.kind for c in mirror.changes[:1]] == ["mesh"] and session.can_undo
     assert_follows_the_model(session)
-    session_files.decimate(session, 0.0)  # back to the mesh as loaded
+    session.decimate(0.0)  # back to the mesh as loaded
     assert session.mesh.n_points == session.source_mesh.n_points
 
 

@@ -40,8 +40,8 @@ def scene_objects(editor) -> dict:
         "glyphs": editor.scene.lattice_actor.glyph_actor.__this__,
         "glyph_points": editor.scene.lattice_actor.glyphs.GetPoints().GetData().__this__,
         "handle": editor.scene.lattice_actor.handle.__this__,
-        "mesh_input": editor.mesh_actor.GetMapper().GetInput().__this__,
-        "mesh_points": editor.mesh_actor.GetMapper().GetInput().GetPoints().GetData().__this__,
+        "mesh_input": editor.scene.mesh_actor.GetMapper().GetInput().__this__,
+        "mesh_points": editor.scene.mesh_actor.GetMapper().GetInput().GetPoints().GetData().__this__,
         "line_points": editor.scene.lattice_actor.lines.GetPoints().GetData().__this__,
     }
 
@@ -92,12 +92,12 @@ def test_ten_thousand_drag_events_leak_nothing():
         assert rss_growth < 5 * 2**20, f"resident memory grew by {rss_growth / 2**20:.1f} MB"
         assert python_growth < 1 * 2**20, f"Python memory grew by {python_growth / 2**20:.2f} MB"
         drags = (1000 + EVENTS) // PER_DRAG
-        assert len(editor.history) == min(drags, editor.history.limit)  # one step per drag, bounded
+        assert len(editor.session.history) == min(drags, editor.session.history.limit)  # one step per drag, bounded
         assert_view_matches_model(editor, atol=1e-4)
         # a rebuild replaces the lattice's actors, one for one, whatever its size
         n_actors, n_props = objects["actors"], objects["props"]
         for shape in ((20, 20, 20), (5, 5, 5)):
-            editor.set_shape(shape)
+            editor.session.set_shape(shape)
             editor.screenshot()
             assert scene_objects(editor)["actors"] == n_actors and scene_objects(editor)["props"] == n_props
     finally:

@@ -28,37 +28,22 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ...deform import FFD
-from ...deformer import Deformer
-from ...lattice import Lattice
+from ....ffd.deform import FFD
+from ....ffd.deformer import Deformer
+from ....ffd.lattice import Lattice
 from .changes import Change, Subscribers
+from .files import SessionFiles
 from .history import History, LatticeSwap, OffsetEdit
+from .lattices import copy_ffd, fitted_lattice
 from .message_log import MessageLog
-from .surface_drag import SurfaceDragging
+from .surface_drag import SurfaceDrag
 
-__all__ = ["FIELDS", "POINTS_SHOWN", "EditingSession", "MeshIO", "copy_ffd", "fitted_lattice"]
+__all__ = ["FIELDS", "POINTS_SHOWN", "EditingSession", "MeshIO"]
 
 #: what the mesh can be colored by: nothing (its own colors), |displacement|, folding (det J <= 0)
 FIELDS = (None, "displacement", "jacobian")
 #: which control points the view draws: all, those near the selection, the lattice's hull (dense lattices)
 POINTS_SHOWN = ("auto", "all", "near", "hull")
-
-
-def fitted_lattice(mesh: Any, shape: tuple[int, int, int], basis: str) -> Lattice:
-    """The lattice the editor fits around ``mesh`` (initial fit, new size, new basis, new mesh).
-
-    For the B-spline basis it uses the "clamp" border: the lattice's box is the mesh's own, at most
-    2% larger, so every control point, the outer ring included, visibly moves the mesh (with
-    "zero" the outer ring lies a whole spacing outside the mesh). Bernstein lattices span their box.
-    """
-    return Lattice.around(mesh, shape, basis=basis, border="clamp" if basis == "bspline" else "zero")
-
-
-def copy_ffd(ffd: FFD, lattice: Lattice | None = None) -> FFD:
-    """A new FFD with ``ffd``'s basis, border, affine part and ``only_inside`` on a copy of its
-    lattice (or on ``lattice``)."""
-    lattice = ffd.lattice.copy() if lattice is None else lattice
-    return FFD(lattice, ffd.basis, ffd.border, ffd.affine.copy(), ffd.only_inside)
 
 
 @dataclass(frozen=True)
@@ -72,10 +57,11 @@ class MeshIO:
     color_array: Callable[[Any], str | None]  # mesh -> name of its per-vertex color array, or None
 
 
-class EditingSession(SurfaceDragging):
+class EditingSession:
     """The editor's state and commands, without rendering (see the module docstring).
 
-    Surface drags and pins (``pin``, ``begin_surface_drag``...) come from :class:`~.surface_drag.SurfaceDragging`.
+    Surface drags, pins and the interaction mode are the session's :class:`~.surface_drag.SurfaceDrag`,
+    ``session.surface`` (``session.surface.pin(...)``, ``session.surface.begin(...)``...).
 
     Parameters
     ----------
@@ -122,6 +108,8 @@ class EditingSession(SurfaceDragging):
         self.selected: tuple[int, int, int] | None = None
         self._subscribers = Subscribers(self.messages.append)
         self._dragged: int | None = None
+        self.surface = SurfaceDrag(self)  # pins, interaction mode, surface drags
+        self.files = SessionFiles(self)  # lattice files and meshes
         if lattice is None:
             lattice, self.lattice_source = fitted_lattice(mesh, shape, basis), "fit"
         else:
@@ -136,7 +124,7 @@ class EditingSession(SurfaceDragging):
 
     @property
     def ffd(self) -> FFD:
-        """The :class:`~ffd_notebook.deform.FFD` applied to the mesh: lattice, basis, border, affine
+        """The :class:`~ffd_notebook.ffd.deform.FFD` applied to the mesh: lattice, basis, border, affine
         part and ``only_inside`` (a loaded deformation file brings all of them)."""
         return self.deformer.ffd
 
@@ -201,7 +189,7 @@ class EditingSession(SurfaceDragging):
         self._subscribers.clear()
 
     def notify(self, kind: str, points: Any = None, label: str = "", started: float | None = None) -> None:
-        """Tell every subscriber about one :class:`~.changes.Change` (for the session's own commands and its mixins)."""
+        """Tell every subscriber about one :class:`~.changes.Change` (from the session's commands and parts)."""
         change = Change(kind, points, label) if started is None else Change(kind, points, label, started)
         self._subscribers.emit(change)
 
@@ -276,7 +264,7 @@ class EditingSession(SurfaceDragging):
         self.history.close()
         lat = self.lattice
         if lat.shape != self._committed.shape[:3]:
-            raise ValueError("the lattice's shape changed: assign a new lattice with editor.set_lattice(...)")
+            raise ValueError("the lattice's shape changed: assign a new lattice with set_lattice(...)")
         self._rest_control = lat.control_points().reshape(-1, 3)
         moved = np.argwhere(np.any(lat.offsets != self._committed, axis=-1))  # the one comparison of copies
         if len(moved):
@@ -425,6 +413,26 @@ class EditingSession(SurfaceDragging):
         self.swap_lattice(lattice, basis, label="basis", source="fit")
         self.info(f"basis: {basis}")
 
+    def decimate(self, reduction: float) -> Any:
+        """Decimate the loaded mesh by ``reduction`` (fraction of faces removed, ``0`` restores it).
+
+        Always starts from the mesh as loaded, so repeated calls do not compound. Per-vertex colors
+        are kept; the lattice and its offsets are kept and the deformer is re-bound to the new
+        vertices; the undo history stays valid.
+        """
+        try:
+            reduction = float(reduction)
+            source = self.source_mesh
+            mesh = source.copy(deep=True) if reduction == 0.0 else self.mesh_io.decimate(source, reduction)
+            if mesh.n_points == 0:
+                raise ValueError("nothing left after decimation")
+        except (TypeError, ValueError) as exc:
+            self.error(f"could not decimate: {exc}")
+            raise
+        self.replace_mesh(mesh, self.ffd.bind(mesh.points), label="decimate", new_document=False)
+        self.info(f"decimated by {reduction:.0%}: {mesh.n_points} vertices, {mesh.n_cells} faces")
+        return mesh
+
     # ------------------------------------------------------------------ coloring
     def show_colors(self, show: bool = True) -> None:
         """Show the mesh's per-vertex colors (or a plain color)."""
@@ -455,13 +463,13 @@ class EditingSession(SurfaceDragging):
     # ------------------------------------------------------------------ binding the model
     def replace_mesh(self, mesh: Any, deformer: Deformer, *, label: str, new_document: bool) -> None:
         """Use another mesh with ``deformer`` (its lattice bound to ``mesh.points``; made by
-        :mod:`.session_files`, possibly in a worker thread). A new document (a loaded mesh) clears
+        :class:`~.files.SessionFiles`, possibly in a worker thread). A new document (a loaded mesh) clears
         the history; a decimation keeps it and the mesh it started from. Emits ``"mesh"``, then
         ``"lattice"`` when the lattice is another one."""
         new_lattice, selected = deformer.ffd is not self.ffd, self.selected
         if new_document:
             self.history.clear()
-            self._pins = None  # pins are points of the old mesh
+            self.surface.drop_pins()  # pins are points of the old mesh
         self._bind_mesh(mesh, deformer, source=None if new_document else self.source_mesh)
         if not new_lattice:
             self.selected = selected

@@ -13,30 +13,11 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .basis import BASES, check_border
+from .._util.points import as_points
+from .basis import BASES
+from .support import check_border
 
-__all__ = ["Lattice", "as_points"]
-
-
-def as_points(points_or_mesh: Any) -> NDArray[np.float64]:
-    """Return an ``(N, 3)`` float array from an array or any object with a ``points`` attribute.
-
-    Examples
-    --------
-    >>> as_points([[0, 1, 2]]).dtype.name
-    'float64'
-    >>> as_points([[0.0, float("nan"), 0.0]])
-    Traceback (most recent call last):
-    ...
-    ValueError: points contain NaN or infinite values
-    """
-    pts = getattr(points_or_mesh, "points", points_or_mesh)
-    pts = np.asarray(pts, dtype=np.float64)
-    if pts.ndim != 2 or pts.shape[1] != 3 or len(pts) == 0:
-        raise ValueError(f"expected a non-empty (N, 3) point array, got shape {pts.shape}")
-    if not np.isfinite(pts).all():
-        raise ValueError("points contain NaN or infinite values")
-    return pts
+__all__ = ["Lattice"]
 
 
 def _check_rotation(rotation: ArrayLike | None) -> NDArray[np.float64]:
@@ -70,7 +51,7 @@ class Lattice:
     offsets : array_like, optional
         Initial ``(nx, ny, nz, 3)`` displacements; zeros by default.
     border : {"zero", "clamp"}
-        What the B-spline FFD assumes beyond the lattice (:data:`~ffd_notebook.basis.BORDERS`):
+        What the B-spline FFD assumes beyond the lattice (:data:`~ffd_notebook.ffd.support.BORDERS`):
         ``"zero"`` (the FFD report's formula, SimpleITK's) or ``"clamp"`` (copies of the border
         control points, Blender's lattice). It belongs to the lattice because it decides where
         a lattice must sit around a mesh (:meth:`around`); :class:`~ffd_notebook.FFD` follows it

@@ -3,8 +3,8 @@
 The mesh actor is made once; switching what it shows only changes which point array its mapper
 reads and how (direct RGB colours or scalars through a lookup table), so no actor is re-created.
 
-Fields
-------
+Fields (:data:`~ffd_notebook.view.editor.session.FIELDS`)
+---------------------------------------------------------
 ``"displacement"``
     ``|T(x) - x|`` at each vertex (what the user sees move), through a colour map from 0 to the
     largest value.
@@ -23,7 +23,6 @@ from numpy.typing import ArrayLike, NDArray
 
 __all__ = [
     "DISPLACEMENT_ARRAY",
-    "FIELDS",
     "FOLDING_ARRAY",
     "displacement_magnitude",
     "folding_mask",
@@ -32,7 +31,6 @@ __all__ = [
     "show_rgb",
 ]
 
-FIELDS = (None, "displacement", "jacobian")
 DISPLACEMENT_ARRAY = "ffd_displacement"
 FOLDING_ARRAY = "ffd_folding"
 FOLD_COLOR = "red"

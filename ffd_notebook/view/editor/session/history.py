@@ -24,7 +24,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["History", "LatticeSwap", "OffsetEdit"]
+__all__ = ["History", "LatticeSwap", "OffsetEdit", "Step"]
 
 
 @dataclass
@@ -49,7 +49,8 @@ class LatticeSwap:
     label: str = "lattice"
 
 
-Change = OffsetEdit | LatticeSwap
+#: one undo step (not to be confused with :class:`~.changes.Change`, what a command tells the views)
+Step = OffsetEdit | LatticeSwap
 
 
 class History:
@@ -76,8 +77,8 @@ class History:
         if limit < 1:
             raise ValueError(f"limit must be at least 1, got {limit}")
         self.limit = int(limit)
-        self._done: list[Change] = []
-        self._undone: list[Change] = []
+        self._done: list[Step] = []
+        self._undone: list[Step] = []
         self._open_key: Any = None
 
     def __len__(self) -> int:
@@ -128,7 +129,7 @@ class History:
         """End the open step: the next change starts a new one even for the same key."""
         self._open_key = None
 
-    def undo(self) -> Change | None:
+    def undo(self) -> Step | None:
         """Pop the last step (to be reverted by the caller); ``None`` if there is none."""
         self._open_key = None
         if not self._done:
@@ -137,7 +138,7 @@ class History:
         self._undone.append(change)
         return change
 
-    def redo(self) -> Change | None:
+    def redo(self) -> Step | None:
         """Pop the last undone step (to be re-applied by the caller); ``None`` if there is none."""
         self._open_key = None
         if not self._undone:
@@ -152,8 +153,8 @@ class History:
         self._undone.clear()
         self._open_key = None
 
-    def _push(self, change: Change) -> None:
-        self._done.append(change)
+    def _push(self, step: Step) -> None:
+        self._done.append(step)
         if len(self._done) > self.limit:
             del self._done[: len(self._done) - self.limit]
 

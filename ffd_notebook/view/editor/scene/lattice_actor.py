@@ -40,8 +40,8 @@ import numpy as np
 import pyvista as pv
 from numpy.typing import ArrayLike, NDArray
 
-from ...lattice import Lattice
-from .session import POINTS_SHOWN
+from ....ffd.lattice import Lattice
+from ..session.session import POINTS_SHOWN
 
 __all__ = ["AUTO_ALL_UP_TO", "NEAR_RINGS", "LatticeActor", "shown_indices", "widget_radius"]
 

@@ -8,11 +8,11 @@ name). A remote user needs no server path at all: lattice files (.ffd, ITK .tfm/
 PyGeM .prm) and meshes can be uploaded from the
 browser and the lattice and the deformed mesh downloaded to it.
 
-Reading and writing files run in a worker thread (:meth:`AppFilesMixin._in_background`) so the
+Reading and writing files run in a worker thread (:meth:`AppFiles.in_background`) so the
 event loop keeps answering (HTTP, other clients, the page's own messages) and the page shows a
 progress bar. The worker also does the slow parts of installing: binding the lattice to a loaded
 mesh (the deformer's weights and first evaluation), the plotted copy of the mesh and its normals
-(:func:`~.scene.prepare_display`), and binding a rebuilt lattice (:meth:`AppFilesMixin.rebuild`);
+(:func:`~.scene.prepare_display`), and binding a rebuilt lattice (:meth:`AppFiles.rebuild`);
 only swapping the result into the editor (VTK actors) runs on the loop. Without a running event
 loop (scripts, unit tests) the same work runs synchronously.
 """
@@ -25,26 +25,26 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from ..file_root import (
+from ....io.mesh import MESH_SUFFIXES
+from ...file_root import (
     FFD_SUFFIXES,
-    MESH_SUFFIXES,
     FileRoot,
     PathRefused,
     ScratchFolder,
     client_message,
     refuse_special_or_oversize,
 )
-from .controls import numbers
-from .scene import prepare_display
-from .session import copy_ffd
+from ..scene.scene import prepare_display
+from ..session.controls import numbers
+from ..session.lattices import copy_ffd
 
-__all__ = ["MESH_FORMATS", "AppFilesMixin", "upload_bytes"]
+__all__ = ["MESH_FORMATS", "AppFiles", "upload_bytes"]
 
 
 def _write_deformation(target: Path, ffd: Any, shown: str) -> None:
     """``save_deformation(target, ffd)``; a refusal (the format cannot hold ``ffd``) becomes a
     :class:`PathRefused` whose whole reason the page may show, naming the file as the page does."""
-    from ...io import save_deformation
+    from ....io import save_deformation
 
     try:
         save_deformation(target, ffd)
@@ -75,24 +75,35 @@ def upload_bytes(upload: Any) -> tuple[str, bytes] | None:
     return str(upload.get("name") or "upload"), bytes(content)
 
 
-class AppFilesMixin:
-    """File actions of :class:`~ffd_notebook.view.editor.app.EditorApp` (see the module docstring).
+class AppFiles:
+    """The file actions of one :class:`~ffd_notebook.view.editor.app.EditorApp` (``app.files``; see the module
+    docstring).
 
-    Needs ``self.editor``, ``self.state``, ``self.files`` (a FileRoot) and ``self.sync()``.
+    Parameters
+    ----------
+    editor : Editor
+        The editor the files are loaded into and saved from.
+    state : trame state
+        The page's state (``busy``, ``busy_text``, the upload inputs).
+    root : FileRoot
+        The folder typed paths are confined to.
+    sync : callable
+        Called after every action that changed the editor or added a message: the app copies the
+        editor's state to the page.
     """
 
-    editor: Any
-    state: Any
-    files: FileRoot
-    _scratch: ScratchFolder | None
-    _tasks: set[Any]
-
-    def sync(self) -> None:  # pragma: no cover - EditorApp's
-        raise NotImplementedError
+    def __init__(self, editor: Any, state: Any, root: FileRoot, *, sync: Callable[[], None]) -> None:
+        self.editor = editor
+        self.session = editor.session
+        self.state = state
+        self.root = root
+        self.sync = sync
+        self._scratch: ScratchFolder | None = None
+        self._tasks: set[Any] = set()
 
     # ------------------------------------------------------------------ running work
     def _report(self, exc: BaseException, shown: str, verb: str) -> None:
-        self.editor.messages.append(f"Error: could not {verb}: {client_message(exc, shown)}")
+        self.session.messages.append(f"Error: could not {verb}: {client_message(exc, shown)}")
         self.sync()
 
     def _set_busy(self, text: str | None) -> None:
@@ -100,14 +111,14 @@ class AppFilesMixin:
             self.state.busy = text is not None
             self.state.busy_text = text or ""
 
-    def _in_background(self, what: str, work: Callable[[], Any], done: Callable[[Any], None], shown: str,
+    def in_background(self, what: str, work: Callable[[], Any], done: Callable[[Any], None], shown: str,
                        verb: str) -> None:  # fmt: skip
         """Run ``work()`` in a worker thread, then ``done(result)`` on the event loop; errors become messages.
 
         One file action at a time: a second one while the first runs is refused with a message.
         """
         if self.state.busy:
-            self.editor.messages.append(f"Error: still busy ({self.state.busy_text}); try again when it is done")
+            self.session.messages.append(f"Error: still busy ({self.state.busy_text}); try again when it is done")
             self.sync()
             return
         try:
@@ -154,26 +165,26 @@ class AppFilesMixin:
 
     # ------------------------------------------------------------------ reading
     def _read_ffd(self, path: Path, shown: str) -> None:
-        self._in_background(f"reading {shown}", lambda: self.editor.read_ffd_file(path),
-                            lambda result: self.editor.use_ffd(*result, shown), shown, "load")  # fmt: skip
+        self.in_background(f"reading {shown}", lambda: self.session.files.read_lattice(path),
+                            lambda result: self.session.files.use_lattice(*result, shown), shown, "load")  # fmt: skip
 
     def _read_mesh(self, path: Path, shown: str) -> None:
         def work() -> tuple[Any, Any, Any]:
-            mesh, deformer = self.editor.read_mesh_file(path)
+            mesh, deformer = self.session.files.read_mesh(path)
             return mesh, deformer, prepare_display(mesh, deformer.current(), self.editor.scene.interactive_cells)
 
         def done(result: tuple[Any, Any, Any]) -> None:
             mesh, deformer, prepared = result
             self.editor.scene.offer_display(prepared)
-            self.editor.use_mesh(mesh, deformer, shown)
+            self.session.files.use_mesh(mesh, deformer, shown)
 
-        self._in_background(f"reading {shown}", work, done, shown, "load")
+        self.in_background(f"reading {shown}", work, done, shown, "load")
 
     # ------------------------------------------------------------------ lattice
     def rebuild(self, *values: Any) -> None:
         """Fit a lattice of the typed size (``nx, ny, nz``) around the mesh; binding it to the mesh
         (seconds on a big mesh) runs in a worker thread."""
-        session = self.editor.session
+        session = self.session
         try:
             shape = numbers(list(values), "lattice size", int)
             ffd = session.fitted_ffd(shape)  # checks the size (a message if it cannot be built)
@@ -189,20 +200,20 @@ class AppFilesMixin:
                 raise ValueError("the mesh changed meanwhile; rebuild again")
             session.set_shape(shape, deformer)
 
-        self._in_background(f"fitting a {name} lattice", lambda: ffd.bind(mesh.points), done,
+        self.in_background(f"fitting a {name} lattice", lambda: ffd.bind(mesh.points), done,
                             f"the {name} lattice", "rebuild")  # fmt: skip
 
     def load_ffd(self, path: str) -> None:
         """Load a lattice file (.ffd, ITK, PyGeM .prm) from a path in the app's folder."""
-        target = self._typed(path, self.files.for_reading, "load")
+        target = self._typed(path, self.root.for_reading, "load")
         if target is not None:
-            self._read_ffd(target, self.files.shown(target))
+            self._read_ffd(target, self.root.shown(target))
 
     def load_mesh(self, path: str) -> None:
         """Load a mesh (OBJ, PLY, VTP, STL, ...) from a path in the app's folder."""
-        target = self._typed(path, self.files.for_reading, "load")
+        target = self._typed(path, self.root.for_reading, "load")
         if target is not None:
-            self._read_mesh(target, self.files.shown(target))
+            self._read_mesh(target, self.root.shown(target))
 
     # ------------------------------------------------------------------ writing
     def save_ffd(self, path: str) -> None:
@@ -210,22 +221,22 @@ class AppFilesMixin:
 
         A format that cannot hold the FFD exactly is refused with the reason, and writes nothing.
         """
-        target = self._typed(path, lambda p: self.files.for_writing(p, FFD_SUFFIXES), "save")
+        target = self._typed(path, lambda p: self.root.for_writing(p, FFD_SUFFIXES), "save")
         if target is not None:
-            ffd, shown = copy_ffd(self.editor.ffd), self.files.shown(target)
-            self._in_background(f"writing {shown}", lambda: _write_deformation(target, ffd, shown),
-                                lambda _: self.editor.messages.append(f"saved the lattice to {shown}"), shown,
+            ffd, shown = copy_ffd(self.session.ffd), self.root.shown(target)
+            self.in_background(f"writing {shown}", lambda: _write_deformation(target, ffd, shown),
+                                lambda _: self.session.messages.append(f"saved the lattice to {shown}"), shown,
                                 "save")  # fmt: skip
 
     def save_mesh(self, path: str) -> None:
         """Save the deformed mesh in the app's folder (format from the extension, atomically)."""
-        from ...io import write_mesh
+        from ....io import write_mesh
 
-        target = self._typed(path, lambda p: self.files.for_writing(p, MESH_SUFFIXES), "save")
+        target = self._typed(path, lambda p: self.root.for_writing(p, MESH_SUFFIXES), "save")
         if target is not None:
-            mesh, shown = self.editor.deformed_mesh, self.files.shown(target)
-            self._in_background(f"writing {shown}", lambda: write_mesh(target, mesh),
-                                lambda _: self.editor.messages.append(f"saved the deformed mesh to {shown}"),
+            mesh, shown = self.session.deformed_mesh, self.root.shown(target)
+            self.in_background(f"writing {shown}", lambda: write_mesh(target, mesh),
+                                lambda _: self.session.messages.append(f"saved the deformed mesh to {shown}"),
                                 shown, "save")  # fmt: skip
 
     # ------------------------------------------------------------------ the browser's files
@@ -245,12 +256,12 @@ class AppFilesMixin:
         try:
             if Path(name).suffix.lower() not in suffixes:
                 raise PathRefused(f"{Path(name).name!r}: expected a file ending with {', '.join(suffixes)}")
-            if len(content) > self.files.max_bytes:
+            if len(content) > self.root.max_bytes:
                 raise PathRefused(f"{Path(name).name!r} is bigger than the limit of "
-                                  f"{self.files.max_bytes / 2**20:.0f} MiB")  # fmt: skip
+                                  f"{self.root.max_bytes / 2**20:.0f} MiB")  # fmt: skip
             target = self._scratch_file(name)
             target.write_bytes(content)
-            refuse_special_or_oversize(target, self.files.max_bytes)
+            refuse_special_or_oversize(target, self.root.max_bytes)
         except (PathRefused, OSError) as exc:
             self._report(exc, shown, "load")
             return None
@@ -278,19 +289,19 @@ class AppFilesMixin:
 
     async def download_ffd(self) -> bytes:
         """The FFD as the bytes of a .ffd file (the page's download button saves them in the browser)."""
-        ffd = copy_ffd(self.editor.ffd)
+        ffd = copy_ffd(self.session.ffd)
         return await self._written_bytes("download.ffd", lambda path: _write_deformation(path, ffd, "lattice.ffd"))
 
     async def download_mesh(self, fmt: str = "obj") -> bytes:
         """The deformed mesh as the bytes of a ``fmt`` file (one of :data:`MESH_FORMATS`)."""
-        from ...io import write_mesh
+        from ....io import write_mesh
 
         if fmt not in MESH_FORMATS:
             raise ValueError(f"mesh format must be one of {MESH_FORMATS}")
-        mesh = self.editor.deformed_mesh
+        mesh = self.session.deformed_mesh
         return await self._written_bytes(f"download.{fmt}", lambda path: write_mesh(path, mesh))
 
-    def cleanup_files(self) -> None:
+    def cleanup(self) -> None:
         """Remove the folder of uploads and downloads (at exit)."""
         if self._scratch is not None:
             self._scratch.cleanup()

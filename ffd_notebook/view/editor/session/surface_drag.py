@@ -1,7 +1,7 @@
 """Grabbing the mesh itself: pins and surface drags of an editing session (NumPy and the model only).
 
 A surface drag takes a point of the rest mesh and moves its deformed position onto a target by
-changing the lattice offsets the least (:meth:`ffd_notebook.deform.FFD.fit_points`), while pinned
+changing the lattice offsets the least (:meth:`ffd_notebook.ffd.deform.FFD.fit_points`), while pinned
 points keep their deformed position. Every drag event solves again from the offsets the drag
 started with, not from the previous event's: the result depends on where the mouse is, not on
 the path it took, and the grabbed point lands exactly on the target each time.
@@ -12,21 +12,24 @@ positions as they are, and they stay meaningful when the mesh is decimated (vert
 A new mesh (a loaded file) clears them. Pins are tool state, like the selection: adding or removing
 one is not an undo step (an undo of a drag still moves the pinned points back with the mesh).
 
-:class:`SurfaceDragging` is a mixin of :class:`~.session.EditingSession` (it uses the session's
-lattice, deformer, history and notifications); :func:`ray_hit` is the view's picking test.
+A :class:`SurfaceDrag` belongs to one :class:`~.session.EditingSession` (``session.surface``) and uses
+its public lattice, history and notifications; :func:`ray_hit` is the scene's picking test.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ...fit import control_weights
+from ....ffd.fit import control_weights
 
-__all__ = ["MODES", "SurfaceDragging", "ray_hit"]
+if TYPE_CHECKING:
+    from .session import EditingSession
+
+__all__ = ["MODES", "SurfaceDrag", "ray_hit"]
 
 #: what a left-button drag on the view moves: the lattice's spheres, or the mesh itself
 MODES = ("control points", "surface")
@@ -44,8 +47,17 @@ class _Drag:
     key: object  # the undo step's merge key
 
 
-class SurfaceDragging:
-    """Pins, interaction mode and surface drags of an :class:`~.session.EditingSession` (a mixin).
+class SurfaceDrag:
+    """Pins, the interaction mode and surface drags of one :class:`~.session.EditingSession` (``session.surface``).
+
+    It changes the session only through the session's public commands and state: the lattice's
+    offsets and the undo history while a drag runs, :meth:`~.session.EditingSession.commit_rows`
+    and :meth:`~.session.EditingSession.notify` to tell the views.
+
+    Parameters
+    ----------
+    session : EditingSession
+        The session whose mesh is grabbed (it makes its own: ``session.surface``).
 
     Examples
     --------
@@ -53,128 +65,130 @@ class SurfaceDragging:
     >>> from ffd_notebook.view.editor.editor import PYVISTA_MESH_IO
     >>> from ffd_notebook.view.editor.session import EditingSession
     >>> session = EditingSession(pv.Sphere(), mesh_io=PYVISTA_MESH_IO, shape=(5, 5, 5))
-    >>> session.pin(0)
+    >>> session.surface.pin(0)
     0
-    >>> session.begin_surface_drag(10)
+    >>> session.surface.begin(10)
     >>> target = session.rest_points[10] + (0.0, 0.0, 0.1)
-    >>> session.drag_surface(target)
-    >>> session.end_surface_drag()
+    >>> session.surface.move(target)
+    >>> session.surface.end()
     >>> moved = session.ffd.deform(session.rest_points[[10, 0]])
     >>> bool(np.allclose(moved, [target, session.rest_points[0]], atol=1e-12)), len(session.history)
     (True, 1)
     """
 
-    interaction_mode: str = MODES[0]
-    _drag_state: _Drag | None = None
+    def __init__(self, session: EditingSession) -> None:
+        self.session = session
+        self.mode: str = MODES[0]
+        self._pins: NDArray[np.float64] = np.empty((0, 3))
+        self._drag: _Drag | None = None
 
     @property
     def pins(self) -> NDArray[np.float64]:
         """The pinned points, ``(Q, 3)`` positions on the rest mesh (a copy)."""
-        return self._pin_array().copy()
-
-    def _pin_array(self) -> NDArray[np.float64]:
-        pins = getattr(self, "_pins", None)
-        return np.empty((0, 3)) if pins is None else pins
+        return self._pins.copy()
 
     def pinned_points(self) -> NDArray[np.float64]:
         """Where the pinned points are now: ``(Q, 3)`` deformed positions."""
-        pins = self._pin_array()
-        return self.ffd.deform(pins) if len(pins) else np.empty((0, 3))
+        return self.session.ffd.deform(self._pins) if len(self._pins) else np.empty((0, 3))
 
     @property
-    def surface_grab(self) -> NDArray[np.float64] | None:
+    def grabbed(self) -> NDArray[np.float64] | None:
         """The rest position of the point being dragged (``(3,)``), or None outside a surface drag."""
-        return None if self._drag_state is None else self._drag_state.point[0].copy()
+        return None if self._drag is None else self._drag.point[0].copy()
 
     # ------------------------------------------------------------------ mode and pins
-    def set_interaction_mode(self, mode: str) -> None:
+    def set_mode(self, mode: str) -> None:
         """What a left-button drag in the view moves: ``"control points"`` (spheres) or ``"surface"``."""
         if mode not in MODES:
             raise ValueError(f"interaction mode must be one of {MODES}, got {mode!r}")
-        self.interaction_mode = mode
-        self.notify("display", None, "mode")
+        self.mode = mode
+        self.session.notify("display", None, "mode")
 
     def pin(self, vertex_or_point: Any) -> int:
         """Pin a point of the mesh (a vertex id, or a ``(3,)`` rest position); returns the pin's index."""
         point = self.rest_point(vertex_or_point)
-        self._pins = np.vstack([self._pin_array(), point[None, :]])
-        self.notify("display", None, "pins")
+        self._pins = np.vstack([self._pins, point[None, :]])
+        self.session.notify("display", None, "pins")
         return len(self._pins) - 1
 
     def unpin(self, index: int) -> None:
         """Remove pin number ``index`` (of :attr:`pins`)."""
-        pins = self._pin_array()
-        if not isinstance(index, (int, np.integer)) or not 0 <= index < len(pins):
-            raise ValueError(f"no pin {index!r}: there are {len(pins)} pins")
-        self._pins = np.delete(pins, int(index), axis=0)
-        self.notify("display", None, "pins")
+        if not isinstance(index, (int, np.integer)) or not 0 <= index < len(self._pins):
+            raise ValueError(f"no pin {index!r}: there are {len(self._pins)} pins")
+        self._pins = np.delete(self._pins, int(index), axis=0)
+        self.session.notify("display", None, "pins")
 
     def clear_pins(self) -> None:
         """Remove every pin."""
+        self.drop_pins()
+        self.session.notify("display", None, "pins")
+
+    def drop_pins(self) -> None:
+        """Forget the pins without telling the views (a new mesh: the session tells them about the mesh)."""
         self._pins = np.empty((0, 3))
-        self.notify("display", None, "pins")
 
     def rest_point(self, vertex_or_point: Any) -> NDArray[np.float64]:
         """A vertex id or a ``(3,)`` position as a ``(3,)`` rest position; a ValueError otherwise.
 
         A position is taken as it is (a point on the rest surface, e.g. a picked one).
         """
+        rest_points = self.session.rest_points
         if isinstance(vertex_or_point, (int, np.integer)):
-            n = len(self.rest_points)
+            n = len(rest_points)
             if not 0 <= vertex_or_point < n:
                 raise ValueError(f"vertex id must be in [0, {n}), got {vertex_or_point}")
-            return self.rest_points[int(vertex_or_point)].copy()
+            return rest_points[int(vertex_or_point)].copy()
         point = np.asarray(vertex_or_point, dtype=np.float64)
         if point.shape != (3,) or not np.isfinite(point).all():
             raise ValueError(f"a surface point must be a vertex id or three finite numbers, got {vertex_or_point!r}")
         return point
 
     # ------------------------------------------------------------------ the drag
-    def begin_surface_drag(self, vertex_or_point: Any) -> None:
+    def begin(self, vertex_or_point: Any) -> None:
         """Grab a point of the mesh (a vertex id or a ``(3,)`` rest position); a new undo step starts.
 
         Raises a ValueError if no control point moves it (outside a "zero"-border lattice's reach).
         """
+        session = self.session
         point = self.rest_point(vertex_or_point)[None, :]
-        rows = np.vstack([point, self._pin_array()])
-        index, weight = control_weights(self.ffd, rows)
+        rows = np.vstack([point, self._pins])
+        index, weight = control_weights(session.ffd, rows)
         if not np.any(weight[0] != 0):
             raise ValueError(f"no control point moves the point {point[0].tolist()}: it is outside the lattice")
         flat = np.unique(index[weight != 0])
-        idx = np.unravel_index(flat, self.lattice.shape)
-        self.history.close()
-        self._drag_state = _Drag(point, self.lattice, idx, flat, self.lattice.offsets[idx].copy(), object())
+        idx = np.unravel_index(flat, session.lattice.shape)
+        session.history.close()
+        self._drag = _Drag(point, session.lattice, idx, flat, session.lattice.offsets[idx].copy(), object())
 
-    def drag_surface(self, target: ArrayLike, started: float | None = None) -> None:
+    def move(self, target: ArrayLike, started: float | None = None) -> None:
         """Move the grabbed point's deformed position to ``target`` (``(3,)``), pins staying where they are.
 
         Solved from the offsets the drag started with (least-norm change, see the module
         docstring); one ``"drag"`` change naming the control points involved; the whole drag is one
         undo step.
         """
-        drag = self._drag_state
-        if drag is None or drag.lattice is not self.lattice:
-            self._drag_state = None
-            raise ValueError("no surface drag in progress: call begin_surface_drag first")
+        session, drag = self.session, self._drag
+        if drag is None or drag.lattice is not session.lattice:
+            self._drag = None
+            raise ValueError("no surface drag in progress: call surface.begin first")
         goal = np.asarray(target, dtype=np.float64)
         if goal.shape != (3,) or not np.isfinite(goal).all():
             raise ValueError(f"the drag target must be three finite numbers, got {target!r}")
-        offsets = self.lattice.offsets
+        offsets = session.lattice.offsets
         offsets[drag.idx] = drag.start  # every event solves from the drag's start
-        pins = self._pin_array()
-        self.ffd.fit_points(drag.point, goal[None, :], pinned=pins if len(pins) else None)
+        session.ffd.fit_points(drag.point, goal[None, :], pinned=self._pins if len(self._pins) else None)
         after = offsets[drag.idx]
         ijk = np.column_stack(drag.idx)
-        self.history.record(ijk, drag.start, after, key=drag.key, label="surface drag")
-        self.commit_rows(drag.idx, "surface drag", kind="drag", started=started)
+        session.history.record(ijk, drag.start, after, key=drag.key, label="surface drag")
+        session.commit_rows(drag.idx, "surface drag", kind="drag", started=started)
 
-    def end_surface_drag(self) -> None:
+    def end(self) -> None:
         """The mesh was released: the drag's undo step is closed (nothing happens outside a drag)."""
-        drag, self._drag_state = self._drag_state, None
+        drag, self._drag = self._drag, None
         if drag is None:
             return
-        self.history.close()
-        self.notify("offsets", drag.flat if drag.lattice is self.lattice else None, "surface drag")
+        self.session.history.close()
+        self.session.notify("offsets", drag.flat if drag.lattice is self.session.lattice else None, "surface drag")
 
 
 def ray_hit(

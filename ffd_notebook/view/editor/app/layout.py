@@ -1,4 +1,4 @@
-"""The standalone app's page: a Vuetify 3 side panel built from :data:`.controls.CONTROLS`, next to the remote view.
+"""The standalone app's page: a Vuetify 3 side panel built from :data:`..session.controls.CONTROLS`, beside the view.
 
 Every button passes the values it needs as arguments (``click=(app.run, "['apply', [sel_i, ...]]")``),
 so an action never runs with a text field's previous value; file buttons call the app's named
@@ -12,8 +12,8 @@ from __future__ import annotations
 import re
 from typing import Any
 
-from ..file_root import FFD_SUFFIXES
-from .controls import Control
+from ...file_root import FFD_SUFFIXES
+from ..session.controls import Control
 
 __all__ = ["build_layout"]
 
@@ -177,7 +177,7 @@ def build_layout(app: Any) -> tuple[Any, Any]:
     from trame.widgets import html
     from trame.widgets import vuetify3 as v
 
-    from ..remote_view import RemoteView
+    from ...remote_view import RemoteView
 
     toolbar = [c for c in app.controls if c.section == "toolbar"]
     with SinglePageWithDrawerLayout(app.server, width=340) as layout:

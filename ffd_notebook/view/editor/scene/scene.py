@@ -22,15 +22,16 @@ import numpy as np
 import pyvista as pv
 from numpy.typing import ArrayLike, NDArray
 
-from ...meshing import color_array_name
-from ..camera import frame_camera
-from ..jupyter import views_of
+from ....meshing import color_array_name
+from ...camera import frame_camera
+from ...jupyter import views_of
+from ...rendering import new_plotter
+from ..session.changes import Change
+from ..session.session import EditingSession
 from . import coloring
-from .changes import Change
 from .lattice_actor import LatticeActor
 from .proxy import INTERACTIVE_CELLS, InteractiveProxy, point_normals, simplified
-from .session import EditingSession
-from .surface_handle import SurfaceHandle
+from .surface_picking import SurfacePicking
 
 __all__ = ["EditorScene", "PreparedDisplay", "prepare_display"]
 
@@ -104,7 +105,7 @@ class EditorScene:
         self.session = session
         self.interactive_cells = interactive_cells
         self._callbacks = (on_move, on_start, on_end)
-        self.plotter = pv.Plotter(off_screen=off_screen, window_size=window_size)
+        self.plotter = new_plotter(off_screen=off_screen, window_size=window_size)
         if off_screen and self.plotter.iren is not None:
             # Nobody looks at an off-screen window: the interactor need not render inside every
             # mouse event (trame renders when it sends the image; the scene renders after the
@@ -121,7 +122,7 @@ class EditorScene:
         self._shown_lattice: Any = None
         self._build_mesh()
         self._build_lattice()
-        self.surface_handle = SurfaceHandle(self)  # surface mode: the mouse on the mesh itself, pins
+        self.surface_picking = SurfacePicking(self)  # surface mode: the mouse on the mesh itself, pins
         self._unsubscribe = session.subscribe(self.follow)
 
     # ------------------------------------------------------------------ following the session
@@ -148,7 +149,7 @@ class EditorScene:
         elif kind == "display":
             self._write_field()
             self._recolor()
-        self.surface_handle.follow(change)
+        self.surface_picking.follow(change)
         if kind != "drag" and change.label != "drag":
             self.render()
 
@@ -309,7 +310,7 @@ class EditorScene:
                 self.plotter.iren.interactor.RemoveObserver(tag)
         if self.proxy is not None:
             self.proxy.remove()
-        self.surface_handle.remove()
+        self.surface_picking.remove()
         if self.lattice_actor is not None and self.plotter.render_window is not None:
             self.lattice_actor.remove()
         self.plotter.close()

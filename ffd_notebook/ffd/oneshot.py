@@ -14,11 +14,9 @@ axis than broadcasting over a short last one.
 - B-spline: points are grouped by the cell whose 4x4x4 support moves them with a radix sort of
   16-bit cell numbers (NumPy's stable sort is a radix sort for small integer types); each cell's
   points get one ``(12, 16) @ (16, m)`` product (x and y contracted), and the z contraction is
-  one pass over all points, in chunks of sorted points whose buffers stay in cache. The offsets
-  are padded by four layers (zeros, or copies of the border layer for the "clamp" border), and
-  a support starting further out is moved to the outermost layer: a support wholly outside the
-  lattice then reads padding only, which is what both border rules ask for (nothing, or the
-  border control points with weights summing to one), with no mask and no special case.
+  one pass over all points, in chunks of sorted points whose buffers stay in cache. The border
+  rule is :mod:`~ffd_notebook.ffd.support`'s: offsets padded by :func:`~ffd_notebook.ffd.support.pad_offsets`,
+  support starts clipped by :func:`~ffd_notebook.ffd.support.clip_starts`.
 
 Both keep float64 throughout.
 
@@ -31,8 +29,6 @@ Examples
 [[0.0, 0.0, 1.0], [0.0, 0.0, 0.0]]
 >>> displacement("bspline", offsets, uvw.T, border="clamp").T.round(12).tolist()
 [[0.0, 0.0, 1.0], [0.0, 0.0, 1.0]]
->>> in_domain("bernstein", (4, 4, 4), np.array([[0.0, 3.0, 1.0], [0.0, 3.1, 1.0]])).tolist()
-[True, False]
 """
 
 from __future__ import annotations
@@ -43,10 +39,12 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import NDArray
 
+from .support import clip_starts, pad_offsets
+
 if TYPE_CHECKING:
     from .lattice import Lattice
 
-__all__ = ["bernstein_displacement", "bspline_displacement", "displacement", "in_domain", "lattice_rows"]
+__all__ = ["bernstein_displacement", "bspline_displacement", "displacement", "lattice_rows"]
 
 _BLOCK_VALUES = 2**17  # Bernstein x-y weights per block, (nx*ny, block): 1 MB, about one core's L2 cache
 _CHUNK = 8192  # points per B-spline chunk (sorted order; a multiple of _RUN): its intermediates fill ~2.5 MB
@@ -57,7 +55,7 @@ _CHUNK = 8192  # points per B-spline chunk (sorted order; a multiple of _RUN): i
 _SERIAL_MADDS = 4 * 65536
 _RUN = 1024  # B-spline points per (12, 16) @ (16, m) product at most (12 * 16 * 1024 multiply-adds)
 _MIN_COLUMNS = 32  # Bernstein products are cut only if each piece keeps this many points (<= 13^3)
-_PAD = 4  # layers of padding around the offsets for the B-spline sum (see the module docstring)
+_WIDTH = 4  # control points per axis in a cubic B-spline support (the 12 x 16 blocks below)
 
 
 def lattice_rows(lattice: Lattice, points: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -88,17 +86,6 @@ def displacement(
     if basis == "bernstein":
         return bernstein_displacement(offsets, rows)
     return bspline_displacement(offsets, rows, border)
-
-
-def in_domain(basis: str, shape: tuple[int, int, int], uvw: NDArray[np.float64]) -> NDArray[np.bool_]:
-    """Which points lie in the lattice's domain (see ``FFD(only_inside=True)``).
-
-    Bernstein: the box ``0 <= u <= n - 1`` (PyGeM's unit cube). B-spline: ``1 <= u <= n - 2``,
-    where every support lies in the lattice (ITK's ``BSplineTransform::InsideValidRegion``).
-    """
-    dims = np.asarray(shape, dtype=np.float64)
-    lo, hi = (0.0, dims - 1.0) if basis == "bernstein" else (1.0, dims - 2.0)
-    return np.all((uvw >= lo) & (uvw <= hi), axis=1)
 
 
 def _bernstein_rows(s: NDArray[np.float64], degrees: tuple[int, ...], up: NDArray[np.float64]) -> list:
@@ -193,15 +180,14 @@ def bspline_displacement(
     """
     n = rows.shape[1]
     dims = np.array(offsets.shape[:3])
-    floor = np.floor(rows)
-    t = rows - floor
-    # the support starts at floor - 1; clipped to [-PAD, dims]: from there on it reads padding only
-    np.maximum(floor, 1.0 - _PAD, out=floor)
-    np.minimum(floor, (dims + 1.0)[:, None], out=floor)
-    grid = dims + _PAD + 1  # possible support starts per axis
+    first = np.floor(rows)
+    t = rows - first
+    first -= 1.0  # the support starts at floor - 1 (basis.bspline_cells), as floats: exact small integers
+    clip_starts(first, dims[:, None], _WIDTH, out=first)
+    grid = dims + _WIDTH + 1  # possible support starts per axis
     stride = np.array([grid[1] * grid[2], grid[2], 1], dtype=np.float64)
-    cell = stride @ floor  # exact: small integers in float64
-    cell += (_PAD - 1) * stride.sum()
+    cell = stride @ first  # exact: small integers in float64
+    cell += _WIDTH * stride.sum()
     small = np.uint16 if grid.prod() < 2**16 else np.uint32 if grid.prod() < 2**32 else np.uint64
     cell = cell.astype(small)
     order = np.argsort(cell, kind="stable")
@@ -209,7 +195,7 @@ def bspline_displacement(
     # runs of equal cells, also cut every _RUN points (chunk boundaries among them)
     cuts = np.union1d(np.flatnonzero(cell[1:] != cell[:-1]) + 1, np.arange(0, n, _RUN))
     bounds = np.r_[cuts, n].tolist()
-    padded = np.pad(offsets / 216.0, [(_PAD, _PAD)] * 3 + [(0, 0)], mode="constant" if border == "zero" else "edge")
+    padded = pad_offsets(offsets / 216.0, border, _WIDTH)
     # each run's 64 offsets as a (12, 16) matrix, (z slot, component) x (x slot, y slot), gathered at once
     windows = np.lib.stride_tricks.sliding_window_view(padded, (4, 4, 4), axis=(0, 1, 2))  # (.., 3, l, m, n)
     blocks = windows[np.unravel_index(cell[cuts], tuple(grid))].transpose(0, 4, 1, 2, 3).reshape(-1, 12, 16)

@@ -9,30 +9,21 @@ grid) or copies of the border ones (``border="clamp"``, Blender's lattice).
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from . import _oneshot
-from .basis import BASES, check_border
+from .._util.points import as_points
+from . import oneshot
+from .basis import BASES
+from .deformer import Deformer
 from .fit import fit_points as _fit_points
-from .lattice import Lattice, as_points
-from .weights import CellGroups, bernstein_values, bspline_lattice_jacobian, det3, jacobian_to_world
+from .jacobian import bernstein_lattice_jacobian, bspline_lattice_jacobian, det3, jacobian_to_world
+from .lattice import Lattice
+from .support import CellGroups, check_border, in_domain
 
-if TYPE_CHECKING:
-    from .deformer import Deformer
-
-__all__ = ["BASES", "FFD"]
-
-
-def __getattr__(name: str) -> Any:
-    """``Deformer`` moved to :mod:`ffd_notebook.deformer`; still importable from here."""
-    if name == "Deformer":
-        from .deformer import Deformer
-
-        return Deformer
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+__all__ = ["FFD"]
 
 
 def _check_affine(affine: ArrayLike | None) -> NDArray[np.float64]:
@@ -136,11 +127,11 @@ class FFD:
         return np.ascontiguousarray(self._local_rows(as_points(points)).T)
 
     def _local_rows(self, pts: NDArray[np.float64]) -> NDArray[np.float64]:
-        """``T_local`` of points already checked, as rows ``(3, N)`` (one-shot: see ``_oneshot``)."""
+        """``T_local`` of points already checked, as rows ``(3, N)`` (the one-shot :mod:`.oneshot`)."""
         lat = self.lattice
-        rows = _oneshot.displacement(self.basis, lat.offsets, _oneshot.lattice_rows(lat, pts), self.border)
+        rows = oneshot.displacement(self.basis, lat.offsets, oneshot.lattice_rows(lat, pts), self.border)
         if self.only_inside:  # the domain test on to_lattice's coordinates, as the cached path does
-            rows[:, ~_oneshot.in_domain(self.basis, lat.shape, lat.to_lattice(pts))] = 0.0
+            rows[:, ~in_domain(self.basis, lat.shape, lat.to_lattice(pts))] = 0.0
         return rows
 
     def deform(self, points: ArrayLike) -> NDArray[np.float64]:
@@ -185,18 +176,13 @@ class FFD:
         lat = self.lattice
         uvw = lat.to_lattice(pts)
         # d T_local / d(u, v, w): (N, 3 components, 3 lattice axes)
-        d_uvw = np.zeros((len(pts), 3, 3))
         if self.basis == "bernstein":
-            vals = bernstein_values(lat.shape, uvw)
-            ders = bernstein_values(lat.shape, uvw, derivative=True)
-            for axis in range(3):
-                factors = [ders[a] if a == axis else vals[a] for a in range(3)]
-                d_uvw[:, :, axis] = np.einsum("pi,pj,pk,ijkd->pd", *factors, lat.offsets, optimize=True)
+            d_uvw = bernstein_lattice_jacobian(lat.offsets, uvw)
         else:
             cells = CellGroups(uvw, lat.shape, self.border)
             d_uvw = cells.unsort(bspline_lattice_jacobian(cells, lat.offsets, cells.t))
         if self.only_inside:
-            d_uvw[~_oneshot.in_domain(self.basis, lat.shape, uvw)] = 0.0
+            d_uvw[~in_domain(self.basis, lat.shape, uvw)] = 0.0
         return jacobian_to_world(lat, self.affine, d_uvw)
 
     def jacobian_determinant(self, points: ArrayLike) -> NDArray[np.float64]:
@@ -215,8 +201,6 @@ class FFD:
 
     def bind(self, points: ArrayLike, dtype: Any = np.float32) -> Deformer:
         """Bind to one point set: a :class:`~ffd_notebook.Deformer` that caches what does not change."""
-        from .deformer import Deformer  # here, not at the top: deformer imports this module
-
         return Deformer(self, points, dtype=dtype)
 
     def fit_points(
@@ -229,7 +213,7 @@ class FFD:
         """Change ``lattice.offsets`` (in place) by the least-norm amount that puts ``deform(points)`` on ``targets``.
 
         Least squares when not every target can be met; ``pinned`` points stay where they are.
-        Returns the change, ``(nx, ny, nz, 3)``. See :func:`ffd_notebook.fit.fit_points`.
+        Returns the change, ``(nx, ny, nz, 3)``. See :func:`ffd_notebook.ffd.fit.fit_points`.
 
         Examples
         --------

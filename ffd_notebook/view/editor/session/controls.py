@@ -1,9 +1,11 @@
-"""The editor's panel controls, described once: both panels (Jupyter and the standalone app) render these.
+"""The editor's panel controls, described once: both front-ends (Jupyter and the standalone app) render these.
 
-A new control is one :class:`Control` entry in :data:`CONTROLS` (plus the editor command it calls,
-if that is new): the notebook panel (:mod:`.notebook_panel`) and the app's page (:mod:`.app_layout`)
-build their widgets from it, :func:`editor_state` is the one mapping from the editor to what the
-controls show, and :func:`run` the one way a control acts on the editor.
+A new control is one :class:`Control` entry in :data:`CONTROLS` (plus the session command it calls,
+if that is new): the notebook panel (:mod:`ffd_notebook.view.editor.notebook.panel`) and the app's
+page (:mod:`ffd_notebook.view.editor.app.layout`) build their widgets from it, :func:`session_state` is
+the one mapping from the session to what the controls show, and :func:`run` the one way a control
+acts: it calls an :class:`~.session.EditingSession` command by name (``"undo"``, ``"surface.set_mode"``,
+``"files.load_lattice"``: attributes of the session).
 
 Values typed in a panel arrive as they are (text fields send strings): each control's ``parse``
 turns them into the command's arguments and names the field in its error (``"displacement x must
@@ -14,15 +16,16 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from operator import attrgetter
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ...basis import BASES
+from ....ffd.basis import BASES
 from .surface_drag import MODES
 
 if TYPE_CHECKING:
-    from .editor import Editor
+    from .session import EditingSession
 
 __all__ = [
     "BASIS_CHOICES",
@@ -33,10 +36,10 @@ __all__ = [
     "POINTS_CHOICES",
     "Control",
     "by_key",
-    "editor_state",
     "number",
     "numbers",
     "run",
+    "session_state",
 ]
 
 N_MESSAGES = 5  # messages the panels list (newest first)
@@ -99,9 +102,10 @@ class Control:
     section : str
         ``"Lattice"``, ``"Control point"``, ``"Files"``, ``"Display"`` or ``"toolbar"``.
     state : tuple of str
-        Keys of :func:`editor_state` (or panel values) the control shows or edits.
+        Keys of :func:`session_state` (or panel values) the control shows or edits.
     command : str, optional
-        The :class:`~.editor.Editor` method it calls: on click for buttons, on change for inputs.
+        The :class:`~.session.EditingSession` command it calls (an attribute path such as
+        ``"files.load_lattice"``): on click for buttons, on change for inputs.
     args : tuple of str
         State keys whose values a button passes to ``command`` (through ``parse``).
     parse : callable
@@ -228,7 +232,7 @@ CONTROLS: tuple[Control, ...] = (
         "mouse drags",
         "Control point",
         state=("mode",),
-        command="set_interaction_mode",
+        command="surface.set_mode",
         choices=MODE_CHOICES,
         row=4,
         tooltip="What a drag in the view moves: the spheres, or the mesh itself (click the mesh to pin a point)",
@@ -238,7 +242,7 @@ CONTROLS: tuple[Control, ...] = (
         "button",
         "Clear pins",
         "Control point",
-        command="clear_pins",
+        command="surface.clear_pins",
         enabled="has_pins",
         row=4,
         tooltip="Unpin every pinned point of the mesh",
@@ -257,7 +261,7 @@ CONTROLS: tuple[Control, ...] = (
         "button",
         "Load lattice",
         "Files",
-        command="load_ffd",
+        command="files.load_lattice",
         args=("ffd_path",),
         element_id="ffd-load",
         app_trigger="ffd_load_ffd",
@@ -268,7 +272,7 @@ CONTROLS: tuple[Control, ...] = (
         "button",
         "Save lattice",
         "Files",
-        command="save_ffd",
+        command="files.save_lattice",
         args=("ffd_path",),
         element_id="ffd-save",
         app_trigger="ffd_save_ffd",
@@ -282,7 +286,7 @@ CONTROLS: tuple[Control, ...] = (
         "button",
         "Load mesh",
         "Files",
-        command="load_mesh",
+        command="files.load_mesh",
         args=("mesh_path",),
         row=1,
         app_trigger="ffd_load_mesh",
@@ -294,7 +298,7 @@ CONTROLS: tuple[Control, ...] = (
         "button",
         "Save mesh",
         "Files",
-        command="save_mesh",
+        command="files.save_mesh",
         args=("mesh_save_path",),
         row=2,
         app_trigger="ffd_save_mesh",
@@ -357,8 +361,8 @@ def by_key(key: str, controls: Sequence[Control] | None = None) -> Control:
     raise KeyError(f"no control {key!r}")
 
 
-def editor_state(editor: Editor) -> dict[str, Any]:
-    """What the controls show, from the editor: THE mapping both panels use.
+def session_state(session: EditingSession) -> dict[str, Any]:
+    """What the controls show, from the session: THE mapping both front-ends use.
 
     The selection's index and displacement (``sel_i``..., ``dx``...) are included when a control
     point is selected. ``field`` is ``"none"`` for no field; ``messages`` lists the newest
@@ -367,55 +371,56 @@ def editor_state(editor: Editor) -> dict[str, Any]:
     Examples
     --------
     >>> import pyvista as pv
-    >>> from ffd_notebook.view import Editor
-    >>> editor = Editor(pv.Sphere(), shape=(4, 5, 4), window_size=(100, 80))
-    >>> state = editor_state(editor)
+    >>> from ffd_notebook.view.editor.editor import PYVISTA_MESH_IO
+    >>> from ffd_notebook.view.editor.session import EditingSession
+    >>> session = EditingSession(pv.Sphere(), mesh_io=PYVISTA_MESH_IO, shape=(4, 5, 4))
+    >>> state = session_state(session)
     >>> state["nx"], state["ny"], state["max_j"], state["field"], "sel_i" in state
     (4, 5, 4, 'none', False)
-    >>> editor.close()
     """
-    shape = editor.lattice.shape
+    lattice, mesh, selected = session.lattice, session.mesh, session.selected
+    shape = lattice.shape
     state: dict[str, Any] = {
         **dict(zip(("nx", "ny", "nz"), shape, strict=True)),
         **dict(zip(("max_i", "max_j", "max_k"), (n - 1 for n in shape), strict=True)),
-        "basis": editor.basis,
-        "colors": editor.colors_shown,
-        "has_colors": editor.has_colors,
-        "field": editor.field or "none",
-        "points_shown": editor.points_shown,
-        "can_undo": editor.can_undo,
-        "can_redo": editor.can_redo,
-        "has_selection": editor.selected is not None,
-        "mesh_info": f"{editor.mesh.n_points} vertices, {editor.mesh.n_cells} faces",
-        "mode": editor.session.interaction_mode,
-        "has_pins": len(editor.session.pins) > 0,
-        "moved_points": int(np.any(editor.lattice.offsets != 0, axis=-1).sum()),
-        "messages": [{"text": t, "error": t.startswith("Error")} for t in list(editor.messages)[-N_MESSAGES:][::-1]],
+        "basis": session.basis,
+        "colors": session.colors_shown,
+        "has_colors": session.has_colors,
+        "field": session.field or "none",
+        "points_shown": session.points_shown,
+        "can_undo": session.can_undo,
+        "can_redo": session.can_redo,
+        "has_selection": selected is not None,
+        "mesh_info": f"{mesh.n_points} vertices, {mesh.n_cells} faces",
+        "mode": session.surface.mode,
+        "has_pins": len(session.surface.pins) > 0,
+        "moved_points": int(np.any(lattice.offsets != 0, axis=-1).sum()),
+        "messages": [{"text": t, "error": t.startswith("Error")} for t in list(session.messages)[-N_MESSAGES:][::-1]],
     }
-    if editor.selected is not None:
-        state.update(zip(_IJK, editor.selected, strict=True))
-        state.update(zip(_XYZ, (float(f"{v:.6g}") for v in editor.lattice.offsets[editor.selected]), strict=True))
+    if selected is not None:
+        state.update(zip(_IJK, selected, strict=True))
+        state.update(zip(_XYZ, (float(f"{v:.6g}") for v in lattice.offsets[selected]), strict=True))
     return state
 
 
-def run(editor: Editor, control: Control, values: Sequence[Any]) -> bool:
-    """Run ``control`` with the panel's ``values`` on ``editor``; False if it failed (then a message says why).
+def run(session: EditingSession, control: Control, values: Sequence[Any]) -> bool:
+    """Run ``control`` with the panel's ``values`` on ``session``; False if it failed (then a message says why).
 
-    Inputs bound to state (basis, selection, colors, field) do nothing when the editor already
+    Inputs bound to state (basis, selection, colors, field) do nothing when the session already
     shows the value, and ignore a value that does not parse yet (a half-typed number).
 
     Examples
     --------
     >>> import pyvista as pv
-    >>> from ffd_notebook.view import Editor
-    >>> editor = Editor(pv.Sphere(), shape=(4, 4, 4), window_size=(100, 80))
-    >>> run(editor, by_key("apply"), ["1", "2", "1", "0", "0", "0.25"])
+    >>> from ffd_notebook.view.editor.editor import PYVISTA_MESH_IO
+    >>> from ffd_notebook.view.editor.session import EditingSession
+    >>> session = EditingSession(pv.Sphere(), mesh_io=PYVISTA_MESH_IO, shape=(4, 4, 4))
+    >>> run(session, by_key("apply"), ["1", "2", "1", "0", "0", "0.25"])
     True
-    >>> editor.lattice.offsets[1, 2, 1].tolist()
+    >>> session.lattice.offsets[1, 2, 1].tolist()
     [0.0, 0.0, 0.25]
-    >>> run(editor, by_key("apply"), [1, 2, 1, "abc", 0, 0]), editor.messages[-1]
+    >>> run(session, by_key("apply"), [1, 2, 1, "abc", 0, 0]), session.messages[-1]
     (False, "Error: displacement x must be a number, got 'abc'")
-    >>> editor.close()
     """
     if control.command is None:
         return True
@@ -425,14 +430,14 @@ def run(editor: Editor, control: Control, values: Sequence[Any]) -> bool:
     except ValueError as exc:
         if is_input:
             return False  # half-typed: wait for the rest
-        return editor.attempt(_raise, exc)
+        return session.attempt(_raise, exc)
     if is_input and control.state:
-        shown = editor_state(editor)
+        shown = session_state(session)
         current = [shown.get(k) for k in control.state]
         wanted = list(args[0]) if control.kind in ("ints", "floats") else [values[0]]
         if current == wanted or (control.kind == "switch" and current == [bool(values[0])]):
             return True
-    return editor.attempt(getattr(editor, control.command), *args)
+    return session.attempt(attrgetter(control.command)(session), *args)
 
 
 def _raise(exc: Exception) -> None:

@@ -27,13 +27,13 @@ import numpy as np
 import pyvista as pv
 from numpy.typing import NDArray
 
-from .changes import Change
-from .surface_drag import ray_hit
+from ..session.changes import Change
+from ..session.surface_drag import ray_hit
 
 if TYPE_CHECKING:
     from .scene import EditorScene
 
-__all__ = ["CLICK_PX", "PIN_COLOR", "PIN_PX", "PRIORITY", "SurfaceHandle"]
+__all__ = ["CLICK_PX", "PIN_COLOR", "PIN_PX", "PRIORITY", "SurfacePicking"]
 
 PRIORITY = 20.0  # above the lattice actor's observers (10) and every widget's
 CLICK_PX = 3.0  # a press and release closer than this (pixels) is a click
@@ -41,7 +41,7 @@ PIN_PX = 8.0  # a click this close to a pin (pixels) removes it
 PIN_COLOR = "red"
 
 
-class SurfaceHandle:
+class SurfacePicking:
     """Surface picking, dragging and pins of one :class:`~.scene.EditorScene` (see the module docstring).
 
     Parameters
@@ -86,7 +86,7 @@ class SurfaceHandle:
 
     def update_pins(self) -> None:
         """Write the pins' deformed positions into the pin actor (points in place while their number holds)."""
-        shown = self.session.pinned_points()
+        shown = self.session.surface.pinned_points()
         if len(shown) == 0:
             self.pin_actor.VisibilityOff()
             return
@@ -137,7 +137,7 @@ class SurfaceHandle:
 
     def pin_at(self, x: float, y: float) -> int | None:
         """Index of the pin nearest to display position ``(x, y)`` within :data:`PIN_PX` pixels, or None."""
-        shown = self.session.pinned_points()
+        shown = self.session.surface.pinned_points()
         if not len(shown):
             return None
         dist = np.hypot(*(self.world_to_display(shown)[:, :2] - (x, y)).T)
@@ -150,7 +150,7 @@ class SurfaceHandle:
         self._iren.GetCommand(self._tags[event]).SetAbortFlag(1)
 
     def _on_press(self, iren: Any, event: str) -> None:
-        if self.session.interaction_mode != "surface":
+        if self.session.surface.mode != "surface":
             return
         self._take(event)
         x, y = iren.GetEventPosition()
@@ -172,7 +172,7 @@ class SurfaceHandle:
         if not press["dragging"]:
             if np.hypot(x - press["xy"][0], y - press["xy"][1]) < CLICK_PX or press["point"] is None:
                 return
-            if not self.session.attempt(self.session.begin_surface_drag, press["point"]):
+            if not self.session.attempt(self.session.surface.begin, press["point"]):
                 self._press = None
                 return
             press["dragging"] = True
@@ -180,7 +180,7 @@ class SurfaceHandle:
             press["depth"] = self.world_to_display(self.session.ffd.deform(press["point"][None, :]))[0, 2]
         started = time.perf_counter()
         target = self.display_to_world(x, y, press["depth"])
-        self.session.attempt(self.session.drag_surface, target, started)
+        self.session.attempt(self.session.surface.move, target, started)
 
     def _on_release(self, iren: Any, event: str) -> None:
         press, self._press = self._press, None
@@ -188,11 +188,11 @@ class SurfaceHandle:
             return
         self._take(event)
         if press["dragging"]:
-            self.session.attempt(self.session.end_surface_drag)
+            self.session.attempt(self.session.surface.end)
         elif press["pin"] is not None:
-            self.session.attempt(self.session.unpin, press["pin"])
+            self.session.attempt(self.session.surface.unpin, press["pin"])
         elif press["point"] is not None:
-            self.session.attempt(self.session.pin, press["point"])
+            self.session.attempt(self.session.surface.pin, press["point"])
 
     def remove(self) -> None:
         """Stop listening to the mouse and remove the pin actor."""

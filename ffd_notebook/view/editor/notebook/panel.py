@@ -1,10 +1,10 @@
-"""The editor's control panel for Jupyter (ipywidgets), built from :data:`.controls.CONTROLS`.
+"""The editor's control panel for Jupyter (ipywidgets), built from :data:`..session.controls.CONTROLS`.
 
-Every control calls one :class:`~ffd_notebook.view.editor.Editor` method through
-:func:`.controls.run`; the panel has no logic of its own. It follows the editor's session: dragging a
+Every control calls one :class:`~ffd_notebook.view.editor.EditingSession` command through
+:func:`..session.controls.run`; the panel has no logic of its own. It follows the editor's session: dragging a
 sphere selects that control point here and shows its displacement in the X/Y/Z fields, undo/redo
 buttons are enabled when there is something to undo/redo, and the last message (errors in red) is
-shown at the bottom. What each control shows comes from :func:`.controls.editor_state`.
+shown at the bottom. What each control shows comes from :func:`..session.controls.session_state`.
 """
 
 from __future__ import annotations
@@ -15,12 +15,12 @@ from typing import TYPE_CHECKING, Any
 
 import ipywidgets as widgets
 
-from . import controls as panel_controls
-from .changes import Change, DragSync
-from .controls import Control, editor_state, run
+from ..session import controls as panel_controls
+from ..session.changes import Change, DragSync
+from ..session.controls import Control, run, session_state
 
 if TYPE_CHECKING:
-    from .editor import Editor
+    from ..editor import Editor
 
 __all__ = ["ControlPanel"]
 
@@ -56,7 +56,7 @@ class ControlPanel(widgets.VBox):
     editor : Editor
         The editor the controls act on.
     controls : sequence of Control, optional
-        What to show (default: :data:`.controls.CONTROLS`, those meant for the notebook).
+        What to show (default: :data:`..session.controls.CONTROLS`, those meant for the notebook).
 
     Examples
     --------
@@ -146,7 +146,7 @@ class ControlPanel(widgets.VBox):
     # ------------------------------------------------------------------ actions (one editor call each)
     def act(self, control: Control, values: Sequence[Any]) -> None:
         """Run ``control`` with ``values`` (a failure becomes the editor's last message, shown below)."""
-        run(self.editor, control, values)
+        run(self.editor.session, control, values)
         self.sync()
 
     def _on_input(self, control: Control) -> None:
@@ -160,8 +160,8 @@ class ControlPanel(widgets.VBox):
             self.sync()
 
     def sync(self) -> None:
-        """Show the editor's state (:func:`.controls.editor_state`) in every control."""
-        state = editor_state(self.editor)
+        """Show the editor's state (:func:`..session.controls.session_state`) in every control."""
+        state = session_state(self.editor.session)
         if "sel_i" not in state:  # nothing selected: keep the typed index, show its displacement
             ijk = tuple(int(self._fields[k].value) for k in ("sel_i", "sel_j", "sel_k") if k in self._fields)
             if len(ijk) == 3 and all(0 <= i < n for i, n in zip(ijk, self.editor.lattice.shape, strict=True)):

@@ -18,9 +18,9 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .basis import bspline_support
-from .lattice import as_points
-from .weights import bernstein_values
+from .._util.points import as_points
+from .basis import bernstein_values
+from .support import axis_support
 
 if TYPE_CHECKING:
     from .deform import FFD
@@ -66,7 +66,7 @@ def control_weights(ffd: FFD, points: ArrayLike) -> tuple[NDArray[np.int64], NDA
         bx, by, bz = bernstein_values(ffd.lattice.shape, uvw)
         weight = (bx[:, :, None, None] * by[:, None, :, None] * bz[:, None, None, :]).reshape(len(pts), -1)
         return np.broadcast_to(np.arange(lat.n_points), weight.shape).copy(), weight
-    (iu, wu), (iv, wv), (iw, ww) = (bspline_support(uvw[:, a], n, ffd.border) for a, n in enumerate(lat.shape))
+    (iu, wu), (iv, wv), (iw, ww) = (axis_support(uvw[:, a], n, ffd.border) for a, n in enumerate(lat.shape))
     index = ((iu[:, :, None, None] * ny + iv[:, None, :, None]) * nz + iw[:, None, None, :]).reshape(len(pts), 64)
     weight = (wu[:, :, None, None] * wv[:, None, :, None] * ww[:, None, None, :]).reshape(len(pts), 64)
     return index, weight

@@ -1,6 +1,8 @@
 """An FFD bound to one point set: cached weights, full and incremental updates (the drag path).
 
-Split from :mod:`ffd_notebook.deform`, whose cell grouping and padding it reuses.
+The points are grouped by :class:`~ffd_notebook.ffd.support.CellGroups` and a control point's share of
+each group's supports comes from :func:`~ffd_notebook.ffd.support.support_slots`: the border rule is
+:mod:`~ffd_notebook.ffd.support`'s.
 """
 
 from __future__ import annotations
@@ -11,10 +13,10 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.linalg.blas import dger
 
-from ._oneshot import in_domain
-from .basis import bspline
-from .lattice import as_points
-from .weights import CellGroups, bernstein_values, bspline_lattice_jacobian, det3, jacobian_to_world, outer_uv
+from .._util.points import as_points
+from .basis import BSPLINE, bernstein_values
+from .jacobian import bspline_lattice_jacobian, det3, jacobian_to_world
+from .support import CellGroups, in_domain, outer_uv, support_slots
 
 if TYPE_CHECKING:
     from .deform import FFD
@@ -37,7 +39,7 @@ class Deformer:
     points : array_like
         ``(N, 3)`` rest positions.
     dtype : numpy dtype
-        Precision of the cached weights: ``float32`` (default, 84 bytes a point for the
+        Precision of the cached weights: ``float32`` (default, 88 bytes a point for the
         B-spline basis, about 1e-7 relative error) or ``float64`` (exact to rounding).
 
     Notes
@@ -84,9 +86,8 @@ class Deformer:
         movable = in_domain(self.ffd.basis, lat.shape, uvw) if self.ffd.only_inside else None
         if self.ffd.basis == "bspline":
             cells = CellGroups(uvw, lat.shape, self.ffd.border)
-            bu, bv, bw = (bspline(cells.t[:, a]) for a in range(3))
+            bu, bv, bw = (BSPLINE.weights(cells.t[:, a]) for a in range(3))
             self._buv = outer_uv(bu, bv).astype(self.dtype)
-            bw = cells.masked(bw)
             if movable is not None:
                 bw[~movable[cells.order]] = 0.0
             self._bw = bw.astype(self.dtype)
@@ -121,7 +122,7 @@ class Deformer:
         """
         arrays = [getattr(self, k) for k in ("_buv", "_bw", "_inverse", "_bxy", "_bz") if hasattr(self, k)]
         if self._cells is not None:
-            arrays += [self._cells.order, self._cells.inside, self._cells.runs, self._cells.run_first]
+            arrays += [self._cells.order, self._cells.runs, self._cells.run_first]
         return int(sum(a.nbytes for a in arrays))
 
     # ------------------------------------------------------------------ updates
@@ -249,7 +250,7 @@ class Deformer:
     ) -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.int64]]:
         """The runs (cells) a control point moves, and the support slots ``lo..hi`` it fills in each."""
         cells = self._cells
-        lo, hi = _support_slots(np.array(ijk), cells.run_first, self.ffd.lattice.shape, cells.border)
+        lo, hi = support_slots(np.array(ijk), cells.run_first, self.ffd.lattice.shape, cells.border)
         hit = np.flatnonzero(np.all(lo <= hi, axis=1))
         return hit, lo[hit], hi[hit]
 
@@ -271,18 +272,3 @@ class Deformer:
         # clamp: the control point stands in for the out-of-lattice slots too; add their weights
         buv = self._buv[s:e].reshape(-1, 4, 4)[:, l0 : l1 + 1, m0 : m1 + 1].sum(axis=(1, 2), dtype=np.float64)
         return buv * self._bw[s:e, n0 : n1 + 1].sum(axis=1, dtype=np.float64)
-
-
-def _support_slots(ijk: NDArray[np.int64], first: NDArray[np.int64], shape: tuple[int, int, int], border: str):
-    """Slots ``lo..hi`` (per axis, in 0..3) that control point ``ijk`` fills in supports starting at ``first``.
-
-    With "zero" a control point fills one slot, ``ijk - first``; with "clamp" a border control
-    point also fills every slot beyond the lattice on its side. Empty where ``lo > hi``.
-    """
-    rel = ijk - first
-    lo, hi = rel.copy(), rel.copy()
-    if border == "clamp":
-        dims = np.asarray(shape)
-        lo[:, ijk == 0] = 0
-        hi[:, ijk == dims - 1] = 3
-    return np.maximum(lo, 0), np.minimum(hi, 3)

@@ -6,7 +6,7 @@ result runs over the basis functions.
 Examples
 --------
 >>> import numpy as np
->>> from ffd_notebook.basis import bspline, bernstein
+>>> from ffd_notebook.ffd.basis import bspline, bernstein
 >>> bspline(np.array([0.0, 0.5])).round(4)
 array([[0.1667, 0.6667, 0.1667, 0.    ],
        [0.0208, 0.4792, 0.4792, 0.0208]])
@@ -18,32 +18,29 @@ array([[0.25, 0.5 , 0.25]])
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from math import comb
+from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 __all__ = [
     "BASES",
-    "BORDERS",
+    "BSPLINE",
     "BSPLINE_MATRIX",
+    "AxisBasis",
     "bernstein",
     "bernstein_derivative",
+    "bernstein_values",
     "bspline",
     "bspline_cells",
     "bspline_derivative",
     "bspline_second_derivative",
-    "bspline_support",
-    "check_border",
 ]
 
 #: The FFD bases, in the order user interfaces list them.
 BASES = ("bspline", "bernstein")
-
-#: What the B-spline FFD assumes beyond the lattice: ``"zero"`` (control points outside contribute
-#: nothing: the FFD report's formula and SimpleITK's) or ``"clamp"`` (they are copies of the border
-#: control points, as in Blender's lattice: the weights then sum to one everywhere).
-BORDERS = ("zero", "clamp")
 
 #: Power-basis coefficients of the uniform cubic B-spline pieces: ``bspline(t) ==
 #: [1, t, t**2, t**3] @ BSPLINE_MATRIX`` (columns are B_0 .. B_3 of the FFD report).
@@ -120,61 +117,6 @@ def bspline_cells(u: ArrayLike) -> tuple[NDArray[np.int64], NDArray[np.float64]]
     u = np.asarray(u, dtype=np.float64)
     fl = np.floor(u)
     return fl.astype(np.int64) - 1, u - fl
-
-
-def check_border(border: str) -> str:
-    """``border`` if it is one of :data:`BORDERS`, else a ``ValueError``.
-
-    Examples
-    --------
-    >>> check_border("clamp")
-    'clamp'
-    """
-    if border not in BORDERS:
-        raise ValueError(f"border must be one of {BORDERS}, got {border!r}")
-    return border
-
-
-def bspline_support(u: ArrayLike, n: int, border: str = "zero") -> tuple[NDArray[np.int64], NDArray[np.float64]]:
-    """Control-point indices and B-spline weights moving lattice coordinates ``u`` along one axis.
-
-    The support of :func:`bspline_cells` (indices ``first .. first + 3``) made to fit a lattice of
-    ``n`` control points: with ``border="zero"`` indices outside ``0 .. n-1`` get weight zero
-    (and are clipped, so they stay valid indices); with ``"clamp"`` they are clipped to the
-    border control point, which so receives their weight (an index may then repeat: add the
-    weights of repeats, e.g. with ``numpy.add.at``).
-
-    Parameters
-    ----------
-    u : array_like
-        Lattice coordinates along the axis, any shape.
-    n : int
-        Control points along the axis.
-    border : {"zero", "clamp"}
-        What lies beyond the lattice (see :data:`BORDERS`).
-
-    Returns
-    -------
-    index : numpy.ndarray
-        ``u.shape + (4,)`` int64 indices in ``0 .. n-1``.
-    weight : numpy.ndarray
-        ``u.shape + (4,)`` weights; with ``"clamp"`` they sum to one for every ``u``.
-
-    Examples
-    --------
-    >>> index, weight = bspline_support([0.0], n=5, border="clamp")
-    >>> index.tolist(), weight.round(4).tolist()
-    ([[0, 0, 1, 2]], [[0.1667, 0.6667, 0.1667, 0.0]])
-    >>> bspline_support([0.0], n=5)[1].round(4).tolist()   # "zero": the point before 0 counts nothing
-    [[0.0, 0.6667, 0.1667, 0.0]]
-    """
-    first, t = bspline_cells(u)
-    index = first[..., None] + np.arange(4)
-    weight = bspline(t)
-    clipped = np.clip(index, 0, n - 1)
-    if check_border(border) == "zero":
-        weight = np.where(clipped == index, weight, 0.0)
-    return clipped, weight
 
 
 def bspline_derivative(t: ArrayLike) -> NDArray[np.float64]:
@@ -255,3 +197,66 @@ def bernstein_derivative(t: ArrayLike, degree: int) -> NDArray[np.float64]:
     lower = bernstein(t, n - 1)
     pad = np.zeros(t.shape + (1,))
     return n * (np.concatenate([pad, lower], axis=-1) - np.concatenate([lower, pad], axis=-1))
+
+
+def bernstein_values(
+    shape: tuple[int, int, int], uvw: NDArray[np.float64], derivative: bool = False
+) -> list[NDArray[np.float64]]:
+    """Per-axis Bernstein values (or d/du) over the lattice box: parameter ``u / (n - 1)``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> [v.sum(axis=1).round(12).tolist() for v in bernstein_values((3, 4, 5), np.array([[1.0, 1.5, 2.0]]))]
+    [[1.0], [1.0], [1.0]]
+    """
+    out = []
+    for axis, n in enumerate(shape):
+        s = uvw[:, axis] / (n - 1)
+        if derivative:
+            out.append(bernstein_derivative(s, n - 1) / (n - 1))
+        else:
+            out.append(bernstein(s, n - 1))
+    return out
+
+
+class AxisBasis(NamedTuple):
+    """A per-axis basis with local support: along one axis, ``width`` control points move a coordinate.
+
+    :mod:`~ffd_notebook.ffd.support` applies the border rule to any such basis; the evaluators
+    take the weights from here.
+
+    Attributes
+    ----------
+    name : str
+        The basis's name.
+    width : int
+        Control points that touch a coordinate (its support), ``first .. first + width - 1``.
+    locate : callable
+        ``u -> (first, t)``: the support's first control index (int64) and the fraction of the
+        cell, both shaped like ``u`` (lattice coordinates, control point ``i`` at ``u = i``).
+    weights, derivative : callable
+        ``t -> t.shape + (width,)``: the weights of the support's control points, and their
+        derivatives with respect to ``u``.
+
+    Examples
+    --------
+    >>> first, weight = BSPLINE.support([1.5])
+    >>> first.tolist(), weight.round(4).tolist()
+    ([0], [[0.0208, 0.4792, 0.4792, 0.0208]])
+    """
+
+    name: str
+    width: int
+    locate: Callable[[ArrayLike], tuple[NDArray[np.int64], NDArray[np.float64]]]
+    weights: Callable[[ArrayLike], NDArray[np.float64]]
+    derivative: Callable[[ArrayLike], NDArray[np.float64]]
+
+    def support(self, u: ArrayLike) -> tuple[NDArray[np.int64], NDArray[np.float64]]:
+        """``(first, weights)`` of lattice coordinates ``u``: where the support starts and its weights."""
+        first, t = self.locate(u)
+        return first, self.weights(t)
+
+
+#: The uniform cubic B-spline as a per-axis basis (the FFD report's, ITK's order 3).
+BSPLINE = AxisBasis("bspline", 4, bspline_cells, bspline, bspline_derivative)

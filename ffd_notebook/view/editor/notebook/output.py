@@ -11,11 +11,11 @@ from __future__ import annotations
 import base64
 from typing import TYPE_CHECKING, Any
 
-from ..jupyter import STATIC_BACKENDS, backend, png_bytes, serve_plotter
-from .changes import Change
+from ...jupyter import STATIC_BACKENDS, backend, png_bytes, serve_plotter
+from ..session.changes import Change
 
 if TYPE_CHECKING:
-    from .editor import Editor
+    from ..editor import Editor
 
 __all__ = ["EditorOutput", "editor_widget"]
 
@@ -46,7 +46,7 @@ def editor_widget(editor: Editor) -> Any:
     """
     import ipywidgets as widgets
 
-    from .notebook_panel import ControlPanel
+    from .panel import ControlPanel
 
     view = _static_view(editor) if backend() in STATIC_BACKENDS else serve_plotter(editor.plotter)
     # the view shrinks to leave the panel its width; in a notebook narrower than both, the panel goes below

@@ -1,9 +1,11 @@
 """The standalone FFD editor: an :class:`~ffd_notebook.view.editor.Editor` in a trame web page.
 
 The page is a Vuetify 3 layout: the plotter's :class:`~ffd_notebook.view.remote_view.RemoteView` (server-side
-rendering, which the drag handle needs) and a side panel with the notebook panel's features. The
-panel only calls Editor methods; the editor tells the panel what changed through
-:meth:`Editor.observe`, so edits made anywhere (drag, panel, undo) show up in both.
+rendering, which the drag handle needs) and a side panel drawn from the same list of controls as the
+notebook panel. The panel only calls session commands (:func:`..session.controls.run`); the session
+tells the page what changed (:meth:`EditingSession.subscribe <..session.EditingSession.subscribe>`), so
+edits made anywhere (drag, panel, undo, code) show up everywhere. File actions go through the app's
+:class:`~.files.AppFiles` (``app.files``): paths confined to a root folder, uploads, worker threads.
 
 Safety (see :mod:`.web_security` and :mod:`.file_root`): the page's address carries a fresh random
 token that the server requires, requests from other sites' pages are refused, paths typed into the
@@ -22,19 +24,19 @@ import socket
 from collections.abc import Callable
 from typing import Any
 
-from ..file_root import DEFAULT_MAX_FILE_BYTES, FileRoot
-from ..web_security import AccessPolicy, new_token, protect, url_with_token
-from . import controls as panel_controls
-from .app_files import MESH_FORMATS, AppFilesMixin
-from .app_layout import build_layout
-from .changes import Change, DragSync
-from .controls import by_key, editor_state, run
-from .editor import Editor
+from ...file_root import DEFAULT_MAX_FILE_BYTES, FileRoot
+from ...web_security import AccessPolicy, new_token, protect, url_with_token
+from ..editor import Editor
+from ..session import controls as panel_controls
+from ..session.changes import Change, DragSync
+from ..session.controls import by_key, run, session_state
+from .files import MESH_FORMATS, AppFiles
+from .layout import build_layout
 
 __all__ = ["EditorApp", "run_app"]
 
 
-class EditorApp(AppFilesMixin):
+class EditorApp:
     """A trame server showing ``editor`` with a control panel.
 
     Parameters
@@ -81,19 +83,18 @@ class EditorApp(AppFilesMixin):
         self.editor = editor
         self.server = server if server is not None else get_server(name, client_type="vue3")
         self.state = self.server.state
-        self.files = FileRoot(os.getcwd() if root is None else root, max_bytes=max_file_bytes)
+        root_folder = FileRoot(os.getcwd() if root is None else root, max_bytes=max_file_bytes)
+        self.files = AppFiles(editor, self.state, root_folder, sync=self.sync)  # typed paths, uploads, downloads
         self.token = new_token() if token is None else token
         self.url: str | None = None
         self._drag_sync = DragSync()
-        self._scratch = None
-        self._tasks: set[Any] = set()
         self.controls = [c for c in panel_controls.CONTROLS if "app" in c.panels]
         self.state.update(self._editor_values())
         self.state.update({c.key: c.default for c in self.controls if c.default is not None})
         self.state.update({f"{c.key}_items": [{"value": v, "title": t} for v, t in c.choices] for c in self.controls})
         self.state.update(
             trame__title="ffd_notebook editor",
-            root_name=str(self.files.path),
+            root_name=str(root_folder.path),
             ffd_upload=None,
             mesh_upload=None,
             mesh_format=MESH_FORMATS[0],
@@ -102,13 +103,13 @@ class EditorApp(AppFilesMixin):
             busy_text="",
         )
         for name_, method in (
-            ("ffd_load_ffd", self.load_ffd),
-            ("ffd_save_ffd", self.save_ffd),
-            ("ffd_load_mesh", self.load_mesh),
-            ("ffd_save_mesh", self.save_mesh),
-            ("ffd_download_ffd", self.download_ffd),
-            ("ffd_download_mesh", self.download_mesh),
-            ("ffd_rebuild", self.rebuild),
+            ("ffd_load_ffd", self.files.load_ffd),
+            ("ffd_save_ffd", self.files.save_ffd),
+            ("ffd_load_mesh", self.files.load_mesh),
+            ("ffd_save_mesh", self.files.save_mesh),
+            ("ffd_download_ffd", self.files.download_ffd),
+            ("ffd_download_mesh", self.files.download_mesh),
+            ("ffd_rebuild", self.files.rebuild),
         ):
             self.server.controller.trigger(name_)(method)
         self.layout, self.view = build_layout(self)
@@ -117,18 +118,18 @@ class EditorApp(AppFilesMixin):
         for control in self.controls:
             if control.command is not None and control.kind != "button":  # inputs act when their value changes
                 self.state.change(*control.state)(self._input_handler(control))
-        self.state.change("ffd_upload")(self.receive_ffd_upload)
-        self.state.change("mesh_upload")(self.receive_mesh_upload)
+        self.state.change("ffd_upload")(self.files.receive_ffd_upload)
+        self.state.change("mesh_upload")(self.files.receive_mesh_upload)
 
     # ------------------------------------------------------------------ editor -> page
     def _editor_values(self) -> dict[str, Any]:
-        values = editor_state(self.editor)
+        values = session_state(self.editor.session)
         if "sel_i" not in values and "sel_i" not in self.state:
             values.update(sel_i=0, sel_j=0, sel_k=0, dx=0.0, dy=0.0, dz=0.0)
         return values
 
     def sync(self) -> None:
-        """Copy the editor's state (:func:`.controls.editor_state`) to the page."""
+        """Copy the editor's state (:func:`..session.controls.session_state`) to the page."""
         with self.state:
             self.state.update(self._editor_values())
 
@@ -141,7 +142,7 @@ class EditorApp(AppFilesMixin):
         return lambda **values: self.run(control.key, [values[k] for k in control.state])
 
     def run(self, key: str, values: list[Any] | None = None) -> bool:
-        """Run the panel control ``key`` (see :data:`.controls.CONTROLS`) with the page's ``values``.
+        """Run the panel control ``key`` (see :data:`..session.controls.CONTROLS`) with the page's ``values``.
 
         A failure becomes a message on the page instead of a traceback. File actions go through the
         app's root folder and a worker thread (their named triggers) instead of the editor's own.
@@ -150,7 +151,7 @@ class EditorApp(AppFilesMixin):
         if control.app_trigger is not None:
             self.server.controller.trigger_fn(control.app_trigger)(*(values or []))
             return True
-        ok = run(self.editor, control, values or [])
+        ok = run(self.editor.session, control, values or [])
         self.sync()
         return ok
 
@@ -182,7 +183,7 @@ class EditorApp(AppFilesMixin):
 
     def close(self) -> None:
         """Remove the uploads folder and close the editor."""
-        self.cleanup_files()
+        self.files.cleanup()
         self.editor.close()
 
 
@@ -208,9 +209,9 @@ def run_app(
     app = EditorApp(editor, root=root, max_file_bytes=max_file_bytes)
     if setup is not None:
         setup(app)
-    atexit.register(app.cleanup_files)  # also when the server ends by a signal or an error
+    atexit.register(app.files.cleanup)  # also when the server ends by a signal or an error
     try:
         app.start(port=port, host=host)
     finally:
-        app.cleanup_files()
+        app.files.cleanup()
     return app
