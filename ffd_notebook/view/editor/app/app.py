@@ -110,6 +110,10 @@ class EditorApp:
             ("ffd_download_ffd", self.files.download_ffd),
             ("ffd_download_mesh", self.files.download_mesh),
             ("ffd_rebuild", self.files.rebuild),
+            ("ffd_undo", self.files.undo),
+            ("ffd_redo", self.files.redo),
+            ("ffd_basis", self.files.set_basis),
+            ("ffd_decimate", self.files.decimate),
         ):
             self.server.controller.trigger(name_)(method)
         self.layout, self.view = build_layout(self)

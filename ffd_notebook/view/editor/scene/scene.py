@@ -24,7 +24,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ....meshing import color_array_name
 from ...camera import frame_camera
-from ...jupyter import views_of
+from ...jupyter import release_views, views_of
 from ...rendering import new_plotter
 from ..session.changes import Change
 from ..session.session import EditingSession
@@ -224,8 +224,14 @@ class EditorScene:
             *self._callbacks,
             points_shown=self.session.points_shown,
             selected=self._selected_index(),
+            surface=self.ray_to_surface,
         )
         self._move_points(None, widgets=True, only_if_changed=True)
+
+    def ray_to_surface(self, x: float, y: float) -> tuple[NDArray[np.float64], NDArray[np.float64], float]:
+        """The view ray through display position ``(x, y)`` and how far along it the plotted mesh is:
+        :meth:`.surface_picking.SurfacePicking.ray_to_surface` (what a press can grab is in front of it)."""
+        return self.surface_picking.ray_to_surface(x, y)
 
     def _write_mesh_points(self, only_if_changed: bool = False) -> None:
         """The session's deformed points into the plotted mesh (and its normals, at the next render)."""
@@ -304,7 +310,7 @@ class EditorScene:
     def close(self) -> None:
         """Stop following the session; release the widgets and the plotter."""
         self._unsubscribe()
-        self.views.clear()
+        release_views(self.plotter)  # the browser views stop, their pages say so; the server forgets them
         if self.plotter.iren is not None:
             for tag in self._button_tags:
                 self.plotter.iren.interactor.RemoveObserver(tag)
