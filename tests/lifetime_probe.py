@@ -81,10 +81,14 @@ def mouse_drag(plotter: Any, start: tuple[float, float], delta: tuple[float, flo
     iren.LeftButtonReleaseEvent()
 
 
-def drag_control_point(editor: Any, index: int = 0) -> None:
-    """Drag control point ``index`` of ``editor`` with the mouse (press on its sphere, move, release)."""
+def drag_control_point(editor: Any) -> None:
+    """Drag a control point of ``editor`` with the mouse (press on its sphere, move, release): the first one a
+    press grabs (not hidden behind the mesh)."""
     editor.screenshot()
-    x, y = editor.scene.lattice_actor.display_positions()[index, :2]
+    actor = editor.scene.lattice_actor
+    screen = actor.display_positions()
+    index = next(i for i in actor.shown if actor.index_at(*screen[i, :2]) == i)
+    x, y = screen[index, :2]
     before = editor.lattice.offsets.copy()
     mouse_drag(editor.plotter, (x, y), (15, 10))
     assert not (editor.lattice.offsets == before).all(), "the drag moved no control point"
