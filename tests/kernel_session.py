@@ -33,6 +33,9 @@ class Kernel:
         The kernel's working directory.
     """
 
+    #: Jupyter's grace period: it sends SIGTERM after half of it, SIGKILL at its end (its default is 5 s)
+    shutdown_wait_s = 5.0
+
     def __init__(self, env: dict[str, str] | None = None, cwd: str | os.PathLike[str] | None = None) -> None:
         self.env = {**os.environ, **(env or {})}
         path = [str(REPO), str(TESTS), *filter(None, [os.environ.get("PYTHONPATH")])]
@@ -46,7 +49,7 @@ class Kernel:
     def __enter__(self) -> Kernel:
         from jupyter_client.manager import KernelManager
 
-        self.manager = KernelManager(kernel_name="python3")
+        self.manager = KernelManager(kernel_name="python3", shutdown_wait_time=self.shutdown_wait_s)
         self.manager.start_kernel(env=self.env, cwd=self.cwd)
         self.client = self.manager.client()
         self.client.start_channels()
