@@ -110,12 +110,72 @@ def gp_image(path: str | Path, window_size: tuple[int, int] = (900, 320)) -> Pat
     return Path(path)
 
 
+def face_image(path: str | Path) -> Path:
+    """A coloured 3D face from scikit-image's ``astronaut()`` photo: the landmarks over the photo, the mesh from
+    the front and turned, and a smile pulled by two control points in the editor (as notebook 07 does)."""
+    import io
+
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import pyvista as pv
+    from skimage import data
+
+    import ffd_notebook.view  # noqa: F401  (headless settings before any plotter)
+    from ffd_notebook.face import face_from_photo, face_landmarks, face_triangles
+    from ffd_notebook.view.editor import Editor
+
+    photo = data.astronaut()
+    marks, mesh = face_landmarks(photo), face_from_photo(photo)
+
+    def render(azimuth: float) -> np.ndarray:
+        pl = pv.Plotter(off_screen=True, window_size=(400, 440))
+        pl.add_mesh(mesh, scalars="RGB", rgb=True)
+        pl.view_xy()
+        pl.camera.azimuth = azimuth
+        pixels = pl.screenshot(return_img=True)
+        pl.close()
+        return pixels
+
+    editor = Editor(mesh, shape=(7, 7, 5), window_size=(400, 440))
+    rest = editor.lattice.control_points()
+    for corner, outwards in ((61, -1.0), (291, 1.0)):  # the corners of the mouth, up and out
+        near = mesh.points[corner]
+        distance = np.linalg.norm(rest[..., :2] - near[:2], axis=-1) + 1e3 * (rest[..., 2] < near[2] - 5)
+        editor.session.move_control_point(np.unravel_index(np.argmin(distance), editor.lattice.shape),
+                                          (6.0 * outwards, 14.0, 0.0))  # fmt: skip
+    editor.plotter.view_xy()
+    smile = editor.screenshot()
+    editor.close()
+
+    fig, axes = plt.subplots(1, 4, figsize=(13, 3.9))
+    axes[0].imshow(photo)
+    axes[0].triplot(marks.points[:, 0] - 0.5, marks.points[:, 1] - 0.5, face_triangles(), lw=0.3, color="yellow")
+    axes[0].set_xlim(150, 300)
+    axes[0].set_ylim(195, 50)
+    for ax, picture in zip(axes[1:], (render(0.0), render(-40.0), smile), strict=True):
+        ax.imshow(picture[20:-20])
+    titles = ("photo and 468 landmarks", f"coloured mesh ({mesh.n_points:,} vertices)", "turned",
+              "a smile pulled by two control points")  # fmt: skip
+    for ax, title in zip(axes, titles, strict=True):
+        ax.set_title(title, fontsize=11)
+        ax.axis("off")
+    fig.subplots_adjust(left=0.01, right=0.99, top=0.9, bottom=0.01, wspace=0.05)
+    buffer = io.BytesIO()
+    fig.savefig(buffer, format="png", dpi=80)
+    plt.close(fig)
+    _save_png(np.asarray(Image.open(buffer).convert("RGB")), Path(path))
+    return Path(path)
+
+
 def main() -> None:
     """Write every README picture into ``docs/images/``."""
     for made in (
         editor_image(IMAGES / "editor.png"),
         gp_image(IMAGES / "gp_fields.png"),
         solid_texture_image(IMAGES / "solid_texture.png"),
+        face_image(IMAGES / "face_from_photo.png"),
     ):
         print(f"{made}: {made.stat().st_size / 1024:.0f} KB")
 

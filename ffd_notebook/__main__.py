@@ -6,6 +6,7 @@ Open the bundled sample mesh and browse to the printed address::
 
     python -m ffd_notebook
     python -m ffd_notebook face.obj --ffd face.ffd --port 8765
+    python -m ffd_notebook me.jpg                 # the coloured 3D face in a photo
     python -m ffd_notebook --shape 6 6 4 --basis bernstein
     python -m ffd_notebook --root ~/meshes --host 0.0.0.0
 
@@ -45,8 +46,13 @@ def build_parser() -> argparse.ArgumentParser:
         prog="python -m ffd_notebook",
         description="Deform a mesh by dragging the control points of a free-form deformation lattice, in the browser.",
     )
-    parser.add_argument("mesh", nargs="?", help="mesh file (OBJ with colours, PLY, VTP, STL, ...); default: sample")
+    parser.add_argument("mesh", nargs="?",
+                        help="mesh file (OBJ with colours, PLY, VTP, STL, ...), or a photo of a face (JPEG, PNG...: "
+                             "the coloured face in it); default: the sample face")  # fmt: skip
     parser.add_argument("--ffd", metavar="FILE", help="a lattice file to start from (.ffd, ITK .tfm/.h5, PyGeM .prm)")
+    parser.add_argument("--image", metavar="IMG",
+                        help="an image to show with the mesh as three slices warped by the lattice (NIfTI, NRRD, "
+                             "MetaImage...); without a mesh, the lattice is fitted to the image's box")  # fmt: skip
     parser.add_argument("--port", type=int, default=8080, help="port to listen on (0: any free port; default 8080)")
     parser.add_argument("--host", default="127.0.0.1", help="address to listen on (default 127.0.0.1: this machine)")
     parser.add_argument("--shape", type=int, nargs=3, default=[5, 5, 5], metavar=("NX", "NY", "NZ"),
@@ -87,12 +93,14 @@ def main(argv: Sequence[str] | None = None, *, setup: Callable[[Any], None] | No
     os.environ.setdefault("TRAME_ARGS", "")
     print("loading the editor...", flush=True)
     from .errors import FileFormatError
+    from .face.models import LiteRTMissingError
     from .view.editor.app import run_app
 
     try:
         run_app(args.mesh, ffd=args.ffd, port=args.port, host=args.host, shape=tuple(args.shape), basis=args.basis,
-                root=args.root, max_file_bytes=int(args.max_file_mb * 2**20), setup=setup)  # fmt: skip
-    except (FileFormatError, ValueError, OSError) as exc:
+                root=args.root, max_file_bytes=int(args.max_file_mb * 2**20), setup=setup,
+                image=args.image)  # fmt: skip
+    except (FileFormatError, ValueError, OSError, LiteRTMissingError) as exc:  # NoFaceError is a ValueError
         print(f"error: {exc}", file=sys.stderr)
         return 1
     except KeyboardInterrupt:

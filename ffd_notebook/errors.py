@@ -8,7 +8,7 @@ from typing import TYPE_CHECKING
 if TYPE_CHECKING:
     from .batch.engine import BatchResult
 
-__all__ = ["BatchError", "FileFormatError", "PathRefused"]
+__all__ = ["BatchError", "FileFormatError", "NoFaceError", "PathRefused"]
 
 
 class FileFormatError(ValueError):
@@ -32,6 +32,24 @@ class FileFormatError(ValueError):
 
     def __reduce__(self):  # keep it picklable (multiprocessing, pytest-xdist)
         return (type(self), (self.path, self.line, self.problem))
+
+
+class NoFaceError(ValueError):
+    """A photo has no face the face models can use: names the photo and says what was (not) found.
+
+    Examples
+    --------
+    >>> str(NoFaceError("coins.png", "no face found in the photo"))
+    'coins.png: no face found in the photo'
+    """
+
+    def __init__(self, photo: str, problem: str) -> None:
+        self.photo = photo
+        self.problem = problem
+        super().__init__(f"{photo}: {problem}")
+
+    def __reduce__(self):
+        return (type(self), (self.photo, self.problem))
 
 
 class PathRefused(ValueError):

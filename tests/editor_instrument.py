@@ -139,6 +139,26 @@ class Instrument:
             "probe": [None if hit is None else hit.tolist() for hit in hits],
         }
 
+    def image(self) -> dict[str, Any]:
+        """What the ``ffd_image`` trigger answers: per slice, the texels the scene draws, whether they are the
+        session's current slice values, and which of them the selected (inner) control point reaches (its
+        cubic B-spline support: two cells each way)."""
+        from ffd_notebook.view.editor.scene.image_slices import to_texels
+
+        shown_slices, session = self.editor.scene.image_slices, self.editor.session
+        if shown_slices is None:
+            return {"loaded": False}
+        selected = session.selected
+        answer: dict[str, Any] = {"loaded": True, "selected": None if selected is None else list(selected), "axes": {}}
+        for axis in shown_slices.planes:
+            texels = shown_slices.shown_values(axis)
+            current = to_texels(session.image.slices.values[axis], session.image.window)
+            u = session.lattice.to_lattice(session.image.slices.slice_points(axis))
+            reach = None if selected is None else np.all(np.abs(u - np.array(selected)) < 2.0, axis=1).tolist()
+            same = bool(np.array_equal(texels, current))
+            answer["axes"][str(axis)] = {"texels": texels.ravel().tolist(), "current": same, "reach": reach}
+        return answer
+
     def state(self) -> dict[str, Any]:
         """What the ``ffd_state`` trigger answers."""
         return {
@@ -146,6 +166,8 @@ class Instrument:
             "offsets_abs_sum": float(np.abs(self.editor.lattice.offsets).sum()),
             "n_callbacks": self.n_drags,
             "selected": None if self.editor.session.selected is None else list(self.editor.session.selected),
+            "n_points": int(self.editor.mesh.n_points),
+            "messages": list(self.editor.messages)[-3:],
         }
 
     def register_triggers(self, server: Any) -> None:
@@ -154,6 +176,7 @@ class Instrument:
         server.controller.trigger("ffd_widget_px")(lambda: {"size": size(), "widgets": self.widget_display_positions()})
         server.controller.trigger("ffd_state")(self.state)
         server.controller.trigger("ffd_surface")(self.surface)
+        server.controller.trigger("ffd_image")(self.image)
 
     def close(self) -> None:
         """Stop following the editor; close the trace file."""

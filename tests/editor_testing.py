@@ -81,3 +81,27 @@ def assert_view_matches_model(editor, atol=1e-5):
     actor = editor.scene.lattice_actor
     np.testing.assert_allclose(glyph_centers(editor), control[actor.shown], atol=1e-6)
     np.testing.assert_allclose(actor.handle.GetCenter(), control[actor.handle_index], atol=1e-6)
+
+
+def snapshot(editor):
+    """Everything a failed load must leave alone."""
+    return (
+        editor.mesh.points.copy(),
+        editor.mesh.n_cells,
+        editor.lattice.copy(),
+        editor.session.basis,
+        len(editor.session.history),
+        editor.session.can_redo,
+        shown_points(editor).copy(),
+        editor.scene.lattice_actor.glyphs.n_points,
+    )
+
+
+def assert_unchanged(editor, snap):
+    points, n_cells, lattice, basis, n_hist, can_redo, shown, n_widgets = snap
+    np.testing.assert_array_equal(editor.mesh.points, points)
+    assert editor.mesh.n_cells == n_cells
+    assert editor.lattice == lattice and editor.session.basis == basis
+    assert len(editor.session.history) == n_hist and editor.session.can_redo == can_redo
+    np.testing.assert_array_equal(shown_points(editor), shown)
+    assert editor.scene.lattice_actor.glyphs.n_points == n_widgets

@@ -18,8 +18,11 @@ MODEL_FILES = sorted(
     + list((PACKAGE / "_util").glob("*.py"))
     + list((PACKAGE / "gp").glob("*.py"))
     + list((PACKAGE / "solidtex").glob("*.py"))
+    + list((PACKAGE / "images").glob("*.py"))
     # batch: drawing and deforming (the engine, output and file loading write and read meshes through io)
     + [PACKAGE / "batch" / f"{name}.py" for name in ("models", "gp_model", "folding", "seeds", "evaluate")]
+    # face: everything but the mesh builder (face_from_photo returns PolyData: it imports PyVista when called)
+    + [PACKAGE / "face" / f"{name}.py" for name in ("crop", "detection", "landmarks", "models", "photo", "topology")]
 )
 FORBIDDEN = ("vtk", "vtkmodules", "pyvista", "trame", "ipywidgets")
 
@@ -35,6 +38,7 @@ MODEL_MODULES = [_module_name(p) for p in MODEL_FILES]
 def test_every_model_module_is_listed():
     assert {"ffd_notebook.ffd.deform", "ffd_notebook.gp.kernels", "ffd_notebook.gp.lowrank"} <= set(MODEL_MODULES)
     assert {"ffd_notebook.solidtex.synthesis", "ffd_notebook.solidtex.sampling"} <= set(MODEL_MODULES)
+    assert {"ffd_notebook.face.detection", "ffd_notebook.face.landmarks"} <= set(MODEL_MODULES)
 
 
 def test_model_imports_no_view_libraries():
@@ -85,3 +89,18 @@ def test_meshing_and_io_import_no_ui_library(path):
         elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
             modules.append(node.module)
     assert not [m for m in modules if m.split(".")[0] in ("trame", "ipywidgets")], path.name
+
+
+def test_the_face_package_loads_pyvista_only_to_build_the_mesh():
+    """``import ffd_notebook.face`` and finding landmarks load no VTK; ``face_from_photo`` returns PolyData."""
+    code = (
+        "import sys\n"
+        "from skimage import data\n"
+        "import ffd_notebook.face as face\n"
+        "face.face_landmarks(data.astronaut())\n"
+        f"print(','.join(sorted(m for m in sys.modules if m.split('.')[0] in {FORBIDDEN!r})) or '-')\n"
+        "face.face_from_photo(data.astronaut(), subdivisions=0)\n"
+        "print('pyvista' in sys.modules)\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.split()
+    assert out == ["-", "True"], out

@@ -7,6 +7,7 @@ Examples
     python -m ffd_notebook batch face.ply --model random-lattice --n 1000 --out augmented \\
         --num-control-points 7 --max-displacement 2000 --locked-borders 2
     python -m ffd_notebook batch face.ply --n 1000 --out augmented --scheduler tcp://10.0.0.5:8786
+    python -m ffd_notebook batch liver.vtp --n 100 --out pairs --image ct.nii.gz --label-image liver_labels.nii.gz
 """
 
 from __future__ import annotations
@@ -46,6 +47,13 @@ def build_parser() -> argparse.ArgumentParser:
                         "local scheduler (default: threads, the fastest measured here)")  # fmt: skip
     p.add_argument("--workers", type=int, help="local workers (default: one per core)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    img = p.add_argument_group("images (warped by each sample's transform, written beside its mesh)")
+    img.add_argument("--image", metavar="IMG",
+                     help="an image in the mesh's space (NIfTI, NRRD, MetaImage...); the mesh is then moved by the "
+                          "inverse of the transform the image is resampled through, so both stay together")  # fmt: skip
+    img.add_argument("--label-image", metavar="LABELS", help="a label map in the mesh's space (nearest interpolation)")
+    img.add_argument("--image-interpolation", choices=["linear", "bspline", "nearest"], default="linear",
+                     help="interpolation of --image (default linear)")  # fmt: skip
     lat = p.add_argument_group("random-lattice (TorchIO's names)")
     lat.add_argument("--num-control-points", type=int, nargs="+", default=[7], metavar="N",
                      help="control points per axis: one number or three (>= 4 for B-splines; default 7)")  # fmt: skip
@@ -127,7 +135,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         rule = None if args.no_fold_check else FoldFree(args.min_det, args.grid, args.on_fold, args.max_tries)
         model = _model(args, parser)
         result = generate(args.mesh, model, args.n, args.out, seed=args.seed, fold_free=rule, format=args.format,
-                          scheduler=args.scheduler, workers=args.workers, progress=not args.no_progress)  # fmt: skip
+                          scheduler=args.scheduler, workers=args.workers, progress=not args.no_progress,
+                          image=args.image, label_image=args.label_image,
+                          image_interpolation=args.image_interpolation)  # fmt: skip
     except BatchError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 1

@@ -26,10 +26,11 @@ import numpy as np
 
 from .._util.blas import one_blas_thread
 from ..errors import BatchError
+from ..images import INTERPOLATIONS
 from .files import LatticeFiles
 from .folding import FoldFree
 from .output import FORMATS, Layout
-from .sample import Job, context, deformed_mesh, load_sample, mesh_sha256, run_samples
+from .sample import Job, context, deformed_mesh, job_layout, load_sample, mesh_sha256, run_samples, warped_image
 
 __all__ = ["BatchResult", "generate", "replay"]
 
@@ -185,8 +186,18 @@ def generate(
     scheduler: str | None = None,
     workers: int | None = None,
     progress: bool = True,
+    image: str | os.PathLike[str] | None = None,
+    label_image: str | os.PathLike[str] | None = None,
+    image_interpolation: str = "linear",
 ) -> BatchResult:
     """Write ``n`` deformed copies of a mesh, their parameters and a manifest into ``out``.
+
+    With ``image`` and/or ``label_image``, every sample also writes them warped by the same
+    transform, so that image and mesh stay together: ``meshes/image_NNNNNN.EXT`` and
+    ``meshes/label_NNNNNN.EXT`` in the input's format, named in the manifest (``image_file``,
+    ``label_file``). The direction: the images are resampled through the sample's transform
+    ``T`` as ITK does (the output at ``x`` is the input at ``T(x)``, a pull-back), so the mesh is
+    moved by ``T^-1`` (see :mod:`ffd_notebook.batch.sample`); the parameters file holds ``T``.
 
     Parameters
     ----------
@@ -215,6 +226,14 @@ def generate(
         Local workers (default: one per core).
     progress : bool
         Show a progress bar (a widget in a notebook).
+    image : path, optional
+        An image in the mesh's physical space (anything SimpleITK reads: NIfTI, NRRD,
+        MetaImage...), warped with ``image_interpolation``.
+    label_image : path, optional
+        A label map (segmentation) in the same space, warped with nearest-neighbour
+        interpolation: no new label values.
+    image_interpolation : {"linear", "bspline", "nearest"}
+        Interpolation of ``image``.
 
     Returns
     -------
@@ -250,11 +269,15 @@ def generate(
         raise ValueError(f"seed must be a non-negative integer, got {seed!r}")
     if scheduler is not None and client is not None:
         raise ValueError("give client= or scheduler=, not both")
+    if image_interpolation not in INTERPOLATIONS:
+        raise ValueError(f"image_interpolation must be one of {tuple(INTERPOLATIONS)}, got {image_interpolation!r}")
     mesh_path = Path(mesh).resolve()
-    job = Job(str(mesh_path), model.to_spec(), int(seed), rule, str(Path(out).resolve()), format)
+    images = [None if path is None else str(Path(path).resolve()) for path in (image, label_image)]
+    job = Job(str(mesh_path), model.to_spec(), int(seed), rule, str(Path(out).resolve()), format, *images,
+              image_interpolation)  # fmt: skip
     with one_blas_thread():
-        context(job)  # an unreadable mesh or a model that does not fit it fails here, before any work
-    layout = Layout(job.out, format)
+        context(job)  # an unreadable mesh or image, a model that does not fit: fails here, before any work
+    layout = job_layout(job)
     layout.claim(job.settings(mesh_sha256(mesh_path)))
     result = BatchResult(layout.root)
     todo = []
@@ -286,12 +309,15 @@ def _collect(result: BatchResult, outputs: Iterable[dict[str, Any]]) -> None:
     result.cpu = np.array(cpu)
 
 
-def replay(out: str | os.PathLike[str], index: int):
-    """The deformed mesh of sample ``index`` of a run, rebuilt from its saved parameters.
+def replay(out: str | os.PathLike[str], index: int, *, part: str = "mesh"):
+    """The deformed mesh (or warped image) of sample ``index`` of a run, rebuilt from its saved parameters.
 
     Reads ``run.json`` and the manifest row, binds the model to the source mesh again, loads
     the parameters file and deforms: the same code path as the run, so the points are the
     ones that were written (bit for bit, before the file format's own rounding).
+
+    ``part="image"`` or ``"label"``: the sample's warped image or label map (a SimpleITK
+    image) of a run made with images, voxel for voxel what was written.
 
     Examples
     --------
@@ -307,15 +333,20 @@ def replay(out: str | os.PathLike[str], index: int):
     >>> bool(np.array_equal(again.points, read_mesh(folder / "out" / "meshes" / "sample_000001.vtp").points))
     True
     """
-    layout = Layout(out)
-    settings = layout.settings()
+    settings = Layout(out).settings()
     job = Job.from_settings(out, settings)
-    layout.format = job.format
+    layout = job_layout(job)
+    if part != "mesh" and part not in job.images:
+        raise ValueError(f"part must be 'mesh' or one of the run's images {sorted(job.images)}, got {part!r}")
     rows = [r for r in layout.records() if int(r["id"]) == int(index)]
     if not rows:
         raise KeyError(f"{layout.root} has no finished sample {index}")
     if mesh_sha256(job.mesh) != settings["mesh_sha256"]:
         raise ValueError(f"{job.mesh} changed since the run: its samples cannot be replayed from it")
+    for kind, path in job.images.items():
+        if mesh_sha256(path) != settings["images"][kind]["sha256"]:
+            raise ValueError(f"{path} changed since the run: its samples cannot be replayed from it")
     with one_blas_thread():
         ctx = context(job)
-        return deformed_mesh(ctx, load_sample(layout, rows[0], ctx, job.rule))
+        sample = load_sample(layout, rows[0], ctx, job.rule)
+        return deformed_mesh(ctx, sample) if part == "mesh" else warped_image(job, ctx, part, sample)

@@ -63,7 +63,9 @@ class LatticeFiles:
             raise ValueError(f"files must be a non-empty list of paths, got {self.files!r}")
         object.__setattr__(self, "files", tuple(str(Path(f).resolve()) for f in self.files))
         for f in self.files:
-            load_deformation(f)  # every file checked before any work starts
+            if not isinstance(load_deformation(f), FFD):  # every file checked before any work starts
+                raise ValueError(f"{f}: a displacement field is not a lattice; fit one first (fit_lattice, or "
+                                 "python -m ffd_notebook convert FIELD OUT --fit SHAPE)")  # fmt: skip
 
     def to_spec(self) -> dict[str, Any]:
         """The parameters as JSON values, with the model's name under ``"model"``."""

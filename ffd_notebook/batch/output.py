@@ -5,6 +5,8 @@ Layout of ``out/``::
     run.json                 the run's settings (mesh, model spec, seed, fold rule, format)
     manifest.csv             one row per finished sample, by id (rebuilt from records/)
     meshes/sample_000012.ply the deformed mesh
+    meshes/image_000012.EXT  with images: the image and the label map warped by the same sample, in the
+    meshes/label_000012.EXT  input images' own formats (EXT: their extensions, e.g. nii.gz)
     parameters/sample_000012.ffd (lattice models) or .txt (GP coefficients, one per line)
     records/sample_000012.json   the sample's manifest row, written last: the sample is done
 
@@ -27,7 +29,15 @@ from ..errors import FileFormatError
 from ..io._atomic import atomic_open
 from ..io._text import parse_float, read_lines
 
-__all__ = ["COLUMNS", "FORMATS", "Layout", "read_manifest", "read_parameters_txt", "write_parameters_txt"]
+__all__ = [
+    "COLUMNS",
+    "FORMATS",
+    "IMAGE_COLUMNS",
+    "Layout",
+    "read_manifest",
+    "read_parameters_txt",
+    "write_parameters_txt",
+]
 
 FORMATS = ("ply", "vtp", "obj")
 COLUMNS = (
@@ -42,19 +52,29 @@ COLUMNS = (
     "scale_downs",
     "scale",
 )
+IMAGE_COLUMNS = {"image": "image_file", "label": "label_file"}  # in the manifest of a run with images
 
 
 class Layout:
-    """Paths inside an output folder."""
+    """Paths inside an output folder.
 
-    def __init__(self, out: str | os.PathLike[str], fmt: str = "ply") -> None:
+    ``images`` maps ``"image"`` / ``"label"`` to the extension of the warped files (the input
+    image's, such as ``".nii.gz"``) for a run with images.
+    """
+
+    def __init__(self, out: str | os.PathLike[str], fmt: str = "ply", images: dict[str, str] | None = None) -> None:
         self.root = Path(out)
         self.format = fmt
+        self.images = dict(images or {})
         self.run_file = self.root / "run.json"
         self.manifest = self.root / "manifest.csv"
 
     def mesh(self, index: int) -> Path:
         return self.root / "meshes" / f"sample_{index:06d}.{self.format}"
+
+    def image(self, kind: str, index: int) -> Path:
+        """The warped ``"image"`` or ``"label"`` map of sample ``index``, beside its mesh."""
+        return self.root / "meshes" / f"{kind}_{index:06d}{self.images[kind]}"
 
     def parameters(self, index: int, suffix: str) -> Path:
         return self.root / "parameters" / f"sample_{index:06d}{suffix}"
@@ -93,7 +113,8 @@ class Layout:
 
     # ------------------------------------------------------------------ records
     def done(self, index: int) -> bool:
-        return self.record(index).is_file() and self.mesh(index).is_file()
+        files = [self.record(index), self.mesh(index), *(self.image(kind, index) for kind in self.images)]
+        return all(f.is_file() for f in files)
 
     def write_record(self, row: dict[str, Any]) -> None:
         with atomic_open(self.record(int(row["id"])), "w", encoding="utf-8") as f:
@@ -107,7 +128,8 @@ class Layout:
                 row = json.loads(path.read_text(encoding="utf-8"))
             except ValueError:
                 continue  # cannot happen with atomic writes; such a sample is simply redone
-            if isinstance(row, dict) and set(COLUMNS) <= set(row) and self.done(int(row["id"])):
+            columns = set(COLUMNS) | {IMAGE_COLUMNS[kind] for kind in self.images}
+            if isinstance(row, dict) and columns <= set(row) and self.done(int(row["id"])):
                 rows.append(row)
         return rows
 
@@ -115,7 +137,8 @@ class Layout:
         """Rebuild ``manifest.csv`` from the records (atomically); returns the rows."""
         rows = self.records()
         buffer = io.StringIO()
-        writer = csv.DictWriter(buffer, fieldnames=COLUMNS, extrasaction="ignore", lineterminator="\n")
+        columns = COLUMNS + tuple(IMAGE_COLUMNS[kind] for kind in self.images)
+        writer = csv.DictWriter(buffer, fieldnames=columns, extrasaction="ignore", lineterminator="\n")
         writer.writeheader()
         for row in rows:
             writer.writerow({k: repr(v) if isinstance(v, float) else v for k, v in row.items()})

@@ -5,6 +5,15 @@ with every task; each worker process reads the mesh and binds the model once and
 (:func:`context`). Sample ``i``'s generator is ``default_rng(SeedSequence(seed, spawn_key=(i,)))``
 (the ``i``-th child of ``SeedSequence(seed).spawn``), so what sample ``i`` is depends neither on
 the number of workers nor on the order they run in.
+
+With images (``generate(..., image=, label_image=)``) each sample also warps them, and the
+direction matters: a sample's transform ``T`` is applied to the images as ITK applies a
+transform, a pull-back (the output voxel at ``x`` takes the input's value at ``T(x)``), so what
+the input showed at ``q`` appears at ``T^-1(q)``; the mesh, drawn on the input image, is moved by
+``T^-1`` too (:func:`~ffd_notebook.images.invert_points`, Newton's method at the vertices) and so
+stays on the warped image. The parameters file holds ``T`` itself: the transform that
+``warp_image`` or ``sitk.Resample`` takes to warp the image again. A run without images moves
+the mesh by ``T``, as before.
 """
 
 from __future__ import annotations
@@ -14,12 +23,12 @@ import os
 import threading
 import time
 from dataclasses import asdict, dataclass
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from .._util.blas import one_blas_thread
+from ..images import image_suffix, invert_points, read_image, warp_image, write_image
 from ..io import load_ffd, read_mesh, save_ffd, write_mesh
 from ..io._atomic import folder_syncs_deferred
 from .evaluate import PointEvaluator
@@ -27,11 +36,23 @@ from .files import BoundFiles, LatticeFiles
 from .folding import FoldFree, accept, volume_grid
 from .gp_model import GPSample, RandomGP
 from .models import BoundLattice, LatticeSample, RandomLattice
-from .output import Layout, read_parameters_txt, write_parameters_txt
+from .output import IMAGE_COLUMNS, Layout, read_parameters_txt, write_parameters_txt
 from .ply import TrianglePly
 from .seeds import sample_rng
 
-__all__ = ["MODELS", "Context", "Job", "context", "deformed_mesh", "model_from_spec", "run_sample", "run_samples"]
+__all__ = [
+    "MODELS",
+    "Context",
+    "Job",
+    "context",
+    "deformed_mesh",
+    "job_layout",
+    "model_from_spec",
+    "run_sample",
+    "run_samples",
+    "sample_points",
+    "warped_image",
+]
 
 MODELS = {cls.name: cls for cls in (RandomLattice, RandomGP, LatticeFiles)}
 
@@ -61,17 +82,40 @@ class Job:
     rule: FoldFree | None
     out: str
     format: str
+    image: str | None = None
+    label_image: str | None = None
+    interpolation: str = "linear"  # of the image; the label map is always "nearest"
 
-    def settings(self, mesh_sha256: str) -> dict[str, Any]:
+    @property
+    def images(self) -> dict[str, str]:
+        """``{"image": path, "label": path}`` for the images given (none: an empty dict)."""
+        return {kind: path for kind, path in (("image", self.image), ("label", self.label_image)) if path}
+
+    def settings(self, mesh_digest: str) -> dict[str, Any]:
         """The run's identity, stored in ``run.json`` (the sample count is not part of it)."""
         rule = None if self.rule is None else asdict(self.rule)
-        return {"mesh": self.mesh, "mesh_sha256": mesh_sha256, "model": self.spec, "seed": self.seed,
-                "fold_free": rule, "format": self.format}  # fmt: skip
+        settings = {"mesh": self.mesh, "mesh_sha256": mesh_digest, "model": self.spec, "seed": self.seed,
+                    "fold_free": rule, "format": self.format}  # fmt: skip
+        if self.images:  # only then: a run without images keeps the run.json it always had
+            settings["images"] = {
+                kind: {"path": path, "sha256": mesh_sha256(path)} for kind, path in self.images.items()
+            }
+            settings["image_interpolation"] = self.interpolation
+        return settings
 
     @classmethod
     def from_settings(cls, out: str | os.PathLike[str], settings: dict[str, Any]) -> Job:
         rule = None if settings["fold_free"] is None else FoldFree(**settings["fold_free"])
-        return cls(settings["mesh"], settings["model"], settings["seed"], rule, str(out), settings["format"])
+        images = settings.get("images", {})
+        paths = [images[kind]["path"] if kind in images else None for kind in ("image", "label")]
+        interpolation = settings.get("image_interpolation", "linear")
+        return cls(settings["mesh"], settings["model"], settings["seed"], rule, str(out), settings["format"], *paths,
+                   interpolation)  # fmt: skip
+
+
+def job_layout(job: Job) -> Layout:
+    """The output folder's layout for ``job`` (its mesh format, and its images' extensions)."""
+    return Layout(job.out, job.format, {kind: image_suffix(path) for kind, path in job.images.items()})
 
 
 @dataclass(frozen=True)
@@ -84,6 +128,7 @@ class Context:
     vertices: PointEvaluator
     check: PointEvaluator  # vertices, then the volume grid
     ply: TrianglePly | None  # the fast writer, for triangle meshes
+    images: dict[str, Any]  # "image" / "label" -> the SimpleITK image read once
 
     def min_det_j(self, sample: Any) -> float:
         """Smallest Jacobian determinant over the vertices and the volume grid."""
@@ -106,8 +151,9 @@ _LOCK = threading.Lock()
 
 def context(job: Job) -> Context:
     """The mesh and bound model of ``job``, built once per process (and per file version)."""
-    stat = os.stat(job.mesh)
-    key = json.dumps([job.mesh, stat.st_mtime_ns, stat.st_size, job.spec, job.rule and job.rule.grid], sort_keys=True)
+    files = [job.mesh, *job.images.values()]
+    versions = [(path, os.stat(path).st_mtime_ns, os.stat(path).st_size) for path in files]
+    key = json.dumps([versions, job.spec, job.rule and job.rule.grid], sort_keys=True)
     with _LOCK:  # threads of one worker share it; building it twice would only waste time
         if key not in _CONTEXTS:
             mesh = read_mesh(job.mesh)
@@ -119,14 +165,33 @@ def context(job: Job) -> Context:
             evaluators = PointEvaluator(points, template), PointEvaluator(check, template)
             while len(_CONTEXTS) >= _KEEP:  # a notebook trying many settings: keep the newest few
                 del _CONTEXTS[next(iter(_CONTEXTS))]
-            _CONTEXTS[key] = Context(mesh, points, bound, *evaluators, TrianglePly.for_mesh(mesh))
+            images = {kind: read_image(path) for kind, path in job.images.items()}
+            _CONTEXTS[key] = Context(mesh, points, bound, *evaluators, TrianglePly.for_mesh(mesh), images)
         return _CONTEXTS[key]
 
 
+def sample_points(ctx: Context, sample: Any) -> np.ndarray:
+    """The sample's mesh vertices: moved by ``T``, or by ``T^-1`` in a run with images (see the module)."""
+    if ctx.images:
+        return invert_points(sample, ctx.points)
+    return ctx.vertices.deform(sample)
+
+
+def _transform(sample: Any) -> Any:
+    """What ``warp_image`` takes: a lattice sample's FFD itself (evaluated separably on the image grid)."""
+    return sample.ffd if isinstance(sample, LatticeSample) else sample
+
+
+def warped_image(job: Job, ctx: Context, kind: str, sample: Any) -> Any:
+    """The sample's ``"image"`` (the run's interpolation) or ``"label"`` map (nearest), a SimpleITK image."""
+    interpolation = job.interpolation if kind == "image" else "nearest"
+    return warp_image(ctx.images[kind], _transform(sample), interpolation=interpolation)
+
+
 def deformed_mesh(ctx: Context, sample: Any, points: np.ndarray | None = None):
-    """A copy of the mesh (colours and all) with the sample's deformed vertices (or the given ones)."""
+    """A copy of the mesh (colours and all) with the sample's vertices (:func:`sample_points`), or the given ones."""
     mesh = ctx.mesh.copy(deep=True)
-    mesh.points = ctx.vertices.deform(sample) if points is None else points
+    mesh.points = sample_points(ctx, sample) if points is None else points
     if "Normals" in mesh.point_data:
         del mesh.point_data["Normals"]  # the rest shape's normals are wrong for the deformed one
     return mesh
@@ -200,7 +265,7 @@ def run_samples(job: Job, indices: list[int]) -> list[dict[str, Any]]:
     # one BLAS thread: samples run in parallel already, and a sample's numbers must not depend on how
     # many BLAS threads a worker has (bit-for-bit equal outputs on any cluster, and in replay)
     with one_blas_thread():
-        layout = Layout(job.out, job.format)
+        layout = job_layout(job)
         with folder_syncs_deferred():
             outs = [_make_sample(job, layout, i) for i in indices]
             tic, cpu = time.perf_counter(), time.thread_time()  # to the block's end: the folders' fsyncs
@@ -245,8 +310,16 @@ def _make_sample(job: Job, layout: Layout, index: int) -> dict[str, Any]:
         got = accept(ctx.bound, index, sample_rng(job.seed, index), ctx.min_det_j, job.rule)
         seconds = dict(got.seconds)
         tic = time.perf_counter()
-        points = ctx.vertices.deform(got.sample)
+        points = sample_points(ctx, got.sample)
         seconds["deform"] = time.perf_counter() - tic
+        tic = time.perf_counter()
+        image_files = {}
+        for kind in ctx.images:
+            path = layout.image(kind, index)
+            write_image(path, warped_image(job, ctx, kind, got.sample), compress=True)
+            image_files[IMAGE_COLUMNS[kind]] = path.relative_to(layout.root).as_posix()
+        if ctx.images:
+            seconds["images"] = time.perf_counter() - tic
         tic = time.perf_counter()
         parameters = _save_parameters(layout, index, ctx.bound, got.sample)
         mesh_path = layout.mesh(index)
@@ -265,6 +338,7 @@ def _make_sample(job: Job, layout: Layout, index: int) -> dict[str, Any]:
             "redraws": got.redraws,
             "scale_downs": got.scale_downs,
             "scale": float(got.sample.scale),
+            **image_files,
         }
         seconds["write"] = time.perf_counter() - tic
         return {"id": index, "row": row, "seconds": seconds, "cpu": time.thread_time() - cpu}
@@ -273,7 +347,11 @@ def _make_sample(job: Job, layout: Layout, index: int) -> dict[str, Any]:
 
 
 def mesh_sha256(path: str | os.PathLike[str]) -> str:
-    """SHA-256 of a file (ties a run folder to its source mesh)."""
+    """SHA-256 of a file: the source mesh or an input image (ties a run folder to them)."""
     import hashlib
 
-    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+    digest = hashlib.sha256()
+    with open(path, "rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()

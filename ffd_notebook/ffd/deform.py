@@ -16,11 +16,13 @@ from numpy.typing import ArrayLike, NDArray
 
 from .._util.points import as_points
 from . import oneshot
-from .basis import BASES
 from .deformer import Deformer
 from .fit import fit_points as _fit_points
+from .influence import blend, check_strength, influence, point_weights
+from .interpolation import axis_bases, check_basis
 from .jacobian import bernstein_lattice_jacobian, bspline_lattice_jacobian, det3, jacobian_to_world
 from .lattice import Lattice
+from .outside import outside_offsets
 from .support import CellGroups, check_border, in_domain
 
 __all__ = ["FFD"]
@@ -44,10 +46,14 @@ class FFD:
     ----------
     lattice : Lattice
         The control lattice; its ``offsets`` are read at every evaluation (edit them in place).
-    basis : {"bspline", "bernstein"}
+    basis : {"bspline", "bernstein"} or tuple of str
         ``"bspline"``: uniform cubic B-splines, local support (each point moves with the 4x4x4
         control points around it). ``"bernstein"``: Sederberg-Parry, every control point moves
-        every point inside the lattice box (points outside are extrapolated polynomially).
+        every point inside the lattice box (points outside are extrapolated polynomially). Or
+        Blender's interpolations, one per axis: a tuple of three of ``"linear"``, ``"cardinal"``,
+        ``"catmull-rom"``, ``"bspline"`` (one name alone means it on every axis), each with
+        Blender's weights (:mod:`~ffd_notebook.ffd.interpolation`) on the B-spline's support, so
+        with the border rules below (Blender's is ``"clamp"``).
     border : {"zero", "clamp"}, optional
         B-spline basis only: what lies beyond the lattice. ``"zero"``: nothing (the FFD
         report, SimpleITK; the weights sum to one only one spacing inside the lattice).
@@ -63,6 +69,17 @@ class FFD:
         Bernstein basis, as PyGeM does, and the region where the B-spline weights sum to one,
         ``1 <= u <= n - 2``, for the B-spline basis, as ITK's ``BSplineTransform`` does. The
         deformation is then discontinuous where the offsets near the domain's faces are not zero.
+    outside : bool
+        Blender's "outside" lattice: only the control points on the lattice's surface are free;
+        each inner one follows them, at the mean of the linear interpolations between opposite
+        faces (:mod:`~ffd_notebook.ffd.outside`). Its own offset is then ignored.
+    strength : float
+        Scales the displacement ``T(x) - x`` of every point: 1 the whole deformation, 0 none,
+        negative or above 1 allowed (Blender's modifier strength).
+    weights : array_like or str, optional
+        Per-point weights in [0, 1] that scale each point's displacement (Blender's vertex group),
+        used by :meth:`deform` and :meth:`bind` when they get none: one per point of the point set
+        they belong to, or the name of a point-data array of the mesh deformed.
 
     Examples
     --------
@@ -85,21 +102,95 @@ class FFD:
         border: str | None = None,
         affine: ArrayLike | None = None,
         only_inside: bool = False,
+        *,
+        outside: bool = False,
+        strength: float = 1.0,
+        weights: ArrayLike | str | None = None,
     ) -> None:
         if not isinstance(lattice, Lattice):
             raise TypeError(f"lattice must be a Lattice, got {type(lattice).__name__}")
-        if basis not in BASES:
-            raise ValueError(f"basis must be one of {BASES}, got {basis!r}")
+        basis = check_basis(basis)
         self._border = None if border is None else check_border(border)
         self.lattice = lattice
-        if basis == "bspline" and self.border == "zero" and min(lattice.shape) < 4:
-            raise ValueError(
-                f"the cubic B-spline basis with border 'zero' needs at least 4 control points per axis, "
-                f"got {lattice.shape}"
-            )
-        self.basis = basis
+        if basis != "bernstein" and self.border == "zero" and min(lattice.shape) < 4:
+            what = "the cubic B-spline basis" if basis == "bspline" else f"the {basis!r} basis"
+            raise ValueError(f"{what} with border 'zero' needs at least 4 control points per axis, got {lattice.shape}")
+        self.basis: str | tuple[str, str, str] = basis
         self.affine = _check_affine(affine)
         self.only_inside = bool(only_inside)
+        self.outside = bool(outside)
+        self.strength = strength
+        self.weights = weights
+
+    @property
+    def strength(self) -> float:
+        """Scale of every point's displacement (1: the whole deformation; Blender's modifier strength)."""
+        return self._strength
+
+    @strength.setter
+    def strength(self, value: float) -> None:
+        self._strength = check_strength(value)
+
+    @property
+    def weights(self) -> NDArray[np.float64] | str | None:
+        """Default per-point weights of :meth:`deform` and :meth:`bind`: an array, a point-data name or None."""
+        return self._weights
+
+    @weights.setter
+    def weights(self, value: ArrayLike | str | None) -> None:
+        if value is not None and not isinstance(value, str):
+            value = np.array(value, dtype=np.float64)
+            point_weights(value, len(value))  # checked now: one number each, in [0, 1]
+        self._weights = value
+
+    def offsets_in_use(self) -> NDArray[np.float64]:
+        """The offsets the deformation uses: the lattice's, or with ``outside`` the inner ones derived.
+
+        Examples
+        --------
+        >>> from ffd_notebook import Lattice, FFD
+        >>> lat = Lattice((3, 3, 3), 1.0, border="clamp")
+        >>> lat.offsets[1, 1, 1] = (5.0, 0.0, 0.0)          # an inner point: ignored with outside=True
+        >>> float(FFD(lat, outside=True).offsets_in_use()[1, 1, 1, 0])
+        0.0
+        """
+        offsets = self.lattice.offsets
+        return outside_offsets(offsets) if self.outside else offsets
+
+    def baked(self) -> FFD:
+        """The same deformation with strength 1 and no ``outside`` rule: their effect put in the offsets and affine.
+
+        ``x + s (A x + b + T_local(x) - x)`` is an FFD with affine ``I + s (A - I)``, ``s b`` and offsets
+        ``s * offsets_in_use()``; file formats without those options hold this. Per-point weights
+        belong to one point set and are not part of it.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from ffd_notebook import Lattice, FFD
+        >>> lat = Lattice((4, 4, 4), 1.0, border="clamp")
+        >>> lat.offsets[2, 1, 3] = (0.0, 1.0, 0.0)
+        >>> ffd = FFD(lat, affine=np.diag([2.0, 1.0, 1.0, 1.0]), strength=0.5, outside=True)
+        >>> pts = np.random.default_rng(0).random((20, 3)) * 3
+        >>> bool(np.allclose(ffd.baked().deform(pts), ffd.deform(pts))), ffd.baked().strength
+        (True, 1.0)
+        """
+        s = self.strength
+        lattice = self.lattice.copy()
+        affine = self.affine.copy()
+        if self.outside:
+            lattice.offsets[...] = self.offsets_in_use()
+        if s != 1.0:  # (with s == 1 nothing is computed: the copy is bit-identical)
+            lattice.offsets *= s
+            affine[:3, :3] = np.eye(3) + s * (affine[:3, :3] - np.eye(3))
+            affine[:3, 3] *= s
+        return FFD(lattice, self.basis, border=self.border, affine=affine, only_inside=self.only_inside)
+
+    def _factor(self, points: Any, n: int, strength: Any, weights: Any) -> NDArray[np.float64] | None:
+        """Per-point ``strength * weight`` of a call (the FFD's own where the call gives none)."""
+        s = self.strength if strength is None else check_strength(strength)
+        w = point_weights(self.weights if weights is None else weights, n, mesh=points)
+        return influence(s, w, n)
 
     @property
     def border(self) -> str:
@@ -129,13 +220,26 @@ class FFD:
     def _local_rows(self, pts: NDArray[np.float64]) -> NDArray[np.float64]:
         """``T_local`` of points already checked, as rows ``(3, N)`` (the one-shot :mod:`.oneshot`)."""
         lat = self.lattice
-        rows = oneshot.displacement(self.basis, lat.offsets, oneshot.lattice_rows(lat, pts), self.border)
+        rows = oneshot.displacement(self.basis, self.offsets_in_use(), oneshot.lattice_rows(lat, pts), self.border)
         if self.only_inside:  # the domain test on to_lattice's coordinates, as the cached path does
             rows[:, ~in_domain(self.basis, lat.shape, lat.to_lattice(pts))] = 0.0
         return rows
 
-    def deform(self, points: ArrayLike) -> NDArray[np.float64]:
-        """Deformed positions ``A x + b + T_local(x)`` of ``(N, 3)`` points.
+    def deform(self, points: ArrayLike, *, strength: float | None = None, weights: Any = None) -> NDArray[np.float64]:
+        """Deformed positions ``A x + b + T_local(x)`` of ``(N, 3)`` points (or a mesh's points).
+
+        With a strength ``s`` and per-point weights ``w`` (Blender's modifier strength and vertex
+        group), point ``x`` goes to ``x + s w (T(x) - x)``.
+
+        Parameters
+        ----------
+        points : array_like or mesh
+            ``(N, 3)`` points, or an object with ``points`` (a PyVista mesh).
+        strength : float, optional
+            Overrides :attr:`strength` for this call.
+        weights : array_like or str, optional
+            ``(N,)`` weights in [0, 1], or the name of a point-data array of ``points`` (a mesh);
+            by default :attr:`weights` (none: every point gets the whole deformation).
 
         Examples
         --------
@@ -145,8 +249,13 @@ class FFD:
         >>> ffd = FFD(Lattice.around(pts, shape=4), affine=np.diag([2.0, 2.0, 2.0, 1.0]))
         >>> bool(np.allclose(ffd.deform(pts), 2 * pts))
         True
+        >>> w = np.linspace(0.0, 1.0, 50)                 # the first point stays, the last moves fully
+        >>> moved = ffd.deform(pts, strength=0.5, weights=w)
+        >>> bool(np.allclose(moved, pts + 0.5 * w[:, None] * pts))
+        True
         """
         pts = as_points(points)
+        factor = self._factor(points, len(pts), strength, weights)
         rows = self._local_rows(pts)
         rows += self.affine[:3, 3, None]
         linear = self.affine[:3, :3]
@@ -154,15 +263,17 @@ class FFD:
         out = np.empty_like(base)
         for d in range(3):  # column by column: adding (N, 3) to rows.T would run along the short axis
             np.add(base[:, d], rows[d], out=out[:, d])
-        return out
+        return blend(pts, out, factor)
 
     __call__ = deform
 
-    def jacobian(self, points: ArrayLike) -> NDArray[np.float64]:
+    def jacobian(self, points: ArrayLike, *, strength: float | None = None, weights: Any = None) -> NDArray[np.float64]:
         """Jacobian matrices ``dT/dx`` of the whole deformation at each point, ``(N, 3, 3)``.
 
         Analytic: the affine matrix plus the local part's derivative from the basis
-        derivatives, chained through the lattice frame (``d uvw / dx = R^T / spacing``).
+        derivatives, chained through the lattice frame (``d uvw / dx = R^T / spacing``). With a
+        strength ``s`` and weights ``w`` (see :meth:`deform`): ``I + s w (J - I)``, the weights
+        being constants of the points.
 
         Examples
         --------
@@ -173,19 +284,29 @@ class FFD:
         True
         """
         pts = as_points(points)
+        factor = self._factor(points, len(pts), strength, weights)
         lat = self.lattice
+        offsets = self.offsets_in_use()
         uvw = lat.to_lattice(pts)
         # d T_local / d(u, v, w): (N, 3 components, 3 lattice axes)
         if self.basis == "bernstein":
-            d_uvw = bernstein_lattice_jacobian(lat.offsets, uvw)
+            d_uvw = bernstein_lattice_jacobian(offsets, uvw)
         else:
             cells = CellGroups(uvw, lat.shape, self.border)
-            d_uvw = cells.unsort(bspline_lattice_jacobian(cells, lat.offsets, cells.t))
+            bases = axis_bases(self.basis)
+            d_uvw = cells.unsort(bspline_lattice_jacobian(cells, offsets, cells.t, bases=bases))
         if self.only_inside:
             d_uvw[~in_domain(self.basis, lat.shape, uvw)] = 0.0
-        return jacobian_to_world(lat, self.affine, d_uvw)
+        jacobian = jacobian_to_world(lat, self.affine, d_uvw)
+        if factor is not None:
+            jacobian -= np.eye(3)
+            jacobian *= factor[:, None, None]
+            jacobian += np.eye(3)
+        return jacobian
 
-    def jacobian_determinant(self, points: ArrayLike) -> NDArray[np.float64]:
+    def jacobian_determinant(
+        self, points: ArrayLike, *, strength: float | None = None, weights: Any = None
+    ) -> NDArray[np.float64]:
         """Determinant of the Jacobian at each point; ``<= 0`` where the deformation folds.
 
         Examples
@@ -197,11 +318,16 @@ class FFD:
         >>> bool(FFD(lat).jacobian_determinant([[0.5, 0.5, 0.5]])[0] < 0)
         True
         """
-        return det3(self.jacobian(points))
+        return det3(self.jacobian(points, strength=strength, weights=weights))
 
-    def bind(self, points: ArrayLike, dtype: Any = np.float32) -> Deformer:
-        """Bind to one point set: a :class:`~ffd_notebook.Deformer` that caches what does not change."""
-        return Deformer(self, points, dtype=dtype)
+    def bind(
+        self, points: ArrayLike, dtype: Any = np.float32, *, strength: float | None = None, weights: Any = None
+    ) -> Deformer:
+        """Bind to one point set: a :class:`~ffd_notebook.Deformer` that caches what does not change.
+
+        ``strength`` and ``weights`` as in :meth:`deform` (the FFD's own by default).
+        """
+        return Deformer(self, points, dtype=dtype, strength=strength, weights=weights)
 
     def fit_points(
         self,
@@ -209,6 +335,8 @@ class FFD:
         targets: ArrayLike,
         pinned: ArrayLike | None = None,
         weights: ArrayLike | None = None,
+        *,
+        point_weights: ArrayLike | None = None,
     ) -> NDArray[np.float64]:
         """Change ``lattice.offsets`` (in place) by the least-norm amount that puts ``deform(points)`` on ``targets``.
 
@@ -224,9 +352,12 @@ class FFD:
         >>> ffd.deform([[2.0, 2.0, 2.0]]).round(12).tolist(), int(change.any(axis=-1).sum())
         ([[2.0, 2.5, 2.0]], 27)
         """
-        return _fit_points(self, points, targets, pinned=pinned, weights=weights)
+        return _fit_points(self, points, targets, pinned=pinned, weights=weights, point_weights=point_weights)
 
     def __repr__(self) -> str:
         affine = "identity" if np.array_equal(self.affine, np.eye(4)) else "set"
-        inside = ", only_inside=True" if self.only_inside else ""
-        return f"FFD({self.lattice!r}, basis={self.basis!r}, border={self.border!r}, affine={affine}{inside})"
+        extra = ", only_inside=True" if self.only_inside else ""
+        extra += ", outside=True" if self.outside else ""
+        extra += f", strength={self.strength:g}" if self.strength != 1.0 else ""
+        extra += ", weights=set" if self.weights is not None else ""
+        return f"FFD({self.lattice!r}, basis={self.basis!r}, border={self.border!r}, affine={affine}{extra})"

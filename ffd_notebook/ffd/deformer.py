@@ -11,11 +11,13 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.linalg.blas import dger
 
 from .._util.points import as_points
-from .basis import BSPLINE, bernstein_values
+from .basis import bernstein_values
+from .influence import blend, check_strength, influence, point_weights
+from .interpolation import axis_bases
 from .jacobian import bspline_lattice_jacobian, det3, jacobian_to_world
+from .outside import outside_offsets
 from .support import CellGroups, in_domain, outer_uv, support_slots
 
 if TYPE_CHECKING:
@@ -41,6 +43,13 @@ class Deformer:
     dtype : numpy dtype
         Precision of the cached weights: ``float32`` (default, 88 bytes a point for the
         B-spline basis, about 1e-7 relative error) or ``float64`` (exact to rounding).
+    strength : float, optional
+        Scales every point's displacement (Blender's modifier strength); by default the FFD's
+        :attr:`~ffd_notebook.FFD.strength`, read at each update.
+    weights : array_like or str, optional
+        One weight in [0, 1] per point scaling its displacement (Blender's vertex group), or the
+        name of a point-data array of the mesh given as ``points``; by default the FFD's
+        :attr:`~ffd_notebook.FFD.weights`. Settable later (:attr:`weights`).
 
     Notes
     -----
@@ -62,19 +71,92 @@ class Deformer:
     True
     """
 
-    def __init__(self, ffd: FFD, points: ArrayLike, dtype: Any = np.float32) -> None:
+    def __init__(
+        self, ffd: FFD, points: ArrayLike, dtype: Any = np.float32, *, strength: Any = None, weights: Any = None
+    ) -> None:
         self.ffd = ffd
         self.points = as_points(points)
         self.dtype = np.dtype(dtype)
         if self.dtype not in (np.float32, np.float64):
             raise ValueError(f"dtype must be float32 or float64, got {self.dtype}")
+        self._strength = None if strength is None else check_strength(strength)
+        given = ffd.weights if weights is None else weights
+        self._weights = point_weights(given, len(self.points), mesh=points)
         self._bind()
+
+    @property
+    def strength(self) -> float:
+        """The strength in use: the one given at binding, else the FFD's."""
+        return self.ffd.strength if self._strength is None else self._strength
+
+    @property
+    def weights(self) -> NDArray[np.float64] | None:
+        """Per-point weights in [0, 1] (None: all 1). Setting them re-weights the cache and evaluates once.
+
+        The cell grouping stays: only the last axis' weights and the affine image are redone (a few
+        ms on the 53k face, where binding takes tens; the editor's weight brush sets them per event).
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from ffd_notebook import Lattice, FFD
+        >>> pts = np.random.default_rng(0).random((100, 3))
+        >>> lat = Lattice.around(pts, shape=4, border="clamp")
+        >>> lat.offsets[...] = (0.0, 0.0, 1.0)
+        >>> deformer = FFD(lat).bind(pts)
+        >>> deformer.weights = np.linspace(0, 1, 100)
+        >>> moved = deformer.update() - pts
+        >>> bool(np.allclose(moved[:, 2], np.linspace(0, 1, 100)))
+        True
+        """
+        return self._weights
+
+    @weights.setter
+    def weights(self, value: Any) -> None:
+        self._weights = point_weights(value, len(self.points))
+        if (
+            self._cells is None
+            or self._geometry_key() != self._key
+            or not np.array_equal(self.ffd.affine, self._affine)
+        ):
+            self._bind()
+            return
+        self._reweight()
+
+    def _last_axis_weights(self, uvw: NDArray[np.float64], order: Any = slice(None)) -> NDArray[np.float64]:
+        """The w-axis weights of the points (in ``order``) with "only inside" and strength * weight applied."""
+        lat, n = self.ffd.lattice, len(self.points)
+        sorted_uvw = uvw[order]
+        t = sorted_uvw[:, 2] - np.floor(sorted_uvw[:, 2])
+        bw = axis_bases(self.ffd.basis)[2].weights(t)
+        if self.ffd.only_inside:
+            bw[~in_domain(self.ffd.basis, lat.shape, sorted_uvw)] = 0.0
+        factor = influence(self.strength, self._weights, n)
+        if factor is not None:
+            bw *= factor[order, None]
+        return bw
+
+    def _reweight(self) -> None:
+        """New per-point factors on the same grouping: the w-axis weights and the affine image, then evaluate."""
+        cells = self._cells
+        uvw = self.ffd.lattice.to_lattice(self.points)
+        self._bw = self._last_axis_weights(uvw, cells.order).astype(self.dtype)
+        factor = influence(self.strength, self._weights, len(self.points))
+        base = blend(self.points, np.array(self.ffd.apply_affine(self.points), dtype=np.float64), factor)
+        self._base = base[cells.order]
+        self._last_offsets = self._offsets().copy()
+        self._full()
+
+    def _offsets(self) -> NDArray[np.float64]:
+        """The offsets the deformation uses: the lattice's, or with "outside" the inner ones derived."""
+        offsets = self.ffd.lattice.offsets
+        return outside_offsets(offsets) if self.ffd.outside else offsets
 
     # ------------------------------------------------------------------ set-up
     def _geometry_key(self) -> tuple:
         lat = self.ffd.lattice
         geometry = (lat.shape, lat.spacing.tobytes(), lat.origin.tobytes(), lat.rotation.tobytes())
-        return (self.ffd.basis, self.ffd.border, self.ffd.only_inside, *geometry)
+        return (self.ffd.basis, self.ffd.border, self.ffd.only_inside, self.ffd.outside, self.strength, *geometry)
 
     def _bind(self) -> None:
         lat, n = self.ffd.lattice, len(self.points)
@@ -84,12 +166,17 @@ class Deformer:
         self._cells = None
         # points the lattice may displace (all unless only_inside): the others get zero weights
         movable = in_domain(self.ffd.basis, lat.shape, uvw) if self.ffd.only_inside else None
-        if self.ffd.basis == "bspline":
+        # strength * weight per point: the displacement is linear in one weight factor, scale that
+        factor = influence(self.strength, self._weights, n)
+        if self.ffd.basis != "bernstein":
             cells = CellGroups(uvw, lat.shape, self.ffd.border)
-            bu, bv, bw = (BSPLINE.weights(cells.t[:, a]) for a in range(3))
+            bases = axis_bases(self.ffd.basis)
+            bu, bv, bw = (bases[a].weights(cells.t[:, a]) for a in range(3))
             self._buv = outer_uv(bu, bv).astype(self.dtype)
             if movable is not None:
                 bw[~movable[cells.order]] = 0.0
+            if factor is not None:
+                bw *= factor[cells.order, None]
             self._bw = bw.astype(self.dtype)
             cells.t = None  # not needed after the weights: keep the cache small
             self._cells = cells
@@ -105,12 +192,14 @@ class Deformer:
             self._bxy = (bx[:, :, None] * by[:, None, :]).reshape(n, nx * ny).astype(self.dtype)
             if movable is not None:
                 bz[~movable] = 0.0
+            if factor is not None:
+                bz *= factor[:, None]
             self._bz = bz.astype(self.dtype)
-        self._base = np.asarray(self.ffd.apply_affine(self.points), dtype=np.float64)
+        self._base = blend(self.points, np.array(self.ffd.apply_affine(self.points), dtype=np.float64), factor)
         if self._cells is not None:
             self._base = self._base[self._cells.order]  # only ever used in sorted order
         self._out = np.empty((n, 3), dtype=np.float64)
-        self._last_offsets = lat.offsets.copy()
+        self._last_offsets = self._offsets().copy()
         self._full()
 
     @property
@@ -149,7 +238,9 @@ class Deformer:
         ijk = np.asarray(changed, dtype=np.int64).reshape(-1, 3)
         if np.any(ijk < 0) or np.any(ijk >= np.array(self.ffd.lattice.shape)):
             raise IndexError(f"control point index out of range for lattice {self.ffd.lattice.shape}: {changed!r}")
-        offsets = self.ffd.lattice.offsets
+        offsets = self._offsets()
+        if self.ffd.outside:  # a surface point moves inner ones too: the changed ones are those that moved
+            ijk = np.argwhere(np.any(offsets != self._last_offsets, axis=-1))
         ijk = np.unique(ijk, axis=0)
         index = tuple(ijk.T)
         moved = [tuple(c) for c in ijk[np.any(offsets[index] != self._last_offsets[index], axis=1)].tolist()]
@@ -193,7 +284,7 @@ class Deformer:
         True
         """
         same_geometry = self._geometry_key() == self._key and np.array_equal(self.ffd.affine, self._affine)
-        if same_geometry and np.array_equal(self.ffd.lattice.offsets, self._last_offsets):
+        if same_geometry and np.array_equal(self._offsets(), self._last_offsets):
             return self._out
         return self.update()
 
@@ -217,15 +308,22 @@ class Deformer:
         if self._geometry_key() != self._key or not np.array_equal(self.ffd.affine, self._affine):
             self._bind()
         if self._cells is None:  # Bernstein: every control point reaches every point
-            return self.ffd.jacobian_determinant(self.points)
+            return det3(self.ffd.jacobian(self.points, strength=self.strength, weights=self._weights))
         uvw = self.ffd.lattice.to_lattice(self.points)[self._cells.order]
-        d_uvw = bspline_lattice_jacobian(self._cells, self.ffd.lattice.offsets, uvw - np.floor(uvw))
+        bases = axis_bases(self.ffd.basis)
+        d_uvw = bspline_lattice_jacobian(self._cells, self._offsets(), uvw - np.floor(uvw), bases=bases)
         if self.ffd.only_inside:
             d_uvw[~in_domain(self.ffd.basis, self.ffd.lattice.shape, uvw)] = 0.0
-        return det3(jacobian_to_world(self.ffd.lattice, self.ffd.affine, d_uvw))[self._inverse]
+        jacobian = jacobian_to_world(self.ffd.lattice, self.ffd.affine, d_uvw)
+        factor = influence(self.strength, self._weights, len(self.points))
+        if factor is not None:  # I + f (J - I): the weights are constants of the points
+            jacobian -= np.eye(3)
+            jacobian *= factor[self._cells.order, None, None]
+            jacobian += np.eye(3)
+        return det3(jacobian)[self._inverse]
 
     def _full(self) -> None:
-        offsets = self.ffd.lattice.offsets
+        offsets = self._offsets()
         self._last_offsets[...] = offsets
         if self.ffd.basis == "bernstein":
             nx, ny, nz = self.ffd.lattice.shape
@@ -256,6 +354,8 @@ class Deformer:
 
     def _add_control_point(self, plan: tuple, delta: NDArray[np.float64], sorted_only: bool) -> None:
         """Add one control point's ``weight * delta`` to the runs of ``plan`` (see :meth:`_runs_moved_by`)."""
+        from scipy.linalg.blas import dger  # here: the engine imports without SciPy (in Blender's Python)
+
         hit, lo, hi = plan
         for (s, e), l, h in zip(self._cells.runs[hit], lo, hi, strict=True):
             w = self._weight(s, e, l, h)

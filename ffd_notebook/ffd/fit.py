@@ -20,6 +20,9 @@ from numpy.typing import ArrayLike, NDArray
 
 from .._util.points import as_points
 from .basis import bernstein_values
+from .influence import point_weights as _point_weights
+from .interpolation import axis_bases
+from .outside import outside_weights
 from .support import axis_support
 
 if TYPE_CHECKING:
@@ -65,10 +68,16 @@ def control_weights(ffd: FFD, points: ArrayLike) -> tuple[NDArray[np.int64], NDA
     if ffd.basis == "bernstein":
         bx, by, bz = bernstein_values(ffd.lattice.shape, uvw)
         weight = (bx[:, :, None, None] * by[:, None, :, None] * bz[:, None, None, :]).reshape(len(pts), -1)
-        return np.broadcast_to(np.arange(lat.n_points), weight.shape).copy(), weight
-    (iu, wu), (iv, wv), (iw, ww) = (axis_support(uvw[:, a], n, ffd.border) for a, n in enumerate(lat.shape))
-    index = ((iu[:, :, None, None] * ny + iv[:, None, :, None]) * nz + iw[:, None, None, :]).reshape(len(pts), 64)
-    weight = (wu[:, :, None, None] * wv[:, None, :, None] * ww[:, None, None, :]).reshape(len(pts), 64)
+        index = np.broadcast_to(np.arange(lat.n_points), weight.shape).copy()
+    else:
+        bases = axis_bases(ffd.basis)
+        (iu, wu), (iv, wv), (iw, ww) = (
+            axis_support(uvw[:, a], n, ffd.border, bases[a]) for a, n in enumerate(lat.shape)
+        )
+        index = ((iu[:, :, None, None] * ny + iv[:, None, :, None]) * nz + iw[:, None, None, :]).reshape(len(pts), 64)
+        weight = (wu[:, :, None, None] * wv[:, None, :, None] * ww[:, None, None, :]).reshape(len(pts), 64)
+    if ffd.outside:  # inner control points follow the surface ones: their weights go to those
+        index, weight = outside_weights(lat.shape, index, weight)
     return index, weight
 
 
@@ -78,6 +87,8 @@ def fit_points(
     targets: ArrayLike,
     pinned: ArrayLike | None = None,
     weights: ArrayLike | None = None,
+    *,
+    point_weights: ArrayLike | None = None,
 ) -> NDArray[np.float64]:
     """Change the lattice offsets by the least-norm amount that puts ``deform(points)`` on ``targets``.
 
@@ -100,6 +111,10 @@ def fit_points(
     weights : array_like, optional
         ``(P + Q,)`` non-negative weights of the rows (``points`` then ``pinned``) in the
         least-squares sense; they matter only when not every target can be met.
+    point_weights : array_like, optional
+        ``(P + Q,)`` weights in [0, 1] of the rows in the deformation itself (Blender's vertex
+        weights: each row moves by ``strength * weight`` times the lattice's displacement); 1 by
+        default. The FFD's strength applies to every row.
 
     Returns
     -------
@@ -128,9 +143,12 @@ def fit_points(
     if goal.shape != pts.shape or not np.isfinite(goal).all():
         raise ValueError(f"targets must be finite and shaped like points {pts.shape}, got {goal.shape}")
     rows = pts if pinned is None else np.vstack([pts, as_points(pinned)])
-    now = ffd.deform(rows)
+    # per-row weights of the deformation (not the FFD's own, which belong to the point set it deforms)
+    row_influence = np.ones(len(rows)) if point_weights is None else _point_weights(point_weights, len(rows))
+    now = ffd.deform(rows, weights=row_influence)
     residual = np.vstack([goal, now[len(pts) :]]) - now  # pinned rows: exactly zero
     index, weight = control_weights(ffd, rows)
+    weight = weight * (ffd.strength * row_influence)[:, None]  # a row moves by strength * weight times that
     if weights is not None:
         root = np.sqrt(_row_weights(weights, len(rows)))
         weight, residual = weight * root[:, None], residual * root[:, None]

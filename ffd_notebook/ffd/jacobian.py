@@ -18,12 +18,13 @@ Examples
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
 
-from .basis import BSPLINE, bernstein_values
+from .basis import BSPLINE, AxisBasis, bernstein_values
 from .support import CellGroups, outer_uv
 
 if TYPE_CHECKING:
@@ -41,7 +42,7 @@ Factors = list[tuple[NDArray[np.float64], NDArray[np.float64]]]
 
 
 def jacobian_to_world(lattice: Lattice, affine: NDArray[np.float64], d_uvw: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Whole Jacobian from ``d T_local / d(u, v, w)``: ``A + d_uvw @ (R^T / spacing)``.
+    """Whole Jacobian from ``d T_local / d(u, v, w)``: ``A + d_uvw @ (R^-1 / spacing)`` (``R^-1 = R^T`` unless sheared).
 
     Examples
     --------
@@ -51,7 +52,7 @@ def jacobian_to_world(lattice: Lattice, affine: NDArray[np.float64], d_uvw: NDAr
     True
     """
     # one (3N x 3) @ (3 x 3) product: a batched matmul of N tiny matrices is 3x slower
-    local = (d_uvw.reshape(-1, 3) @ (lattice.rotation.T / lattice.spacing[:, None])).reshape(-1, 3, 3)
+    local = (d_uvw.reshape(-1, 3) @ (lattice.rotation_inverse / lattice.spacing[:, None])).reshape(-1, 3, 3)
     return affine[:3, :3] + local
 
 
@@ -70,14 +71,15 @@ def det3(m: NDArray[np.float64]) -> NDArray[np.float64]:
     )
 
 
-def bspline_jacobian_factors(t: NDArray[np.float64]) -> Factors:
+def bspline_jacobian_factors(t: NDArray[np.float64], bases: Sequence[AxisBasis] = (BSPLINE,) * 3) -> Factors:
     """Per lattice axis, the basis products ``(buv, bw)`` whose cell sum is ``d T_local / d`` that axis.
 
     ``t`` is ``(N, 3)``, the points' fractions in their cells (sorted like the cell groups): the
-    axis differentiated takes the basis's derivative, the other two its values.
+    axis differentiated takes the basis's derivative, the other two its values. ``bases``: the
+    four-point basis of each axis (the B-spline, or Blender's interpolations).
     """
-    vals = [BSPLINE.weights(t[:, a]) for a in range(3)]
-    ders = [BSPLINE.derivative(t[:, a]) for a in range(3)]
+    vals = [bases[a].weights(t[:, a]) for a in range(3)]
+    ders = [bases[a].derivative(t[:, a]) for a in range(3)]
     factors = []
     for axis in range(3):
         bu, bv, bw = (ders[a] if a == axis else vals[a] for a in range(3))
@@ -90,6 +92,7 @@ def bspline_lattice_jacobian(
     offsets: NDArray[np.float64],
     t: NDArray[np.float64] | None = None,
     factors: Factors | None = None,
+    bases: Sequence[AxisBasis] = (BSPLINE,) * 3,
 ) -> NDArray[np.float64]:
     """``d T_local / d(u, v, w)`` in the cells' sorted order, ``(N, 3 components, 3 lattice axes)``.
 
@@ -97,7 +100,7 @@ def bspline_lattice_jacobian(
     from an earlier call on the same points.
     """
     if factors is None:
-        factors = bspline_jacobian_factors(t)  # type: ignore[arg-type]
+        factors = bspline_jacobian_factors(t, bases)  # type: ignore[arg-type]
     padded = cells.pad(offsets)
     d_uvw = np.empty((len(factors[0][0]), 3, 3))
     for axis, (buv, bw) in enumerate(factors):

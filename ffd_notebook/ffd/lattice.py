@@ -1,9 +1,12 @@
 """The control lattice of a free-form deformation.
 
 A :class:`Lattice` is a regular grid of ``nx x ny x nz`` control points placed in space by an
-``origin``, a per-axis ``spacing`` and an orthogonal ``rotation`` (a reflection is allowed: the
-real .ffd files of the FFD platform have one). Each control point carries a displacement in
-world units, stored in the writable ``offsets`` array.
+``origin``, a per-axis ``spacing`` and a ``rotation`` whose columns are the lattice axes (a
+reflection is allowed: the real .ffd files of the FFD platform have one). The axes are orthogonal
+unless the lattice is sheared: a B-spline placed by a general affine map, what an elastix
+affine-then-B-spline chain is (``rotation`` then has unit columns that are not orthogonal, like
+ITK's image directions). Each control point carries a displacement in world units, stored in the
+writable ``offsets`` array.
 """
 
 from __future__ import annotations
@@ -20,15 +23,27 @@ from .support import check_border
 __all__ = ["Lattice"]
 
 
-def _check_rotation(rotation: ArrayLike | None) -> NDArray[np.float64]:
+_ORTHOGONAL = 1e-6  # how far from R.T @ R == I a rotation may be and still count as one (float32-rounded files)
+_UNIT = 1e-9  # how far from 1 the length of a sheared lattice's axis may be
+
+
+def _check_rotation(rotation: ArrayLike | None) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """The rotation and its inverse (``R.T`` for an orthogonal one, as always; the inverse for a sheared one)."""
     if rotation is None:
-        return np.eye(3)
+        return np.eye(3), np.eye(3)
     r = np.array(rotation, dtype=np.float64)
     if r.shape != (3, 3):
         raise ValueError(f"rotation must be a 3x3 matrix, got shape {r.shape}")
-    if not np.allclose(r.T @ r, np.eye(3), atol=1e-6):
-        raise ValueError("rotation must be orthogonal (R.T @ R == I); scaling belongs in spacing")
-    return r
+    if not np.all(np.isfinite(r)):
+        raise ValueError("rotation contains NaN or infinite values")
+    if np.allclose(r.T @ r, np.eye(3), atol=_ORTHOGONAL):
+        return r, r.T
+    if np.abs(np.linalg.norm(r, axis=0) - 1.0).max() > _UNIT:
+        raise ValueError("rotation must be orthogonal (R.T @ R == I), or for a sheared lattice have unit columns "
+                         "(the axes' directions); scaling belongs in spacing")  # fmt: skip
+    if np.linalg.cond(r) > 1e12:
+        raise ValueError("a sheared lattice's axes must be independent (rotation is singular)")
+    return r, np.linalg.inv(r)
 
 
 class Lattice:
@@ -46,8 +61,10 @@ class Lattice:
     origin : array_like, optional
         Rest position of control point ``(0, 0, 0)``.
     rotation : array_like, optional
-        Orthogonal 3x3 matrix whose columns are the lattice axes in world coordinates
-        (identity by default; a reflection, determinant -1, is allowed).
+        3x3 matrix whose columns are the lattice axes in world coordinates: orthogonal
+        (identity by default; a reflection, determinant -1, is allowed), or unit columns at any
+        angles for a sheared lattice (:attr:`sheared`; .ffd, ITK and PyGeM files cannot hold one,
+        elastix files can).
     offsets : array_like, optional
         Initial ``(nx, ny, nz, 3)`` displacements; zeros by default.
     border : {"zero", "clamp"}
@@ -96,12 +113,42 @@ class Lattice:
         if origin_arr.shape != (3,) or not np.all(np.isfinite(origin_arr)):
             raise ValueError(f"origin must be three finite numbers, got {origin!r}")
         self.origin: NDArray[np.float64] = origin_arr
-        self.rotation: NDArray[np.float64] = _check_rotation(rotation)
+        self.rotation = rotation  # type: ignore[assignment]
         self.offsets: NDArray[np.float64] = np.zeros(self.shape + (3,))
         if offsets is not None:
             self.set_offsets(offsets)
         self.border = border
         self.metadata: dict[str, Any] = {}
+
+    @property
+    def rotation(self) -> NDArray[np.float64]:
+        """The lattice axes as columns (orthogonal, or unit vectors at any angles for a sheared lattice)."""
+        return self._rotation
+
+    @rotation.setter
+    def rotation(self, value: ArrayLike | None) -> None:
+        self._rotation, self._inverse = _check_rotation(value)
+
+    @property
+    def rotation_inverse(self) -> NDArray[np.float64]:
+        """The inverse of :attr:`rotation`: its transpose for an orthogonal one, the inverse for a sheared one.
+
+        Lattice coordinates are ``rotation_inverse @ (p - origin) / spacing``.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> s = np.sqrt(0.5)
+        >>> lat = Lattice((2, 2, 2), 1.0, rotation=[[1.0, s, 0.0], [0.0, s, 0.0], [0.0, 0.0, 1.0]])
+        >>> lat.sheared, bool(np.allclose(lat.rotation_inverse @ lat.rotation, np.eye(3)))
+        (True, True)
+        """
+        return self._inverse
+
+    @property
+    def sheared(self) -> bool:
+        """Whether the axes are not orthogonal (a lattice placed by a general affine map)."""
+        return not np.allclose(self._rotation.T @ self._rotation, np.eye(3), atol=_ORTHOGONAL)
 
     @property
     def border(self) -> str:
@@ -257,7 +304,7 @@ class Lattice:
         [[1.0, 0.5, 0.0]]
         """
         pts = np.asarray(points, dtype=np.float64).reshape(-1, 3)
-        return ((pts - self.origin) @ self.rotation) / self.spacing
+        return ((pts - self.origin) @ self._inverse.T) / self.spacing
 
     def to_world(self, lattice_coords: ArrayLike) -> NDArray[np.float64]:
         """World positions of lattice coordinates (the inverse of :meth:`to_lattice`)."""

@@ -39,9 +39,12 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import NDArray
 
+from .interpolation import INTERPOLATION_MATRICES
 from .support import clip_starts, pad_offsets
 
 if TYPE_CHECKING:
+    from collections.abc import Sequence
+
     from .lattice import Lattice
 
 __all__ = ["bernstein_displacement", "bspline_displacement", "displacement", "lattice_rows"]
@@ -62,7 +65,7 @@ def lattice_rows(lattice: Lattice, points: NDArray[np.float64]) -> NDArray[np.fl
     """Lattice coordinates of ``(N, 3)`` points as rows ``(3, N)``: ``Lattice.to_lattice(points).T``.
 
     One ``(3, 3) @ (3, N)`` product and a shift along the rows: ``to_lattice``'s
-    ``((p - origin) @ rotation) / spacing`` broadcasts over the short last axis, several times
+    ``((p - origin) @ rotation_inverse.T) / spacing`` broadcasts over the short last axis, several times
     slower. The two differ by rounding only (about ``1e-16 * |p| / spacing``).
 
     Examples
@@ -73,19 +76,24 @@ def lattice_rows(lattice: Lattice, points: NDArray[np.float64]) -> NDArray[np.fl
     >>> lattice_rows(lat, np.array([[3.0, 2.0, 1.0]])).tolist()
     [[1.0], [0.5], [0.0]]
     """
-    to_rows = (lattice.rotation / lattice.spacing).T
+    to_rows = lattice.rotation_inverse / lattice.spacing[:, None]
     rows = to_rows @ points.T
     rows -= (to_rows @ lattice.origin)[:, None]
     return rows
 
 
 def displacement(
-    basis: str, offsets: NDArray[np.float64], rows: NDArray[np.float64], border: str = "zero"
+    basis: str | tuple[str, ...], offsets: NDArray[np.float64], rows: NDArray[np.float64], border: str = "zero"
 ) -> NDArray[np.float64]:
-    """``T_local`` as rows ``(3, N)`` at lattice coordinates ``rows`` ``(3, N)`` for ``offsets`` ``(nx, ny, nz, 3)``."""
+    """``T_local`` as rows ``(3, N)`` at lattice coordinates ``rows`` ``(3, N)`` for ``offsets`` ``(nx, ny, nz, 3)``.
+
+    ``basis``: ``"bernstein"``, ``"bspline"`` or one of Blender's interpolations per axis (a tuple).
+    """
     if basis == "bernstein":
         return bernstein_displacement(offsets, rows)
-    return bspline_displacement(offsets, rows, border)
+    if basis == "bspline":
+        return bspline_displacement(offsets, rows, border)
+    return bspline_displacement(offsets, rows, border, matrices=[INTERPOLATION_MATRICES[k] for k in basis])
 
 
 def _bernstein_rows(s: NDArray[np.float64], degrees: tuple[int, ...], up: NDArray[np.float64]) -> list:
@@ -167,9 +175,16 @@ def _bspline_rows(t: NDArray[np.float64], w: NDArray[np.float64]) -> NDArray[np.
 
 
 def bspline_displacement(
-    offsets: NDArray[np.float64], rows: NDArray[np.float64], border: str = "zero"
+    offsets: NDArray[np.float64],
+    rows: NDArray[np.float64],
+    border: str = "zero",
+    matrices: Sequence[NDArray[np.float64]] | None = None,
 ) -> NDArray[np.float64]:
     """Cubic B-spline ``T_local`` (rows ``(3, N)``; the FFD report's formula), ``border`` "zero" or "clamp".
+
+    ``matrices``: another four-point basis per axis, by its power-basis coefficients (Blender's
+    interpolations, :data:`~ffd_notebook.ffd.interpolation.INTERPOLATION_MATRICES`, on the
+    B-spline's support); their weights replace the B-spline's, the rest is the same.
 
     Examples
     --------
@@ -201,6 +216,9 @@ def bspline_displacement(
     blocks = windows[np.unravel_index(cell[cuts], tuple(grid))].transpose(0, 4, 1, 2, 3).reshape(-1, 12, 16)
     c = min(_CHUNK, n)
     tt, weights, buv = np.empty((3, c)), np.empty((4, 3, c)), np.empty((4, 4, c))
+    if matrices is not None:  # weights = (6 M)^T @ [1, t, t^2, t^3]: six times them, as _bspline_rows gives
+        scaled = [np.ascontiguousarray(6.0 * m.T) for m in matrices]
+        powers, axis_rows = np.ones((4, c)), np.empty((4, c))
     x, local = np.empty((12, c)), np.empty((3, c))
     out = np.empty((3, n))
     run = 0
@@ -208,7 +226,16 @@ def bspline_displacement(
         m = min(c, n - start)
         idx = order[start : start + m]
         np.take(t, idx, axis=1, out=tt[:, :m], mode="clip")  # "clip": no checks, no buffering
-        w = _bspline_rows(tt[:, :m], weights[:, :, :m])  # (4, 3, m)
+        if matrices is None:
+            w = _bspline_rows(tt[:, :m], weights[:, :, :m])  # (4, 3, m)
+        else:
+            w = weights[:, :, :m]
+            for a in range(3):
+                powers[1, :m] = tt[a, :m]
+                np.multiply(tt[a, :m], tt[a, :m], out=powers[2, :m])
+                np.multiply(powers[2, :m], tt[a, :m], out=powers[3, :m])
+                np.matmul(scaled[a], powers[:, :m], out=axis_rows[:, :m])
+                w[:, a, :] = axis_rows[:, :m]
         np.multiply(w[:, None, 0, :], w[None, :, 1, :], out=buv[:, :, :m])
         wuv = buv.reshape(16, c)
         while run < len(blocks) and bounds[run] < start + m:

@@ -1,4 +1,4 @@
-"""Reading and writing files: .ffd lattices, ITK transforms, PyGeM .prm files, OBJ meshes, other meshes.
+"""Reading and writing files: .ffd lattices, ITK transforms, elastix parameter files, PyGeM .prm files, meshes.
 
 The .ffd, OBJ and PLY parsers are written here (see :mod:`.ffd_file`, :mod:`.obj` and :mod:`.ply`
 for why); STL and VTK formats go through VTK's readers in a child process (see :mod:`.mesh`).
@@ -15,8 +15,16 @@ from __future__ import annotations
 from .._util.lazy import lazy_getattr
 from ._safety import MAX_FILE_BYTES, check_regular_file
 from .deformation_files import load_deformation, save_deformation
+from .displacement_field import (
+    DisplacementField,
+    load_displacement_field,
+    sample_displacement_field,
+    save_displacement_field,
+)
+from .elastix import ElastixTransform, load_elastix, save_elastix
 from .ffd_file import load_ffd, save_ffd
 from .itk import load_transform, save_transform
+from .lattice_fitting import fit_lattice
 from .placement import place_at_mesh_minimum
 from .prm import load_prm, save_prm
 
@@ -35,15 +43,23 @@ _LAZY = {
 __all__ = [
     "MAX_FILE_BYTES",
     "MESH_SUFFIXES",
+    "DisplacementField",
+    "ElastixTransform",
     "check_regular_file",
+    "fit_lattice",
     "load_deformation",
+    "load_displacement_field",
+    "load_elastix",
     "load_ffd",
     "load_prm",
     "load_transform",
     "place_at_mesh_minimum",
     "read_mesh",
     "read_obj",
+    "sample_displacement_field",
     "save_deformation",
+    "save_displacement_field",
+    "save_elastix",
     "save_ffd",
     "save_prm",
     "save_transform",

@@ -1,24 +1,92 @@
 """``python -m ffd_notebook convert IN OUT``: a deformation from one file format to another.
 
-Formats by extension: ``.ffd``, ITK transforms (``.tfm``, ``.txt``, ``.h5``, ``.hdf5``) and PyGeM
-``.prm``. A conversion that could not be exact (a Bernstein lattice to ITK, an ITK transform that
-leaves points outside its domain unmoved to ``.ffd``, ...) is refused with the reason.
+Formats by extension: ``.ffd``, ITK transforms (``.tfm``, ``.txt``, ``.h5``, ``.hdf5``), elastix
+transform parameter files (``.txt``, told from ITK's by content; ``--to elastix`` to write one),
+PyGeM ``.prm`` and displacement fields (``.nii``, ``.nii.gz``, ``.nrrd``, ``.mha``). A conversion
+that could not be exact (a Bernstein lattice to ITK, an ITK transform that leaves points outside
+its domain unmoved to ``.ffd``, a field to a lattice, ...) is refused with the reason; ``--fit
+SHAPE`` fits a lattice (:func:`~ffd_notebook.io.fit_lattice`) where one must be made, and tells
+the residual. A field is written on the voxel grid of ``--reference IMAGE``, of the source field,
+or of an elastix chain's fixed image.
 """
 
 from __future__ import annotations
 
 import argparse
+import re
 import sys
 from collections.abc import Sequence
+from typing import Any
 
 from ..errors import FileFormatError
-from .deformation_files import DEFORMATION_SUFFIXES, load_deformation, save_deformation
+from ..ffd.deform import FFD
+from .deformation_files import DEFORMATION_SUFFIXES, FORMATS, load_deformation, save_deformation
+from .displacement_field import DisplacementField, field_suffix, reference_grid, save_displacement_field
+from .elastix import ElastixTransform, load_elastix
+from .elastix_text import is_parameter_file
+from .lattice_fitting import fit_lattice
 
-__all__ = ["convert", "convert_main"]
+__all__ = ["convert", "convert_main", "parse_shape"]
 
 
-def convert(source: str, target: str) -> list[str]:
-    """Convert ``source`` to ``target`` by extension; return notes worth telling the user.
+def parse_shape(text: str) -> tuple[int, int, int]:
+    """``"16"``, ``"16x16x12"`` or ``"16,16,12"`` as three control-point counts.
+
+    Examples
+    --------
+    >>> parse_shape("8"), parse_shape("16x16x12")
+    ((8, 8, 8), (16, 16, 12))
+    """
+    parts = [p for p in re.split(r"[x,\s]+", text.strip().lower()) if p]
+    if len(parts) not in (1, 3) or not all(p.isdigit() for p in parts):
+        raise ValueError(f"expected a lattice shape N or NXxNYxNZ, got {text!r}")
+    counts = tuple(int(p) for p in parts) * (3 if len(parts) == 1 else 1)
+    if min(counts) < 4:
+        raise ValueError(f"a cubic B-spline lattice needs at least 4 control points per axis, got {text!r}")
+    return counts  # type: ignore[return-value]
+
+
+def _source(path: str) -> tuple[Any, FFD | None, str | None]:
+    """The deformation a file holds, the FFD equal to it (if any) and why there is none."""
+    if path.lower().endswith(".txt") and is_parameter_file(path):
+        chain = load_elastix(path)
+        try:
+            return chain, chain.to_ffd(), None
+        except ValueError as exc:
+            return chain, None, f"this elastix chain has no FFD equal to it: {exc}"
+    loaded = load_deformation(path)
+    if isinstance(loaded, DisplacementField):
+        return loaded, None, "a displacement field is not a lattice"
+    return loaded, loaded, None
+
+
+def _chain_grid(chain: ElastixTransform) -> dict[str, Any] | None:
+    g = chain.geometry
+    if not all(k in g for k in ("Size", "Spacing", "Origin", "Direction")):
+        return None
+    return {"size": g["Size"], "spacing": g["Spacing"], "origin": g["Origin"],
+            "direction": [g["Direction"][i::3] for i in range(3)]}  # fmt: skip
+
+
+def convert(source: str, target: str, *, to: str | None = None, fit: str | None = None, affine: bool = False,
+            reference: str | None = None) -> list[str]:  # fmt: skip
+    """Convert ``source`` to ``target``; return notes worth telling the user.
+
+    Parameters
+    ----------
+    source, target : str
+        Files to read and to write (the format of each by extension; elastix ``.txt`` by content).
+    to : {"ffd", "itk", "elastix", "prm", "field"}, optional
+        The target format when its extension does not say (``.txt``: elastix for an elastix source,
+        else ITK).
+    fit : str, optional
+        A lattice shape (``"16"``, ``"16x16x12"``): fit a lattice to the source instead of
+        requiring an exact one (:func:`~ffd_notebook.io.fit_lattice`, over a field's voxels or an
+        elastix chain's fixed image grid).
+    affine : bool
+        With ``fit``: separate the affine part first.
+    reference : str, optional
+        An image whose voxel grid a displacement field is written on.
 
     Examples
     --------
@@ -29,13 +97,45 @@ def convert(source: str, target: str) -> list[str]:
     >>> save_ffd(folder / "a.ffd", Lattice((4, 4, 4), 2.0, origin=(1.0, 2.0, 3.0)))
     >>> convert(str(folder / "a.ffd"), str(folder / "a.h5"))
     []
+    >>> convert(str(folder / "a.ffd"), str(folder / "TransformParameters.0.txt"), to="elastix")
+    []
     """
-    ffd = load_deformation(source)
+    if to is not None and to not in FORMATS:
+        raise ValueError(f"--to must be one of {', '.join(FORMATS)}, got {to!r}")
+    deformation, ffd, why_not = _source(source)
     notes = []
-    if source.lower().endswith(".ffd") and ffd.lattice.metadata.get("placement") is None:
+    if source.lower().endswith(".ffd") and ffd is not None and ffd.lattice.metadata.get("placement") is None:
         notes.append(f"{source} has no placement (#quaternion#) section: its lattice is written at origin "
                      "(0, 0, 0), axis-aligned (the FFD platform put it at the mesh's minimum corner)")  # fmt: skip
-    save_deformation(target, ffd)
+    to_field = to == "field" or (to is None and field_suffix(target) is not None)
+    if to_field:
+        grid: Any = reference
+        if grid is None and isinstance(deformation, DisplacementField):
+            grid = deformation
+        if grid is None and isinstance(deformation, ElastixTransform):
+            grid = _chain_grid(deformation)
+        if grid is None:
+            raise ValueError(f"{target}: a displacement field needs a voxel grid: give --reference IMAGE")
+        save_displacement_field(target, deformation, grid)
+        return notes
+    if fit is not None:
+        region = None
+        if not isinstance(deformation, DisplacementField) and reference is not None:
+            region = reference
+        if isinstance(deformation, FFD) and region is None:
+            raise ValueError("--fit on a lattice file needs --reference IMAGE: the grid to fit over")
+        if isinstance(deformation, ElastixTransform) and region is None and _chain_grid(deformation) is None:
+            raise ValueError(f"{source}: no fixed image grid (Size, Spacing, Origin, Direction) to fit over: give "
+                             "--reference IMAGE")  # fmt: skip
+        ffd = fit_lattice(
+            deformation, parse_shape(fit), region=None if region is None else reference_grid(region), affine=affine
+        )
+        report = ffd.lattice.metadata["fit"]
+        notes.append(f"fitted a {'x'.join(map(str, ffd.lattice.shape))} lattice to {report['samples']} samples: "
+                     f"residual RMS {report['rms']:.6g}, max {report['max']:.6g}")  # fmt: skip
+    elif ffd is None:
+        raise ValueError(f"{source}: {why_not}; give --fit SHAPE to fit a lattice to it")
+    save_deformation(target, ffd, format=to)
     return notes
 
 
@@ -43,15 +143,24 @@ def convert_main(argv: Sequence[str]) -> int:
     """Command line of ``python -m ffd_notebook convert``; returns the exit status."""
     parser = argparse.ArgumentParser(
         prog="python -m ffd_notebook convert",
-        description="Convert a deformation between .ffd, ITK transform and PyGeM .prm files (by extension); "
-        "refuses conversions that would not be exact.",
+        description="Convert a deformation between .ffd, ITK transform, elastix parameter, PyGeM .prm and "
+        "displacement field files (by extension; elastix .txt by content); refuses conversions that would not "
+        "be exact, unless --fit makes a lattice.",
         epilog=f"extensions: {' '.join(DEFORMATION_SUFFIXES)}",
     )
     parser.add_argument("source", metavar="IN", help="file to read")
     parser.add_argument("target", metavar="OUT", help="file to write (replaced atomically)")
+    parser.add_argument("--to", choices=FORMATS,
+                        help="format of OUT when its extension does not say (.txt: elastix for an elastix IN, "
+                        "else ITK)")  # fmt: skip
+    parser.add_argument("--fit", metavar="SHAPE", help="fit a lattice of this shape (N or NXxNYxNZ) to IN")
+    parser.add_argument("--affine", action="store_true", help="with --fit: separate the affine part first")
+    parser.add_argument("--reference", metavar="IMAGE", help="image whose voxel grid a field is written on "
+                        "(or --fit fits over)")  # fmt: skip
     args = parser.parse_args(list(argv))
     try:
-        notes = convert(args.source, args.target)
+        notes = convert(args.source, args.target, to=args.to, fit=args.fit, affine=args.affine,
+                        reference=args.reference)  # fmt: skip
     except (FileFormatError, ValueError, OSError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 1

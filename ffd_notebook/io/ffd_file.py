@@ -18,6 +18,21 @@ This package adds one section, written last and only for a lattice whose
 :attr:`~ffd_notebook.Lattice.border` is not the format's own rule: ``#border#`` holding the word
 ``clamp`` (control points beyond the lattice are copies of the border ones). A file without it
 means ``zero``, the FFD platform's formula.
+
+And three sections for the options of an FFD on the lattice that Blender's lattice has (written by
+:func:`~ffd_notebook.io.save_deformation`, read by :func:`~ffd_notebook.io.load_deformation`; kept
+in ``lattice.metadata["ffd_options"]``, a dict with the keys present, so that ``save_ffd(load_ffd(f))``
+keeps them), each written only when it is not the default:
+
+``#interpolation#``
+    Three words, the basis of each axis (``linear``, ``cardinal``, ``catmull-rom``, ``bspline``;
+    key ``"basis"``, a tuple). Without it: the cubic B-spline on every axis.
+``#outside#``
+    ``true``: only the surface control points are free, the inner ones follow them (key ``"outside"``).
+``#strength#``
+    One number scaling the displacement (key ``"strength"``; 1 without it).
+
+Older readers keep these as unknown sections; files without them load as before.
 """
 
 from __future__ import annotations
@@ -30,6 +45,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import FileFormatError
+from ..ffd.interpolation import INTERPOLATIONS
 from ..ffd.lattice import Lattice
 from ..ffd.support import BORDERS
 from ._atomic import atomic_open
@@ -47,6 +63,9 @@ _HEADERS = {
     "offsets": "offsets of the control points",
     "quaternion": "quaternion qf,qb,qc,qd,qx,qy,qz",
     "border": "border",
+    "interpolation": "interpolation",
+    "outside": "outside",
+    "strength": "strength",
 }
 _QUATERNION_FIELDS = ("qf", "qb", "qc", "qd", "qx", "qy", "qz")
 
@@ -258,10 +277,44 @@ def load_ffd(path: str | os.PathLike[str]) -> Lattice:
     if "one to one" in known:
         (one_to_one,) = _numbers(path, known["one to one"], ("the one-to-one flag",), parse_int)
     border = _parse_border(path, known["border"]) if "border" in known else "zero"
+    options = _parse_options(path, known)
     lattice = Lattice(shape, spacing, origin=origin, rotation=rotation, offsets=offsets, border=border)
     _check_finite(path, lattice, spacing_sec, known["offsets"])
     lattice.metadata.update(placement=placement, one_to_one=one_to_one, ffd_extra_sections=_extra_sections(sections))
+    if options:
+        lattice.metadata["ffd_options"] = options
     return lattice
+
+
+def _words(section: _Section) -> list[str]:
+    return [tok.lower() for _, tok in _tokens(section)]
+
+
+def _parse_options(path, known: dict[str, _Section]) -> dict[str, Any]:
+    """The FFD options of the ``#interpolation#``, ``#outside#`` and ``#strength#`` sections present."""
+    options: dict[str, Any] = {}
+    if "interpolation" in known:
+        section = known["interpolation"]
+        words = _words(section)
+        if len(words) != 3 or any(w not in INTERPOLATIONS for w in words):
+            raise FileFormatError(path, _last_line(section), f"section #{section.header}# must hold three words, "
+                                  f"one per axis, each one of {', '.join(INTERPOLATIONS)}; got "
+                                  f"{' '.join(words)[:60]!r}")  # fmt: skip
+        options["basis"] = tuple(words)
+    if "outside" in known:
+        section = known["outside"]
+        words = _words(section)
+        if words not in (["true"], ["false"]):
+            raise FileFormatError(path, _last_line(section), f"section #{section.header}# must hold one word, "
+                                  f"'true' or 'false', got {' '.join(words)[:40]!r}")  # fmt: skip
+        options["outside"] = words == ["true"]
+    if "strength" in known:
+        section = known["strength"]
+        (strength,) = _numbers(path, section, ("the strength",), parse_float)
+        if not np.isfinite(strength):
+            raise FileFormatError(path, _last_line(section), f"expected a finite strength, got {strength!r}")
+        options["strength"] = strength
+    return options
 
 
 def _check_finite(path, lattice: Lattice, spacing_sec: _Section, offsets_sec: _Section) -> None:
@@ -323,6 +376,13 @@ def _section_lines(lattice: Lattice, key: str, placement: bool) -> Iterable[str]
         return ["\t".join(repr(v) for v in _placement_values(lattice).values())]
     if key == "border" and lattice.border != "zero":
         return [lattice.border]
+    options = lattice.metadata.get("ffd_options") or {}
+    if key == "interpolation" and options.get("basis", ("bspline",) * 3) != ("bspline",) * 3:
+        return [str(b) for b in options["basis"]]
+    if key == "outside" and options.get("outside"):
+        return ["true"]
+    if key == "strength" and options.get("strength", 1.0) != 1.0:
+        return [repr(float(options["strength"]))]
     return None
 
 
@@ -369,6 +429,9 @@ def save_ffd(path: str | os.PathLike[str], lattice: Lattice, placement: bool | N
     for name in ("offsets", "spacing", "origin"):
         if not np.isfinite(getattr(lattice, name)).all():
             raise ValueError(f"cannot save a lattice whose {name} contain NaN or infinite values")
+    if lattice.sheared:
+        raise ValueError("the lattice is sheared (its axes are not orthogonal): a .ffd file places its lattice by a "
+                         "rotation (the #quaternion# section), which cannot hold a shear")  # fmt: skip
     if placement is None:
         at_rest = not lattice.origin.any() and np.array_equal(lattice.rotation, np.eye(3))
         placement = lattice.metadata.get("placement") is not None or not at_rest

@@ -39,7 +39,7 @@ from ..ffd.deform import FFD
 from ..ffd.lattice import Lattice
 from ..ffd.support import pad_offsets
 
-__all__ = ["RawTransform", "ffd_to_transforms", "transforms_to_ffd"]
+__all__ = ["RawTransform", "ffd_to_transforms", "strip_padding", "transforms_to_ffd"]
 
 BSPLINE = "BSplineTransform_double_3_3"
 AFFINE = "AffineTransform_double_3_3"
@@ -153,7 +153,7 @@ def _pull_back(path, raw: RawTransform, lattice: Lattice, a: np.ndarray, b: np.n
     return Lattice(lattice.shape, spacing, origin, rotation)
 
 
-def _strip_padding(lattice: Lattice) -> Lattice | None:
+def strip_padding(lattice: Lattice) -> Lattice | None:
     """The lattice without three zero layers all round, if it has them (what the writer adds)."""
     if min(lattice.shape) < 4 + 2 * _PAD:
         return None
@@ -202,7 +202,7 @@ def transforms_to_ffd(path: str | os.PathLike[str], transforms: list[RawTransfor
     affine[:3, 3] = a_out @ inner[1] + b_out
     if not np.all(np.isfinite(affine)) or not np.all(np.isfinite(lattice.offsets)):
         raise _error(path, chain[j], "parameters", "the combined transform overflows (infinite values)")
-    stripped = _strip_padding(lattice)
+    stripped = strip_padding(lattice)
     if stripped is not None:
         return FFD(stripped, "bspline", affine=affine)
     return FFD(lattice, "bspline", affine=affine, only_inside=True)
@@ -215,10 +215,16 @@ def _check_writable(ffd: FFD) -> None:
     if ffd.basis != "bspline":
         raise ValueError(f"an FFD with the {ffd.basis!r} basis has no ITK transform: only the cubic B-spline "
                          "basis (BSplineTransform) can be written exactly")  # fmt: skip
+    if ffd.weights is not None:
+        raise ValueError("an FFD with per-point weights has no ITK transform: a transform moves every point of "
+                         "space the same way, whatever mesh it belongs to")  # fmt: skip
     border = ffd.border
     if border != "zero":
         raise ValueError(f"an FFD with border={border!r} has no ITK transform: ITK's BSplineTransform treats "
                          "control points outside the grid as zero (border='zero')")  # fmt: skip
+    if ffd.lattice.sheared:
+        raise ValueError("the lattice is sheared (its axes are not orthogonal): ITK's BSplineTransform grid is "
+                         "read back only with an orthogonal direction here; write it as an elastix file")  # fmt: skip
 
 
 def ffd_to_transforms(ffd: FFD) -> list[RawTransform]:
@@ -235,6 +241,7 @@ def ffd_to_transforms(ffd: FFD) -> list[RawTransform]:
     ValueError: an FFD with the 'bernstein' basis has no ITK transform: ...
     """
     _check_writable(ffd)
+    ffd = ffd.baked()  # a strength and "outside" mode are the offsets and affine part they give
     lat = ffd.lattice
     offsets, origin, shape = lat.offsets, lat.origin, lat.shape
     if not ffd.only_inside:

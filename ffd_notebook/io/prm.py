@@ -214,6 +214,8 @@ def prm_values(lattice: Lattice) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     stored = lattice.metadata.get("prm")
     if isinstance(stored, dict) and _matches(lattice, stored):
         return (np.asarray(stored[k], dtype=np.float64) for k in ("box_length", "rotation_angles", "weights"))  # type: ignore[return-value]
+    if lattice.sheared:
+        raise ValueError("the lattice is sheared (its axes are not orthogonal): a PyGeM box is a rotated box")
     if np.linalg.det(lattice.rotation) < 0:
         raise ValueError("the lattice's rotation is a reflection: a PyGeM box has rotation angles only")
     length = lattice.spacing * (np.array(lattice.shape) - 1.0)

@@ -21,7 +21,7 @@ import shutil
 import tempfile
 from pathlib import Path
 
-from ..errors import FileFormatError, PathRefused
+from ..errors import FileFormatError, NoFaceError, PathRefused
 from ..io import check_regular_file
 from ..io.deformation_files import DEFORMATION_SUFFIXES
 
@@ -121,7 +121,7 @@ class FileRoot:
     def for_writing(self, typed: str | os.PathLike[str], suffixes: tuple[str, ...]) -> Path:
         """The file to write for ``typed``: inside the root, in an existing folder, with one of ``suffixes``."""
         path = self._inside(typed)
-        if path.suffix.lower() not in suffixes:
+        if not path.name.lower().endswith(suffixes):  # endswith: ".nii.gz" is one suffix here
             raise PathRefused(f"{os.fspath(typed).strip()!r}: the file name must end with {' or '.join(suffixes)}")
         if path.exists() and not path.is_file():
             raise PathRefused(f"{self.shown(path)} exists and is not a regular file")
@@ -179,9 +179,13 @@ def client_message(exc: BaseException, shown: str) -> str:
     'x.ffd, line 1: expected a section header'
     >>> client_message(FileNotFoundError(2, "No such file or directory"), "y.obj")
     'y.obj: No such file or directory'
+    >>> client_message(NoFaceError("/srv/me.jpg", "no face found in the photo"), "me.jpg")
+    'me.jpg: no face found in the photo'
     """
     if isinstance(exc, PathRefused):
         return str(exc)
+    if isinstance(exc, NoFaceError):  # what the face models found: made by the package, not read from the file
+        return f"{shown}: {exc.problem}"
     if isinstance(exc, FileFormatError):
         where = f"{shown}, line {exc.line}" if exc.line is not None else shown
         return f"{where}: {_first_clause(exc.problem)}"

@@ -2,7 +2,7 @@
 
 Run from the repository root (needs /usr/bin/chromium and Playwright; not collected by pytest):
 
-    python tests/benchmarks/bench_browser.py [--surface app jupyter] [--seconds 3]
+    python tests/benchmarks/bench_browser.py [--surface app jupyter] [--seconds 3] [--image]
 
 For the standalone app (``python -m ffd_notebook``) and for the editor in a private JupyterLab, with the
 53k-vertex face (``../shared/data/face/template.ply``), a 7x7x7 lattice and an 800x600 view: headless Chromium
@@ -62,6 +62,32 @@ from browser.helpers import (  # noqa: E402
 FACE = REPO.parent / "shared" / "data" / "face" / "template.ply"  # 53,349 vertices, 106k triangles (menpo3d)
 SHAPE = (7, 7, 7)
 VIEW = (800, 600)
+IMAGE_SIZE = 192  # --image: a CT-like 192^3 float32 volume over the face's box (27 MiB), shown as three warped slices
+
+
+def face_image(folder: Path) -> Path:
+    """A CT-like volume over the face's bounding box (smooth noise plus a bright shell), written as NRRD."""
+    import numpy as np
+    import SimpleITK as sitk
+    from scipy import ndimage
+
+    from ffd_notebook.images import ImageGrid, write_image
+    from ffd_notebook.io import read_mesh
+
+    points = np.asarray(read_mesh(FACE).points, dtype=np.float64)
+    lo, hi = points.min(axis=0), points.max(axis=0)
+    pad = 0.05 * (hi - lo)
+    spacing = (hi - lo + 2 * pad) / (IMAGE_SIZE - 1)
+    grid = ImageGrid((IMAGE_SIZE,) * 3, spacing=spacing, origin=lo - pad)
+    rng = np.random.default_rng(0)
+    volume = ndimage.zoom(rng.random((IMAGE_SIZE // 8,) * 3), 8, order=1).astype(np.float32) * 200.0
+    k, j, i = np.meshgrid(*[np.linspace(-1, 1, IMAGE_SIZE)] * 3, indexing="ij")
+    volume += (800.0 * (np.abs(np.sqrt(i**2 + j**2 + k**2) - 0.7) < 0.05)).astype(np.float32)
+    path = folder / "face_ct.nrrd"
+    write_image(path, grid.to_sitk(sitk.GetImageFromArray(volume)))
+    return path
+
+
 MOVE_MS = 16.0
 OUT = ARTIFACTS / "browser_bench.json"
 
@@ -250,11 +276,13 @@ def trigger_args(frame: Any, name: str, *args: Any) -> Any:
 
 
 # ---------------------------------------------------------------------- surfaces
-def bench_app(pw: Any, tmp: Path, seconds: float, product: Path) -> dict[str, Any]:
+def bench_app(pw: Any, tmp: Path, seconds: float, product: Path, image: Path | None = None) -> dict[str, Any]:
     port = free_port()
     trace, frames_trace, log_path = tmp / "app_trace.jsonl", tmp / "app_frames.jsonl", tmp / "app.log"
     script = REPO / "tests" / "browser" / "serve_instrumented_app.py"
     cmd = [sys.executable, str(script), str(trace), str(FACE), "--port", str(port), "--shape", *map(str, SHAPE)]
+    if image is not None:
+        cmd += ["--image", str(image)]
     with open(log_path, "w") as log:
         proc = subprocess.Popen(cmd, cwd=tmp, stdout=log, stderr=subprocess.STDOUT,
                                 env=server_env(FFD_FRAME_TRACE=str(frames_trace), PYTHONPATH=str(product)))  # fmt: skip
@@ -299,12 +327,15 @@ NOTEBOOK_CELLS = [
 ]
 
 
-def bench_jupyter(pw: Any, tmp: Path, seconds: float, product: Path) -> dict[str, Any]:
+def bench_jupyter(pw: Any, tmp: Path, seconds: float, product: Path, image: Path | None = None) -> dict[str, Any]:
     import nbformat
 
     work = tmp / "lab"
     work.mkdir()
-    nb = nbformat.v4.new_notebook(cells=[nbformat.v4.new_code_cell(c) for c in NOTEBOOK_CELLS])
+    cells = list(NOTEBOOK_CELLS)
+    if image is not None:
+        cells[1] = cells[1].replace(")", f", image={str(image)!r})")
+    nb = nbformat.v4.new_notebook(cells=[nbformat.v4.new_code_cell(c) for c in cells])
     nbformat.write(nb, work / "bench.ipynb")
     trace, frames_trace = tmp / "lab_trace.jsonl", tmp / "lab_frames.jsonl"
     with start_lab(tmp, work, trace, frames_trace=frames_trace, pythonpath=product) as lab:
@@ -333,6 +364,9 @@ def main(argv: list[str] | None = None) -> int:
         help="the checkout whose ffd_notebook the servers run (e.g. another branch, for before/after)",
     )
     parser.add_argument("--out", type=Path, default=OUT)
+    parser.add_argument("--image", action="store_true",
+                        help=f"show a {IMAGE_SIZE}^3 CT-like image with the face (three warped slices): the drag's "
+                             "frame rate with an image, to compare with a run without")  # fmt: skip
     args = parser.parse_args(argv)
     from playwright.sync_api import sync_playwright
 
@@ -340,7 +374,9 @@ def main(argv: list[str] | None = None) -> int:
     with tempfile.TemporaryDirectory(prefix="ffd_bench_browser_") as tmp, sync_playwright() as pw:
         for surface in args.surface:
             run = bench_app if surface == "app" else bench_jupyter
-            results[surface] = run(pw, Path(tmp), args.seconds, args.product.resolve())
+            image = face_image(Path(tmp)) if args.image else None
+            results[surface] = run(pw, Path(tmp), args.seconds, args.product.resolve(), image)
+            results[surface]["image"] = None if image is None else f"{IMAGE_SIZE}^3"
             results[surface]["product"] = str(args.product.resolve())
             print(f"\n[{surface}]\n{json.dumps(results[surface], indent=1)}", flush=True)
     args.out.parent.mkdir(parents=True, exist_ok=True)

@@ -10,6 +10,11 @@ update, with speed-ups over the baseline, the cache's bytes per point, and each 
 Then (issue 10) the same updates with the "clamp" border against "zero", and ``ffd.fit_points``
 for one and ten grabbed points (target <= 5 ms for one) with the mesh update that follows.
 ``python tests/benchmarks/bench_ffd.py border`` runs only that part.
+Then (issue 23) Blender's per-axis interpolations against the B-spline (one-shot and cached update;
+target: none slower than 1.5x B-spline), and Blender's own lattice modifier on the same face and
+lattice, timed in Blender's process (``bpy`` 4.5 in its virtual environment, made on first use:
+see tests/bpy_env.py), with the ratio. ``python tests/benchmarks/bench_ffd.py interpolation`` runs
+only that part.
 """
 
 from __future__ import annotations
@@ -56,6 +61,10 @@ def row(name, ms, target=None, extra=""):
 
 def main() -> None:
     points = np.asarray(read_mesh(FACE).points, dtype=np.float64)
+    if sys.argv[1:] == ["interpolation"]:
+        print(f"face: {len(points)} vertices; median (best) of repeats; load average {os.getloadavg()[0]:.2f}")
+        interpolations(points, read_mesh(FACE))
+        return
     if sys.argv[1:] == ["border"]:
         print(f"face: {len(points)} vertices; median (best) of repeats; load average {os.getloadavg()[0]:.2f}")
         border_and_fit(points)
@@ -113,6 +122,7 @@ def main() -> None:
     bpp = big_deformer.cache_bytes / len(big)
     row("1M points: deformer.update()", ms, 100, f"{bpp:.0f} B/point cache (target <= 100); bind {bind_ms:.0f} ms")
     border_and_fit(points)
+    interpolations(points, read_mesh(FACE))
 
 
 def border_and_fit(points) -> None:
@@ -157,6 +167,125 @@ def border_and_fit(points) -> None:
         moved = drag()[chosen[:n_grab]]
         err = np.abs(ffd.deform(grab) - moved).max()
         assert err < 1e-6 * np.abs(points).max(), err
+
+
+BLENDER_TIMING = r"""
+import time
+import bpy
+from ffd_notebook import blender as fb
+
+record = {k[len("record_"):]: IN[k] for k in IN if k.startswith("record_")}
+record["interpolation"] = tuple(str(s) for s in record["interpolation"])
+bpy.ops.wm.read_factory_settings(use_empty=True)
+mesh = bpy.data.meshes.new("face")
+mesh.from_pydata(IN["points"].tolist(), [], IN["faces"].tolist())
+obj = bpy.data.objects.new("face", mesh)
+bpy.context.scene.collection.objects.link(obj)
+lattice_object = fb.lattice_from_record(record, "lattice")
+modifier = obj.modifiers.new("lattice", "LATTICE")
+modifier.object = lattice_object
+depsgraph = bpy.context.evaluated_depsgraph_get()
+point = lattice_object.data.points[len(lattice_object.data.points) // 2]
+rest = tuple(point.co_deform)
+moves = [0]
+
+def edit():  # what a drag does: one control point moves, Blender re-evaluates the modified mesh
+    moves[0] += 1
+    point.co_deform = (rest[0], rest[1], rest[2] + 1e-4 * (moves[0] % 2))
+    lattice_object.data.update_tag()
+    depsgraph.update()
+
+def timed(fn, repeat):
+    fn()
+    times = []
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - t0)
+    times.sort()
+    return 1000 * times[len(times) // 2], 1000 * times[0]
+
+def bare():  # the same mesh re-evaluated with the modifier off: Blender's cost around the modifier
+    obj.update_tag(refresh={"DATA"})
+    depsgraph.update()
+
+with_modifier = timed(edit, 30)
+modifier.show_viewport = False
+depsgraph.update()
+without = timed(bare, 30)
+modifier.show_viewport = True
+point.co_deform = rest
+lattice_object.data.update_tag()
+depsgraph.update()
+save(with_modifier=np.array(with_modifier), without=np.array(without), deformed=fb.evaluated_points(obj),
+     threads=np.array(bpy.context.scene.render.threads))
+"""
+
+
+def interpolations(points, mesh) -> None:
+    """Issue 23: each of Blender's interpolations per axis costs what the B-spline costs; Blender's own modifier."""
+    from ffd_notebook.blender import record_from_ffd
+
+    rng = np.random.default_rng(2)
+    print("\nBlender's interpolations per axis, 5x5x5 clamp lattice around the face (target <= 1.5x B-spline)")
+    lattice = Lattice.around(points, shape=5, border="clamp")
+    lattice.offsets[...] = rng.normal(size=lattice.offsets.shape) * lattice.spacing.min() * 0.05
+    reference = {}
+    for basis in [
+        "bspline",
+        ("linear",) * 3,
+        ("cardinal",) * 3,
+        ("catmull-rom",) * 3,
+        ("bspline", "catmull-rom", "linear"),
+    ]:
+        ffd = FFD(lattice, basis=basis, border="clamp")
+        deformer = ffd.bind(points)
+        assert np.allclose(deformer.update(), ffd.deform(points), atol=1e-5 * np.abs(points).max())
+        name = basis if isinstance(basis, str) else "/".join(basis)
+        one_shot, cached = median_ms(lambda ffd=ffd: ffd.deform(points), 10), None
+        best_one = BEST.pop("last")
+        cached = median_ms(deformer.update)
+        best_cached = BEST.pop("last")
+        if basis == "bspline":
+            reference = {"one": one_shot, "cached": cached}
+        ratio_one, ratio_cached = one_shot / reference["one"], cached / reference["cached"]
+        verdict = "ok" if max(ratio_one, ratio_cached) <= 1.5 else "MISSED"
+        print(
+            f"  {name:<30} deform {one_shot:7.2f} ms ({best_one:.2f}) x{ratio_one:.2f}   "
+            f"update() {cached:6.2f} ms ({best_cached:.2f}) x{ratio_cached:.2f}   {verdict}"
+        )
+    try:
+        from bpy_env import run_blender
+    except ImportError:  # run from elsewhere than the repository's tests folder
+        print("  (Blender timing skipped: tests/bpy_env.py not importable)")
+        return
+    import tempfile
+
+    ffd = FFD(lattice, basis="bspline", border="clamp")
+    record = {f"record_{k}": np.asarray(v) for k, v in record_from_ffd(ffd).items() if v is not None}
+    faces = mesh.regular_faces
+    with tempfile.TemporaryDirectory() as tmp:
+        out = run_blender(BLENDER_TIMING, {"points": points, "faces": faces, **record}, workdir=Path(tmp))
+    ours = median_ms(lambda: ffd.deform(points), 10)
+    BEST.pop("last", None)
+    deformer = ffd.bind(points)
+    ours_full = median_ms(deformer.update, 30)
+    BEST.pop("last", None)
+    size = np.linalg.norm(np.ptp(points, axis=0))
+    err = np.abs(out["deformed"] - ffd.deform(points)).max() / size
+    blender_ms, blender_best = out["with_modifier"]
+    bare_ms = out["without"][0]
+    print(
+        f"\nBlender {'' if err < 1e-5 else 'DIFFERS '}(by {err:.1e} of the face's size) on the same face and lattice:"
+    )
+    print(
+        f"  Blender: move a point, depsgraph update with the modifier {blender_ms:7.2f} ms ({blender_best:.2f}); "
+        f"without it {bare_ms:.2f} ms: the modifier ~{blender_ms - bare_ms:.2f} ms"
+    )
+    print(
+        f"  ffd_notebook: ffd.deform {ours:.2f} ms (x{(blender_ms - bare_ms) / ours:.1f} of Blender's modifier), "
+        f"cached deformer.update() {ours_full:.2f} ms (x{(blender_ms - bare_ms) / ours_full:.1f})"
+    )
 
 
 def _unit(lattice: Lattice, ijk) -> Lattice:

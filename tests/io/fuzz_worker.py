@@ -16,11 +16,17 @@ import traceback
 
 def _use(path: str) -> None:
     from ffd_notebook import FFD
-    from ffd_notebook.io import load_ffd, read_mesh
+    from ffd_notebook.io import load_deformation, load_elastix, load_ffd, read_mesh
 
     if path.lower().endswith(".ffd"):
         lattice = load_ffd(path)
         FFD(lattice).deform(lattice.control_points(deformed=True).reshape(-1, 3)[:16])
+        return
+    if path.lower().endswith(".txt"):  # elastix parameter files: the chain, then the FFD it lowers onto
+        chain = load_elastix(path)
+        ffd = load_deformation(path)
+        points = ffd.lattice.control_points().reshape(-1, 3)[:16]
+        chain.deform(points), ffd.deform(points)
         return
     mesh = read_mesh(path)
     surface = mesh if mesh.GetClassName() == "vtkPolyData" else mesh.extract_surface(algorithm=None)

@@ -27,11 +27,14 @@ import pyvista as pv
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+from ffd_notebook import FFD, Lattice
+from ffd_notebook.io import save_elastix
+
 WORKER = Path(__file__).with_name("fuzz_worker.py")
 REPO = Path(__file__).resolve().parents[2]
 DEADLINE_S = 5.0
 # CI-sized defaults per format (VTK formats cost a child process per case)
-DEFAULTS = {"ffd": 100, "obj": 100, "ply": 100, "stl": 15, "vtk": 20, "vtp": 12}
+DEFAULTS = {"ffd": 100, "obj": 100, "ply": 100, "stl": 15, "vtk": 20, "vtp": 12, "elastix": 100}
 HOSTILE_NUMBERS = [
     "0", "-1", "1", "2", "3", "255", "256", "65536", "2147483647", "2147483648", "4294967295", "4294967296",
     "4000000000", "9223372036854775807", "9223372036854775808", "-9223372036854775809", "9" * 30, "7" * 5000,
@@ -41,8 +44,11 @@ HOSTILE_NUMBERS = [
 TOKENS = [*HOSTILE_NUMBERS, "\n", "\r", "\t", "\x00", "#", "##", "/", "//", "\\\n", "\xff", "end_header\n",
           "element face 5\n", "property list uchar int vertex_indices\n", "#offsets of the control points#\n",
           "POLYGONS 1 4\n", "CELLS 1 4\n", "f 1 2 3\n", "v 0 0 0\n", "<", ">", '"',
-          'NumberOfPoints="9999999"']  # fmt: skip
+          'NumberOfPoints="9999999"', "(", ")", '(GridSize 4 4 4)\n', '(Transform "AffineTransform")\n',
+          '(InitialTransformParameterFileName "seed.affine.txt")\n', '(HowToCombineTransforms "Compose")\n',
+          '(BSplineTransformSplineOrder 1)\n', '(GridDirection 1 0 0 1 0 0 0 0 1)\n']  # fmt: skip
 OUTCOMES: dict[str, collections.Counter] = collections.defaultdict(collections.Counter)
+ELASTIX_AFFINE: list[bytes] = []  # the affine file the elastix seeds name as their initial transform
 
 
 def _examples(fmt: str) -> int:
@@ -125,6 +131,17 @@ def seeds(shared_data, tmp_path_factory) -> dict[str, list[bytes]]:
     out["ffd"] = [(seed_lineage / "registration_11x12x11.FFD").read_bytes()]
     out["obj"] = [(seed_lineage / n).read_bytes() for n in ("cube.obj", "face.obj", "monkey.obj")]
     out["obj"].append((shared_data / "face" / "james_colored.obj").read_bytes()[:60_000])  # v/vt/vn faces, colours
+    # elastix: a B-spline file (4x5x4, some offsets) added to an affine one, the affine one alone, and one
+    # B-spline composed after the affine (a rotation: the grid stays orthogonal); _fuzz puts the affine file
+    # beside every case, so mutated B-spline files follow a real chain
+    lattice = Lattice((4, 5, 4), (1.0, 2.0, 1.5), origin=(1.0, -2.0, 0.5))
+    lattice.offsets[1:3, 1:4, 1:3] = np.random.default_rng(0).normal(0, 0.3, (2, 3, 2, 3))
+    rotation = np.eye(4)
+    rotation[:3, :3] = [[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]]
+    save_elastix(folder / "seed.txt", FFD(lattice, affine=rotation, only_inside=True))
+    composed = (folder / "seed.txt").read_text().replace('"Add"', '"Compose"')
+    out["elastix"] = [(folder / "seed.txt").read_bytes(), (folder / "seed.affine.txt").read_bytes(), composed.encode()]
+    ELASTIX_AFFINE.append((folder / "seed.affine.txt").read_bytes())
     return out
 
 
@@ -157,6 +174,8 @@ def mutations(draw, seeds: list[bytes]) -> bytes:
 
 def _fuzz(fmt: str, suffix: str, worker, seeds, tmp_path_factory) -> None:
     folder = tmp_path_factory.mktemp(f"fuzz-{fmt}")
+    if fmt == "elastix":
+        (folder / "seed.affine.txt").write_bytes(ELASTIX_AFFINE[0])
     counter = iter(range(10**9))
 
     @settings(max_examples=_examples(fmt), deadline=None, database=None, derandomize=not os.environ.get(
@@ -173,7 +192,7 @@ def _fuzz(fmt: str, suffix: str, worker, seeds, tmp_path_factory) -> None:
     case()
 
 
-@pytest.mark.parametrize(("fmt", "suffix"), [("ffd", ".ffd"), ("obj", ".obj"), ("ply", ".ply")])
+@pytest.mark.parametrize(("fmt", "suffix"), [("ffd", ".ffd"), ("obj", ".obj"), ("ply", ".ply"), ("elastix", ".txt")])
 def test_fuzz_text_readers(fmt, suffix, worker, seeds, tmp_path_factory):
     _fuzz(fmt, suffix, worker, seeds, tmp_path_factory)
 

@@ -39,7 +39,7 @@ from .scene.scene import EditorScene
 from .session.message_log import MessageLog
 from .session.session import EditingSession, MeshIO
 
-__all__ = ["PYVISTA_MESH_IO", "Editor", "edit"]
+__all__ = ["PYVISTA_MESH_IO", "Editor", "edit", "face_surface"]
 
 Path = str | os.PathLike[str]
 
@@ -51,6 +51,13 @@ def read_surface(path: Path) -> pv.PolyData:
     return as_surface(read_mesh(path))
 
 
+def face_surface(photo: Any) -> pv.PolyData:
+    """The coloured face in a photo (path, array or ``face.Photo``): :func:`ffd_notebook.face_from_photo`."""
+    from ...face import face_from_photo
+
+    return face_from_photo(photo)
+
+
 #: PyVista's mesh operations, for sessions of PyVista meshes
 PYVISTA_MESH_IO = MeshIO(
     read=read_surface,
@@ -58,14 +65,42 @@ PYVISTA_MESH_IO = MeshIO(
     decimate=decimate_keeping_colors,
     with_points=deformed_copy,
     color_array=color_array_name,
+    face=face_surface,
 )
 
 
-def _surface_of(mesh_or_path: Any) -> pv.PolyData:
+def image_box(image: Any) -> pv.PolyData:
+    """The box of an image's voxel centres as a surface (subdivided so it bends with the lattice), in physical
+    space; a flat rectangle for a 2D image. The editor's mesh when it edits a lattice over an image alone."""
+    from ...images.pixels import as_pixels
+
+    if isinstance(image, tuple):
+        _, grid, _ = as_pixels(image[0], **image[1])
+    else:
+        _, grid, _ = as_pixels(image)
+    size = list(grid.size) + [1] * (3 - grid.dim)
+    if grid.dim == 3:
+        box = pv.Box(bounds=(0, size[0] - 1, 0, size[1] - 1, 0, size[2] - 1), level=8, quads=False)
+    else:
+        centre = ((size[0] - 1) / 2, (size[1] - 1) / 2, 0.0)
+        box = pv.Plane(center=centre, i_size=size[0] - 1, j_size=size[1] - 1, i_resolution=16, j_resolution=16)
+        box = box.triangulate()
+    to_physical = grid.index_to_physical()
+    box.points = box.points @ to_physical[:3, :3].T + to_physical[:3, 3]
+    return box
+
+
+def _surface_of(mesh_or_path: Any, image: Any = None) -> pv.PolyData:
+    from ...face import is_photo
+
+    if mesh_or_path is None and image is not None:
+        return image_box(image)
     if mesh_or_path is None:
         from ...datasets import sample_mesh
 
         return as_surface(sample_mesh())
+    if is_photo(mesh_or_path):  # a photo path (.jpg, .png...) or an (H, W, 3) uint8 array: the face in it
+        return face_surface(mesh_or_path)
     if isinstance(mesh_or_path, (str, os.PathLike)):
         return read_surface(mesh_or_path)
     return as_surface(mesh_or_path)
@@ -81,8 +116,10 @@ class Editor:
 
     Parameters
     ----------
-    mesh_or_path : pyvista.DataSet or path, optional
-        The mesh to deform (its surface is used), or a file to read; the bundled sample mesh
+    mesh_or_path : pyvista.DataSet, path or photo, optional
+        The mesh to deform (its surface is used), or a file to read; a photo of a face (a
+        ``.jpg``/``.png``... path or an ``(H, W, 3)`` uint8 array) gives the coloured face in it
+        (:func:`ffd_notebook.face_from_photo`); the bundled sample mesh
         (:func:`ffd_notebook.datasets.sample_mesh`) if omitted.
     lattice : Lattice, optional
         The control lattice (used as is); fitted around the mesh with ``shape`` if omitted.
@@ -98,6 +135,11 @@ class Editor:
         While a mouse button is held (a drag, a camera turn), a mesh with at least twice as many
         cells is drawn from a copy with about this many, at the view's reduced drag size; the
         release brings back the full mesh. None always draws the full mesh.
+    image : SimpleITK.Image, path or (array, geometry), optional
+        An image shown with the mesh as three orthogonal slices warped by the lattice, live
+        (``editor.session.image``: slice positions, window/level, saving the warped image); a NumPy
+        array comes with its geometry as ``(array, {"spacing": ..., "origin": ..., "direction": ...})``.
+        Without a mesh (``mesh_or_path=None``), the lattice is fitted to the image's box alone.
 
     Examples
     --------
@@ -124,10 +166,22 @@ class Editor:
         window_size: tuple[int, int] = (800, 600),
         off_screen: bool | None = None,
         interactive_cells: int | None = INTERACTIVE_CELLS,
+        image: Any = None,
     ) -> None:
+        if isinstance(image, str | os.PathLike):
+            from ...images import read_image
+
+            image, path = read_image(image), image  # read once: for its box and for the slices
+        else:
+            path = None
         self.session = EditingSession(
-            _surface_of(mesh_or_path), mesh_io=PYVISTA_MESH_IO, lattice=lattice, shape=shape, basis=basis
+            _surface_of(mesh_or_path, image), mesh_io=PYVISTA_MESH_IO, lattice=lattice, shape=shape, basis=basis
         )
+        if image is not None and mesh_or_path is None:
+            self.session.image.box = self.session.mesh  # the image's box stands in for a mesh
+        if image is not None:
+            self.session.image.use(self.session.image.read(image), path if path is not None else image,
+                                   os.path.basename(os.fspath(path)) if path is not None else "image")  # fmt: skip
         # the scene's VTK callbacks are held by C++ objects, out of the garbage collector's sight: they refer to
         # the editor weakly, and nothing the lifetime closes refers to it, so an editor nobody uses is freed
         self.scene = EditorScene(
@@ -169,6 +223,19 @@ class Editor:
     @lattice.setter
     def lattice(self, lattice: Lattice) -> None:
         self.session.set_lattice(lattice)
+
+    @property
+    def weights(self) -> NDArray[np.float64] | None:
+        """The mesh vertices' weights in [0, 1] (a copy), or None: every vertex follows the lattice fully.
+
+        Assigning an array (one weight per vertex; Blender's vertex group) or None is one undo step;
+        in "paint weights" mode a drag over the mesh paints them (:class:`.session.weights.WeightPaint`).
+        """
+        return self.session.weights
+
+    @weights.setter
+    def weights(self, weights: ArrayLike | None) -> None:
+        self.session.paint.set(weights)
 
     @property
     def deformed_mesh(self) -> pv.PolyData:
@@ -241,6 +308,11 @@ class Editor:
         """Save the deformed mesh (OBJ with colours, PLY, VTP, ... by extension), atomically."""
         self.session.files.save_mesh(path)
 
+    def load_face(self, photo: Any) -> pv.PolyData:
+        """Replace the mesh with the coloured face of a photo (path or array; a new undo history), as loading a
+        mesh does. A photo without a face raises :class:`~ffd_notebook.errors.NoFaceError` and changes nothing."""
+        return self.session.files.load_face(photo)
+
     def screenshot(self, path: Path | None = None) -> NDArray[np.uint8]:
         """Render and return the image ``(h, w, 3)`` uint8; also write a PNG if ``path`` is given."""
         return self.scene.screenshot(path)
@@ -296,7 +368,8 @@ def edit(mesh_or_path: Any = None, **kw: Any) -> Editor:
     Parameters
     ----------
     mesh_or_path, **kw
-        As for :class:`Editor` (``lattice``, ``shape``, ``basis``, ``window_size``, ``off_screen``).
+        As for :class:`Editor` (``lattice``, ``shape``, ``basis``, ``window_size``, ``off_screen``):
+        a mesh, a mesh file, or a photo of a face (``fn.edit("me.jpg")``: the face in it).
 
     Returns
     -------

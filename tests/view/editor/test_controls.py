@@ -31,7 +31,7 @@ def app_html(app: EditorApp) -> str:
 
 
 def element_ids(control: Control) -> list[str]:
-    return [f"ffd-{k}" for k in control.state] if control.kind in ("ints", "floats") else [control.dom_id]
+    return [f"ffd-{k}" for k in control.state] if control.kind in ("ints", "floats", "choices") else [control.dom_id]
 
 
 def test_every_control_is_rendered_by_both_panels(editor, tmp_path):

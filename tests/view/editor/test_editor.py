@@ -283,6 +283,8 @@ def test_widget_display_positions_and_triggers(editor):
         "offsets_abs_sum": pytest.approx(0.1),
         "n_callbacks": 1,
         "selected": [2, 2, 2],  # a drag selects the point it moves
+        "n_points": editor.mesh.n_points,
+        "messages": [],
     }
     px = server.controller.trigger_fn("ffd_widget_px")()
     assert px["size"] == [240, 180] and len(px["widgets"]) == 125

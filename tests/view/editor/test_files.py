@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from editor_testing import assert_view_matches_model, colored_sphere, shown_points
+from editor_testing import assert_unchanged, assert_view_matches_model, colored_sphere, shown_points, snapshot
 from scipy.spatial import cKDTree
 
 from ffd_notebook import FileFormatError
@@ -25,30 +25,6 @@ def unplaced_ffd_text(shape=(4, 4, 4), spacing=0.8, moved=((1, 2, 1), (0.0, 0.0,
             lines.append("".join(f"{x:.6f} {y:.6f} {z:.6f}\t" for x, y, z in offsets[i, j]))
         lines.append("")
     return "\n".join(lines) + "\n"
-
-
-def snapshot(editor):
-    """Everything a failed load must leave alone."""
-    return (
-        editor.mesh.points.copy(),
-        editor.mesh.n_cells,
-        editor.lattice.copy(),
-        editor.session.basis,
-        len(editor.session.history),
-        editor.session.can_redo,
-        shown_points(editor).copy(),
-        editor.scene.lattice_actor.glyphs.n_points,
-    )
-
-
-def assert_unchanged(editor, snap):
-    points, n_cells, lattice, basis, n_hist, can_redo, shown, n_widgets = snap
-    np.testing.assert_array_equal(editor.mesh.points, points)
-    assert editor.mesh.n_cells == n_cells
-    assert editor.lattice == lattice and editor.session.basis == basis
-    assert len(editor.session.history) == n_hist and editor.session.can_redo == can_redo
-    np.testing.assert_array_equal(shown_points(editor), shown)
-    assert editor.scene.lattice_actor.glyphs.n_points == n_widgets
 
 
 def test_ffd_round_trip_and_undo(editor, tmp_path):

@@ -106,6 +106,7 @@ class EditorApp:
             ("ffd_load_ffd", self.files.load_ffd),
             ("ffd_save_ffd", self.files.save_ffd),
             ("ffd_load_mesh", self.files.load_mesh),
+            ("ffd_load_face", self.files.load_face),
             ("ffd_save_mesh", self.files.save_mesh),
             ("ffd_download_ffd", self.files.download_ffd),
             ("ffd_download_mesh", self.files.download_mesh),
@@ -114,6 +115,8 @@ class EditorApp:
             ("ffd_redo", self.files.redo),
             ("ffd_basis", self.files.set_basis),
             ("ffd_decimate", self.files.decimate),
+            ("ffd_load_image", self.files.load_image),
+            ("ffd_save_image", self.files.save_image),
         ):
             self.server.controller.trigger(name_)(method)
         self.layout, self.view = build_layout(self)
@@ -201,13 +204,15 @@ def run_app(
     root: str | os.PathLike[str] | None = None,
     max_file_bytes: int = DEFAULT_MAX_FILE_BYTES,
     setup: Callable[[EditorApp], None] | None = None,
+    image: str | os.PathLike[str] | None = None,
 ) -> EditorApp:
-    """Build the editor (``mesh`` path or the sample mesh, optional ``ffd`` lattice) and serve it (blocking).
+    """Build the editor (``mesh`` path or the sample mesh, optional ``ffd`` lattice, optional ``image`` shown as
+    warped slices; an image without a mesh gets a lattice fitted to its box) and serve it (blocking).
 
     Typed paths are confined to ``root`` (default: the current folder); uploads are removed at exit.
     ``setup(app)`` runs before the server starts (a hook for code, e.g. tests' instrumentation).
     """
-    editor = Editor(mesh, shape=tuple(shape), basis=basis)
+    editor = Editor(mesh, shape=tuple(shape), basis=basis, image=image)
     if ffd is not None:
         editor.load_ffd(ffd)
     app = EditorApp(editor, root=root, max_file_bytes=max_file_bytes)

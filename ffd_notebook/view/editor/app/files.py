@@ -5,8 +5,8 @@ Every typed path goes through :class:`~ffd_notebook.view.file_root.FileRoot` (in
 regular files of bounded size, the right extension to write) and every message the page shows goes
 through :func:`~ffd_notebook.view.file_root.client_message` (no file content, the root-relative
 name). A remote user needs no server path at all: lattice files (.ffd, ITK .tfm/.txt/.h5/.hdf5,
-PyGeM .prm) and meshes can be uploaded from the
-browser and the lattice and the deformed mesh downloaded to it.
+PyGeM .prm), meshes and photos of a face (the mesh upload makes the face in a photo) can be uploaded
+from the browser, and the lattice and the deformed mesh downloaded to it.
 
 Reading and writing files run in a worker thread (:meth:`AppFiles.in_background`) so the
 event loop keeps answering (HTTP, other clients, the page's own messages) and the page shows a
@@ -25,6 +25,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+from ....face.photo import PHOTO_SUFFIXES
 from ....io.mesh import MESH_SUFFIXES
 from ...file_root import (
     FFD_SUFFIXES,
@@ -180,6 +181,20 @@ class AppFiles:
 
         self.in_background(f"reading {shown}", work, done, shown, "load")
 
+    def _read_face(self, path: Path, shown: str) -> None:
+        """The face of a photo (a path checked by the root folder, or an upload) as the mesh, made in a worker."""
+
+        def work() -> tuple[Any, Any, Any]:
+            mesh, deformer = self.session.files.read_face(path)
+            return mesh, deformer, prepare_display(mesh, deformer.current(), self.editor.scene.interactive_cells)
+
+        def done(result: tuple[Any, Any, Any]) -> None:
+            mesh, deformer, prepared = result
+            self.editor.scene.offer_display(prepared)
+            self.session.files.use_face(mesh, deformer, shown)
+
+        self.in_background(f"finding the face in {shown}", work, done, shown, "make a face")
+
     # ------------------------------------------------------------------ lattice
     def rebuild(self, *values: Any) -> None:
         """Fit a lattice of the typed size (``nx, ny, nz``) around the mesh; binding it to the mesh
@@ -249,7 +264,8 @@ class AppFiles:
 
         def work() -> tuple[Any, Any]:
             done = session.decimation(reduction)
-            return done, prepare_display(done.mesh, done.deformer.current(), scene.interactive_cells)
+            points = done.mesh.points if done.deformer is None else done.deformer.current()  # (bound when used)
+            return done, prepare_display(done.mesh, points, scene.interactive_cells)
 
         def done(result: tuple[Any, Any]) -> None:
             decimation, prepared = result
@@ -264,11 +280,50 @@ class AppFiles:
         if target is not None:
             self._read_ffd(target, self.root.shown(target))
 
+    def load_image(self, path: str) -> None:
+        """Show an image (NIfTI, NRRD, MetaImage, PNG...) from a path in the app's folder, read in a worker thread.
+
+        A header that names a data file (MetaImage, NRRD) is refused unless that file is in the folder too.
+        """
+        target = self._typed(path, self._image_for_reading, "load")
+        if target is None:
+            return
+        shown = self.root.shown(target)
+        image = self.session.image
+        self.in_background(f"reading {shown}", lambda: image.read(target),
+                            lambda slices: image.use(slices, target, shown), shown, "load")  # fmt: skip
+
+    def _image_for_reading(self, typed: str) -> Path:
+        from ....images import image_data_files
+
+        target = self.root.for_reading(typed)
+        for data_file in image_data_files(target):
+            self.root.for_reading(data_file)  # PathRefused if it is outside the root
+        return target
+
+    def save_image(self, path: str) -> None:
+        """Write the warped image in the app's folder (format from the extension, atomically)."""
+        from ....images.files import IMAGE_WRITE_SUFFIXES
+
+        target = self._typed(path, lambda p: self.root.for_writing(p, IMAGE_WRITE_SUFFIXES), "save")
+        if target is not None:
+            shown = self.root.shown(target)
+            image = self.session.image
+            self.in_background(f"writing {shown}", lambda: image.save(target, announce=False),
+                                lambda _: self.session.messages.append(f"saved the warped image to {shown}"),
+                                shown, "save")  # fmt: skip
+
     def load_mesh(self, path: str) -> None:
         """Load a mesh (OBJ, PLY, VTP, STL, ...) from a path in the app's folder."""
         target = self._typed(path, self.root.for_reading, "load")
         if target is not None:
             self._read_mesh(target, self.root.shown(target))
+
+    def load_face(self, path: str) -> None:
+        """Replace the mesh with the coloured face of a photo (JPEG, PNG...) at a path in the app's folder."""
+        target = self._typed(path, self.root.for_reading, "make a face")
+        if target is not None:
+            self._read_face(target, self.root.shown(target))
 
     # ------------------------------------------------------------------ writing
     def save_ffd(self, path: str) -> None:
@@ -309,7 +364,7 @@ class AppFiles:
         name, content = received
         shown = f"{Path(name).name} (uploaded)"
         try:
-            if Path(name).suffix.lower() not in suffixes:
+            if not Path(name).name.lower().endswith(suffixes):  # endswith: ".nii.gz" is one suffix here
                 raise PathRefused(f"{Path(name).name!r}: expected a file ending with {', '.join(suffixes)}")
             if len(content) > self.root.max_bytes:
                 raise PathRefused(f"{Path(name).name!r} is bigger than the limit of "
@@ -329,9 +384,13 @@ class AppFiles:
             self._read_ffd(*received)
 
     def receive_mesh_upload(self, mesh_upload: Any, **_: Any) -> None:
-        """A mesh arrived from the browser's file input: load it."""
-        received = self._receive(mesh_upload, MESH_SUFFIXES, "mesh_upload")
-        if received is not None:
+        """A mesh arrived from the browser's file input: load it; a photo (JPEG, PNG...): the face in it."""
+        received = self._receive(mesh_upload, MESH_SUFFIXES + PHOTO_SUFFIXES, "mesh_upload")
+        if received is None:
+            return
+        if received[0].suffix.lower() in PHOTO_SUFFIXES:
+            self._read_face(*received)
+        else:
             self._read_mesh(*received)
 
     async def _written_bytes(self, name: str, write: Callable[[Path], None]) -> bytes:

@@ -12,6 +12,8 @@ from __future__ import annotations
 import re
 from typing import Any
 
+from ....face.photo import PHOTO_SUFFIXES
+from ....io import MESH_SUFFIXES
 from ...file_root import FFD_SUFFIXES
 from ..session.controls import Control
 
@@ -21,6 +23,8 @@ _FIELD = {"density": "compact", "hide_details": True, "variant": "outlined"}
 _COLS = {"button": 4, "choice": 6, "switch": 6, "slider": 8, "text": 12, "label": 12, "messages": 12}
 #: the upload's file filter: every lattice file suffix the app reads, in both cases
 _LATTICE_ACCEPT = ",".join(s for suffix in FFD_SUFFIXES for s in (suffix, suffix.upper()))
+#: the mesh upload's filter: meshes, and photos (the face in a photo becomes the mesh)
+_MESH_ACCEPT = ",".join(s for suffix in (*MESH_SUFFIXES, *PHOTO_SUFFIXES) for s in (suffix, suffix.upper()))
 _DOWNLOAD_MESH = "utils.download('deformed.' + mesh_format, trigger('ffd_download_mesh', [mesh_format]))"
 _HINTS = {"Control point": "Control point (drag a sphere or type)"}
 
@@ -49,6 +53,19 @@ def _control(app: Any, control: Control) -> None:
     from trame.widgets import vuetify3 as v
 
     kind, ident = control.kind, control.dom_id
+    if kind == "choices":  # one select per state key (axis), the same items
+        disabled = (f"!{control.enabled}",) if control.enabled else False
+        for name in control.state:
+            with v.VCol(cols=4):
+                v.VSelect(
+                    v_model=(name,),
+                    items=(f"{control.key}_items",),
+                    label=f"{control.key[:6]}. {name[-1]}",  # e.g. "interp. x"
+                    id=f"ffd-{name}",
+                    disabled=disabled,
+                    **_FIELD,
+                )
+        return
     if kind in ("ints", "floats"):
         labels = [k[-1] if control.limits else k for k in control.state]
         for i, (name, label) in enumerate(zip(control.state, labels, strict=True)):
@@ -85,13 +102,14 @@ def _control(app: Any, control: Control) -> None:
         elif kind == "text":
             v.VTextField(v_model=(control.key,), label=control.label, id=ident, classes="mt-1", **_FIELD)
         elif kind == "slider":
+            low, high, step = control.bounds or (0.0, 0.95, 0.05)
             v.VSlider(
                 v_model=(control.key,),
-                min=0,
-                max=0.95,
-                step=0.05,
+                min=low,
+                max=high,
+                step=step,
                 label=control.label,
-                thumb_label=True,
+                thumb_label="always" if control.bounds else True,  # a value of its own (strength) stays visible
                 hide_details=True,
                 density="compact",
                 id=ident,
@@ -149,8 +167,8 @@ def _browser_files() -> None:
     )
     v.VFileInput(
         v_model=("mesh_upload",),
-        label="upload a mesh",
-        accept=".obj,.ply,.stl,.vtp,.vtk,.vtu",
+        label="upload a mesh, or a photo of a face",
+        accept=_MESH_ACCEPT,
         id="ffd-mesh-upload",
         prepend_icon="",
         classes="mt-2",

@@ -34,7 +34,7 @@ SECTION_TITLES = {
     "Display": "<b>Display</b>",
 }
 ICONS = {"undo": "undo", "redo": "repeat"}
-WIDTHS = {"ints": "58px", "floats": "84px", "choice": "170px"}
+WIDTHS = {"ints": "58px", "floats": "84px", "choice": "170px", "choices": "110px"}
 
 
 def _stretch() -> widgets.Layout:
@@ -131,19 +131,40 @@ class ControlPanel(widgets.VBox):
             options = [(label, value) for value, label in control.choices]
             layout = widgets.Layout(width=WIDTHS[kind])
             made = widgets.Dropdown(options=options, value=control.choices[0][0], layout=layout)
+        elif kind == "choices":
+            options = [(label, value) for value, label in control.choices]
+            made = [
+                widgets.Dropdown(
+                    options=options, value=control.choices[0][0], layout=widgets.Layout(width=WIDTHS[kind])
+                )
+                for _ in control.state
+            ]
+            for field in made:
+                field.add_class(css)
+            self._fields.update(zip(control.state, made, strict=True))
         elif kind == "switch":
             made = widgets.Checkbox(value=False, description=control.label, indent=False)
         elif kind == "text":
             made = widgets.Text(value=control.default, placeholder=control.placeholder, layout=_stretch())
+        elif kind == "upload":
+            made = widgets.FileUpload(accept="image/*", multiple=False, description=control.label, icon="upload")
+            made.tooltip = control.tooltip
+            made.layout = widgets.Layout(width="auto", flex="0 0 auto")
         elif kind == "slider":
+            low, high, step = control.bounds or (0.0, 0.95, 0.05)
             made = widgets.FloatSlider(
-                value=control.default, min=0.0, max=0.95, step=0.05, readout_format=".0%", layout=_stretch()
+                value=control.default,
+                min=low,
+                max=high,
+                step=step,
+                readout_format=".0%" if control.bounds is None else ".2f",
+                layout=_stretch(),
             )
         else:  # "label", "messages"
             made = widgets.HTML(value="")
         if not isinstance(made, list):
             self._fields[control.state[0] if control.state else control.key] = made
-            if kind in ("text", "choice"):
+            if kind in ("text", "choice", "upload"):
                 made.add_class(css)
         setattr(self, control.key, made)
         self._widgets[control.key] = made
@@ -151,7 +172,7 @@ class ControlPanel(widgets.VBox):
             for widget in made if isinstance(made, list) else [made]:
                 widget.observe(lambda _change, c=control: self._on_input(c), names="value")
         shown = made if isinstance(made, list) else [made]
-        return ([_label(control.label)] if kind in ("ints", "floats", "choice", "slider") else []) + shown
+        return ([_label(control.label)] if kind in ("ints", "floats", "choice", "choices", "slider") else []) + shown
 
     # ------------------------------------------------------------------ actions (one editor call each)
     def act(self, control: Control, values: Sequence[Any]) -> None:
@@ -163,6 +184,12 @@ class ControlPanel(widgets.VBox):
         if self._syncing:
             return
         self.act(control, [self._fields[k].value for k in control.state])
+        if control.kind == "upload":  # empty it, so that the same file can be uploaded again
+            self._syncing = True
+            try:
+                self._fields[control.state[0]].value = ()
+            finally:
+                self._syncing = False
 
     # ------------------------------------------------------------------ following the editor
     def _follow(self, change: Change) -> None:
@@ -194,6 +221,11 @@ class ControlPanel(widgets.VBox):
                 text = state["messages"][0]["text"]
                 color = "#c62828" if state["messages"][0]["error"] else "#2e7d32"
                 widget.value = f'<span style="color: {color}">{html.escape(text)}</span>'
+        elif control.kind == "choices":
+            for i, key in enumerate(control.state):
+                widget[i].disabled = control.enabled is not None and not state.get(control.enabled, True)
+                if key in state:
+                    widget[i].value = state[key]
         elif control.kind in ("ints", "floats"):
             for i, key in enumerate(control.state):
                 if control.limits:

@@ -24,6 +24,7 @@ from numpy.typing import ArrayLike, NDArray
 __all__ = [
     "DISPLACEMENT_ARRAY",
     "FOLDING_ARRAY",
+    "WEIGHTS_ARRAY",
     "displacement_magnitude",
     "folding_mask",
     "show_field",
@@ -33,6 +34,8 @@ __all__ = [
 
 DISPLACEMENT_ARRAY = "ffd_displacement"
 FOLDING_ARRAY = "ffd_folding"
+WEIGHTS_ARRAY = "ffd_weights"
+_FIELD_ARRAYS = {"displacement": DISPLACEMENT_ARRAY, "jacobian": FOLDING_ARRAY, "weights": WEIGHTS_ARRAY}
 FOLD_COLOR = "red"
 NO_FOLD_COLOR = "lightgray"
 
@@ -104,8 +107,8 @@ def _lookup_table(field: str) -> Any:
         lut = pv.LookupTable(cmap=[NO_FOLD_COLOR, FOLD_COLOR], n_values=2)
         lut.scalar_range = (0.0, 1.0)
         return lut
-    lut = pv.LookupTable(cmap="viridis")
-    return lut
+    # vertex weights as Blender paints them: blue (0) to red (1)
+    return pv.LookupTable(cmap="jet" if field == "weights" else "viridis")
 
 
 def show_field(actor: Any, field: str, vmax: float) -> None:
@@ -124,10 +127,10 @@ def show_field(actor: Any, field: str, vmax: float) -> None:
     >>> actor.GetMapper().GetScalarRange()
     (0.0, 0.5)
     """
-    name = FOLDING_ARRAY if field == "jacobian" else DISPLACEMENT_ARRAY
+    name = _FIELD_ARRAYS[field]
     mapper = actor.GetMapper()
     lut = _lookup_table(field)
-    vmax = 1.0 if field == "jacobian" else max(float(vmax), 1e-12)
+    vmax = 1.0 if field in ("jacobian", "weights") else max(float(vmax), 1e-12)
     lut.SetTableRange(0.0, vmax)
     mapper.SetLookupTable(lut)
     mapper.SetScalarVisibility(True)

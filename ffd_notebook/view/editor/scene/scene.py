@@ -29,6 +29,7 @@ from ...rendering import new_plotter
 from ..session.changes import Change
 from ..session.session import EditingSession
 from . import coloring
+from .image_slices import ImageSlices
 from .lattice_actor import LatticeActor
 from .proxy import INTERACTIVE_CELLS, InteractiveProxy, point_normals, simplified
 from .surface_picking import SurfacePicking
@@ -37,6 +38,8 @@ __all__ = ["EditorScene", "PreparedDisplay", "prepare_display"]
 
 #: where the camera looks from (towards the mesh): the front (+z), a little right and above
 FRONT = (0.3, 0.2, 1.0)
+#: the opacity of an image's box drawn as the mesh (a lattice over the image alone): the slices are inside it
+IMAGE_BOX_OPACITY = 0.35
 
 
 class PreparedDisplay:
@@ -120,8 +123,10 @@ class EditorScene:
         self.lattice_actor: LatticeActor | None = None
         self._offered: PreparedDisplay | None = None
         self._shown_lattice: Any = None
+        self.image_slices: ImageSlices | None = None
         self._build_mesh()
         self._build_lattice()
+        self._build_image()
         self.surface_picking = SurfacePicking(self)  # surface mode: the mouse on the mesh itself, pins
         self._unsubscribe = session.subscribe(self.follow)
 
@@ -140,6 +145,8 @@ class EditorScene:
             self._build_mesh()
             if change.label == "load mesh":
                 self.plotter.renderer.reset_camera(render=False)  # (the plotter's own renders anyway)
+            elif change.label == "face from photo":  # a face looks along +z: see it from the front, fitted
+                self.frame()  # (the session holds the new mesh and its lattice already)
             if self.session.lattice is not self._shown_lattice:
                 return  # a "lattice" change follows (a lattice fitted to the new mesh): render once, then
         elif kind == "select":
@@ -149,6 +156,13 @@ class EditorScene:
         elif kind == "display":
             self._write_field()
             self._recolor()
+        elif kind == "image":
+            if change.label == "load image":
+                self._build_image()
+            elif self.image_slices is not None:
+                self.image_slices.update(rebuild=change.label == "slices")
+        if kind in ("offsets", "lattice") and self.image_slices is not None:
+            self.image_slices.update()  # (a drag's slices are updated just before the frame is rendered)
         self.surface_picking.follow(change)
         if kind != "drag" and change.label != "drag":
             self.render()
@@ -194,6 +208,8 @@ class EditorScene:
         self._write_mesh_points(only_if_changed=True)
         self._write_field()
         self._recolor()
+        if self.image_slices is not None:
+            self._mesh_opacity()
 
     def _watch_buttons(self) -> list[int]:
         """Observe the interactor's button presses and releases: :attr:`interacting` while one is held."""
@@ -233,6 +249,22 @@ class EditorScene:
         :meth:`.surface_picking.SurfacePicking.ray_to_surface` (what a press can grab is in front of it)."""
         return self.surface_picking.ray_to_surface(x, y)
 
+    def _build_image(self) -> None:
+        """Slice planes for the session's image (none if it has none); replaces any previous ones."""
+        if self.image_slices is not None:
+            self.image_slices.remove()
+            self.image_slices = None
+        if self.session.image.loaded:
+            self.image_slices = ImageSlices(self.plotter, self.session.image)
+        self._mesh_opacity()
+
+    def _mesh_opacity(self) -> None:
+        """The image's box (the mesh of a lattice over an image alone) is see-through: the slices are inside it.
+        A real mesh stays opaque (a see-through mesh of 100k triangles costs a render much more)."""
+        image = self.session.image
+        box = image.loaded and image.box is not None and self.session.mesh is image.box
+        self.mesh_actor.prop.opacity = IMAGE_BOX_OPACITY if box else 1.0
+
     def _write_mesh_points(self, only_if_changed: bool = False) -> None:
         """The session's deformed points into the plotted mesh (and its normals, at the next render)."""
         deformed = self.session.deformed_points
@@ -262,11 +294,13 @@ class EditorScene:
         if self.session.field == "displacement":
             shown[coloring.DISPLACEMENT_ARRAY] = values
             coloring.set_field_range(self.mesh_actor, float(values.max()) if len(values) else 1.0)
-        elif coloring.FOLDING_ARRAY in shown:
-            shown[coloring.FOLDING_ARRAY][...] = values  # a view of the VTK array: updated in place
-            shown.GetArray(coloring.FOLDING_ARRAY).Modified()
+            return
+        name = coloring.WEIGHTS_ARRAY if self.session.field == "weights" else coloring.FOLDING_ARRAY
+        if name in shown:
+            shown[name][...] = values  # a view of the VTK array: updated in place
+            shown.GetArray(name).Modified()
         else:
-            shown[coloring.FOLDING_ARRAY] = values
+            shown[name] = values
 
     # ------------------------------------------------------------------ camera, images
     def frame(self) -> None:
@@ -316,6 +350,8 @@ class EditorScene:
                 self.plotter.iren.interactor.RemoveObserver(tag)
         if self.proxy is not None:
             self.proxy.remove()
+        if self.image_slices is not None:
+            self.image_slices.remove()
         self.surface_picking.remove()
         if self.lattice_actor is not None and self.plotter.render_window is not None:
             self.lattice_actor.remove()

@@ -14,7 +14,10 @@ sphere handle and no camera style sees it.
 - Press off the mesh (and off every pin) rotates the camera as usual: the press is handed to the
   interactor style directly, so the sphere widgets never see it.
 
-In ``"control points"`` mode it does nothing. The pins are one point actor (drawn as red spheres)
+In ``"paint weights"`` mode a press on the mesh starts a brush stroke and every move over the mesh
+paints at the point under the cursor (:class:`~..session.weights.WeightPaint`); release ends the
+stroke (one undo step); a press off the mesh rotates the camera. In ``"control points"`` mode it does
+nothing. The pins are one point actor (drawn as red spheres)
 whose points follow the session's changes.
 """
 
@@ -176,18 +179,34 @@ class SurfacePicking:
         self._iren.GetCommand(self._tags[event]).SetAbortFlag(1)
 
     def _on_press(self, iren: Any, event: str) -> None:
-        if self.session.surface.mode != "surface":
+        mode = self.session.surface.mode
+        if mode == "paint weights":
+            self._take(event)
+            x, y = iren.GetEventPosition()
+            point = self.pick(x, y)
+            if point is None:
+                self._rotate(iren)
+                return
+            self._press = {"paint": True}
+            self.session.attempt(self.session.paint.begin)
+            self.session.attempt(self.session.paint.stroke, point)
+            return
+        if mode != "surface":
             return
         self._take(event)
         x, y = iren.GetEventPosition()
         pin, point = self.pin_at(x, y, behind=bool(iren.GetAltKey())), self.pick(x, y)
         if pin is None and point is None:
-            # off the mesh: rotate the camera as usual, without the sphere widgets seeing the press
-            style = iren.GetInteractorStyle()
-            if style is not None:
-                style.OnLeftButtonDown()
+            self._rotate(iren)
             return
         self._press = {"xy": (x, y), "point": point, "pin": pin, "dragging": False, "depth": 0.0}
+
+    @staticmethod
+    def _rotate(iren: Any) -> None:
+        """A press off the mesh: rotate the camera as usual, without the sphere widgets seeing the press."""
+        style = iren.GetInteractorStyle()
+        if style is not None:
+            style.OnLeftButtonDown()
 
     def _on_move(self, iren: Any, event: str) -> None:
         press = self._press
@@ -195,6 +214,12 @@ class SurfacePicking:
             return
         self._take(event)
         x, y = iren.GetEventPosition()
+        if press.get("paint"):
+            started = time.perf_counter()
+            point = self.pick(x, y)
+            if point is not None:
+                self.session.attempt(lambda: self.session.paint.stroke(point, started=started))
+            return
         if not press["dragging"]:
             if np.hypot(x - press["xy"][0], y - press["xy"][1]) < CLICK_PX or press["point"] is None:
                 return
@@ -213,7 +238,9 @@ class SurfacePicking:
         if press is None:
             return
         self._take(event)
-        if press["dragging"]:
+        if press.get("paint"):
+            self.session.attempt(self.session.paint.end)
+        elif press["dragging"]:
             self.session.attempt(self.session.surface.end)
         elif press["pin"] is not None:
             self.session.attempt(self.session.surface.unpin, press["pin"])

@@ -17,11 +17,12 @@ from numpy.typing import NDArray
 
 __all__ = ["DRAG_SYNC_S", "KINDS", "Change", "DragSync", "Subscribers"]
 
-Kind = Literal["drag", "offsets", "lattice", "mesh", "select", "display", "message"]
+Kind = Literal["drag", "offsets", "lattice", "mesh", "select", "display", "message", "image"]
 #: ``"drag"``: offsets changed while a handle is held (the handle is already where the mouse is);
 #: ``"offsets"``: a finished offsets edit; ``"lattice"``: a new lattice (or basis); ``"mesh"``: a new
-#: mesh; ``"select"``: the selected control point; ``"display"``: coloring; ``"message"``: a new message.
-KINDS: tuple[str, ...] = ("drag", "offsets", "lattice", "mesh", "select", "display", "message")
+#: mesh; ``"select"``: the selected control point; ``"display"``: coloring; ``"message"``: a new message;
+#: ``"image"``: an image loaded, its slices moved or its window changed (``session.image``).
+KINDS: tuple[str, ...] = ("drag", "offsets", "lattice", "mesh", "select", "display", "message", "image")
 
 #: while something is dragged, the panels follow at most this often: each sync is messages to the page
 #: (in JupyterLab, widget updates that Lab's page handles on the same thread as the view's frames)

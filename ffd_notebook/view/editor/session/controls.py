@@ -22,6 +22,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ....ffd.basis import BASES
+from ....ffd.interpolation import INTERPOLATIONS
 from .surface_drag import MODES
 
 if TYPE_CHECKING:
@@ -29,8 +30,10 @@ if TYPE_CHECKING:
 
 __all__ = [
     "BASIS_CHOICES",
+    "BRUSH_CHOICES",
     "CONTROLS",
     "FIELD_CHOICES",
+    "INTERPOLATION_CHOICES",
     "MODE_CHOICES",
     "N_MESSAGES",
     "POINTS_CHOICES",
@@ -95,8 +98,10 @@ class Control:
         Its name: the notebook panel's attribute (``f"{key}_button"`` for buttons), the app's
         element id ``f"ffd-{key}"`` with dashes (unless ``element_id``), its css class in Jupyter.
     kind : str
-        ``"ints"``/``"floats"`` (three fields), ``"choice"``, ``"switch"``, ``"text"``, ``"slider"``,
-        ``"button"``, ``"label"`` (text from the state) or ``"messages"``.
+        ``"ints"``/``"floats"`` (three fields), ``"choice"``, ``"choices"`` (three choices, one per
+        state key, from the same ``choices``), ``"switch"``, ``"text"``, ``"slider"``, ``"button"``,
+        ``"upload"`` (a file from the browser, notebook only: the app has its own uploads),
+        ``"label"`` (text from the state) or ``"messages"``.
     label : str
         What the panels show (a button's text; a label's template with ``{state_key}`` fields).
     section : str
@@ -116,6 +121,8 @@ class Control:
         State key that enables the control.
     limits : tuple of str
         State keys of the fields' maxima.
+    bounds : tuple of float, optional
+        A slider's ``(min, max, step)``; by default ``(0, 0.95, 0.05)`` shown as a percentage.
     default : object
         A panel value's initial value.
     row : int
@@ -139,6 +146,7 @@ class Control:
     choices: tuple[tuple[str, str], ...] = ()
     enabled: str | None = None
     limits: tuple[str, ...] = ()
+    bounds: tuple[float, float, float] | None = None
     default: Any = None
     placeholder: str = ""
     tooltip: str = ""
@@ -155,14 +163,42 @@ class Control:
 
 BASIS_CHOICES = tuple((b, b) for b in BASES)
 # ipywidgets shows a ``None`` value as an empty dropdown: the panels use "none" for "no field"
-FIELD_CHOICES = (("none", "mesh colours"), ("displacement", "|displacement|"), ("jacobian", "folding (det J <= 0)"))
-MODE_CHOICES = tuple(zip(MODES, ("control points", "the mesh surface"), strict=True))
+FIELD_CHOICES = (
+    ("none", "mesh colours"),
+    ("displacement", "|displacement|"),
+    ("jacobian", "folding (det J <= 0)"),
+    ("weights", "vertex weights"),
+)
+MODE_CHOICES = tuple(zip(MODES, ("control points", "the mesh surface", "paint weights"), strict=True))
+INTERPOLATION_CHOICES = tuple((k, k) for k in INTERPOLATIONS)
+BRUSH_CHOICES = (("raise", "raise"), ("lower", "lower"))
+_INTERPOLATION = ("interp_x", "interp_y", "interp_z")
 POINTS_CHOICES = (("auto", "all (hull above 1000)"), ("all", "all"), ("near", "near the selected"), ("hull", "hull"))
 _IJK, _XYZ = ("sel_i", "sel_j", "sel_k"), ("dx", "dy", "dz")
+_SLICE = ("img_i", "img_j", "img_k")
 
 
 def _index_and_vector(values: Sequence[Any]) -> tuple[Any, ...]:
     return numbers(values[:3], "index", int), numbers(values[3:], "displacement")
+
+
+def _uploaded_file(values: Sequence[Any]) -> tuple[str, bytes]:
+    """``(name, content)`` of the file in an upload widget's value (ipywidgets' FileUpload: a tuple of dicts).
+
+    Examples
+    --------
+    >>> _uploaded_file([({"name": "me.jpg", "content": memoryview(b"...")},)])
+    ('me.jpg', b'...')
+    >>> _uploaded_file([()])
+    Traceback (most recent call last):
+    ...
+    ValueError: no file uploaded
+    """
+    files = values[0] if values else ()
+    if not files:
+        raise ValueError("no file uploaded")  # the widget emptied: nothing to do
+    first = files[0]
+    return str(first.get("name") or "upload"), bytes(first["content"])
 
 
 CONTROLS: tuple[Control, ...] = (
@@ -201,6 +237,32 @@ CONTROLS: tuple[Control, ...] = (
         choices=BASIS_CHOICES,
         row=1,
         app_trigger="ffd_basis",
+    ),
+    Control(
+        "interpolation",
+        "choices",
+        "interpolation x, y, z",
+        "Lattice",
+        state=_INTERPOLATION,
+        command="set_interpolation",
+        choices=INTERPOLATION_CHOICES,
+        parse=lambda v: (tuple(str(k) for k in v),),
+        enabled="has_interpolation",
+        row=2,
+        tooltip="Blender's interpolation of each lattice axis (the B-spline basis only)",
+    ),
+    Control(
+        "strength",
+        "slider",
+        "strength",
+        "Lattice",
+        state=("strength",),
+        command="set_strength",
+        parse=lambda v: (number(v[0], "the strength"),),
+        bounds=(-1.0, 2.0, 0.05),
+        default=1.0,
+        row=3,
+        tooltip="How much of the deformation the mesh gets: 1 all, 0 none (Blender's modifier strength)",
     ),
     Control(
         "ijk",
@@ -276,6 +338,28 @@ CONTROLS: tuple[Control, ...] = (
         tooltip="Unpin every pinned point of the mesh",
     ),
     Control(
+        "brush",
+        "choice",
+        "weight brush",
+        "Control point",
+        state=("brush",),
+        command="paint.set_brush",
+        choices=BRUSH_CHOICES,
+        row=5,
+        tooltip="In 'paint weights' mode a drag over the mesh raises (or lowers) the weights of the vertices "
+        "near it: only the weighted part of the mesh follows the lattice",
+    ),
+    Control(
+        "clear_weights",
+        "button",
+        "Clear weights",
+        "Control point",
+        command="paint.clear",
+        enabled="has_weights",
+        row=5,
+        tooltip="Remove the vertex weights: the whole mesh follows the lattice again",
+    ),
+    Control(
         "ffd_path",
         "text",
         "lattice file (.ffd, .tfm, .h5, .prm)",
@@ -332,6 +416,31 @@ CONTROLS: tuple[Control, ...] = (
         app_trigger="ffd_save_mesh",
         tooltip="Save the deformed mesh: OBJ keeps colours; PLY, VTP, STL...",
     ),
+    Control("photo_path", "text", "photo of a face", "Files", default="", placeholder="me.jpg / .png", row=3),
+    Control(
+        "load_face",
+        "button",
+        "Face from photo",
+        "Files",
+        command="files.load_face",
+        args=("photo_path",),
+        row=3,
+        app_trigger="ffd_load_face",
+        tooltip="Replace the mesh with the coloured 3D face in a photo (JPEG, PNG), made offline",
+    ),
+    Control(
+        "face_upload",
+        "upload",
+        "Face from photo",
+        "Files",
+        state=("face_upload",),
+        default=(),  # the widget's value: the uploaded files (none yet)
+        command="files.load_face_upload",
+        parse=_uploaded_file,
+        row=4,
+        panels=frozenset({"notebook"}),  # the app's mesh upload takes photos too
+        tooltip="Upload a photo (JPEG, PNG): its face replaces the mesh",
+    ),
     Control(
         "colors",
         "switch",
@@ -378,6 +487,54 @@ CONTROLS: tuple[Control, ...] = (
         tooltip="Remove this fraction of the faces, keeping colours (0 restores the mesh)",
     ),
     Control("mesh_info", "label", "{mesh_info}", "Display", state=("mesh_info",), row=3),
+    Control("image_path", "text", "image to show", "Image", default="", placeholder="image.nii.gz / .nrrd / .png"),
+    Control(
+        "load_image",
+        "button",
+        "Load image",
+        "Image",
+        command="image.load",
+        args=("image_path",),
+        app_trigger="ffd_load_image",
+        tooltip="Show an image (NIfTI, NRRD, MetaImage, PNG...) as three slices warped by the lattice",
+    ),
+    Control(
+        "image_slices",
+        "ints",
+        "slice i, j, k",
+        "Image",
+        state=_SLICE,
+        command="image.set_positions",
+        limits=("img_max_i", "img_max_j", "img_max_k"),
+        parse=lambda v: (numbers(v, "slice", int),),
+        enabled="has_image",
+        row=1,
+    ),
+    Control(
+        "image_window",
+        "floats",
+        "level, width",
+        "Image",
+        state=("img_level", "img_width"),
+        command="image.set_window",
+        parse=lambda v: ((number(v[0], "level"), number(v[1], "width")),),
+        enabled="grey_image",
+        row=2,
+    ),
+    Control("image_save_path", "text", "save warped image as", "Image", default="warped.nii.gz", row=3),
+    Control(
+        "save_image",
+        "button",
+        "Save image",
+        "Image",
+        command="image.save",
+        args=("image_save_path",),
+        enabled="has_image",
+        app_trigger="ffd_save_image",
+        row=3,
+        tooltip="Write the image warped by the lattice (ITK's convention, as the saved lattice file does it)",
+    ),
+    Control("image_info", "label", "{image_info}", "Image", state=("image_info",), row=4),
     Control("message", "messages", "Messages", "Display", state=("messages",), row=4, element_id="ffd-messages"),
 )
 
@@ -412,7 +569,12 @@ def session_state(session: EditingSession) -> dict[str, Any]:
     state: dict[str, Any] = {
         **dict(zip(("nx", "ny", "nz"), shape, strict=True)),
         **dict(zip(("max_i", "max_j", "max_k"), (n - 1 for n in shape), strict=True)),
-        "basis": session.basis,
+        "basis": "bernstein" if session.basis == "bernstein" else "bspline",
+        **dict(zip(_INTERPOLATION, session.interpolation or ("bspline",) * 3, strict=True)),
+        "has_interpolation": session.interpolation is not None,
+        "strength": session.ffd.strength,
+        "brush": "lower" if session.paint.amount < 0 else "raise",
+        "has_weights": session.ffd.weights is not None,
         "colors": session.colors_shown,
         "has_colors": session.has_colors,
         "field": session.field or "none",
@@ -426,10 +588,32 @@ def session_state(session: EditingSession) -> dict[str, Any]:
         "moved_points": int(np.any(lattice.offsets != 0, axis=-1).sum()),
         "messages": [{"text": t, "error": t.startswith("Error")} for t in list(session.messages)[-N_MESSAGES:][::-1]],
     }
+    state.update(_image_state(session))
     if selected is not None:
         state.update(zip(_IJK, selected, strict=True))
         state.update(zip(_XYZ, (float(f"{v:.6g}") for v in lattice.offsets[selected]), strict=True))
     return state
+
+
+def _image_state(session: EditingSession) -> dict[str, Any]:
+    """The image controls' state: slice positions and their limits, window, what is shown."""
+    image = session.image
+    if not image.loaded:
+        none = {"has_image": False, "grey_image": False, "img_level": 0.0, "img_width": 1.0, "image_info": "no image"}
+        return {**none, **dict.fromkeys(_SLICE, 0), **dict.fromkeys(("img_max_i", "img_max_j", "img_max_k"), 0)}
+    slices = image.slices
+    size = list(slices.grid.size) + [1] * (3 - slices.grid.dim)
+    positions = list(slices.positions) + [0] * (3 - slices.grid.dim)
+    level, width = image.window if image.window is not None else (0.0, 1.0)
+    return {
+        "has_image": True,
+        "grey_image": image.window is not None,
+        **dict(zip(_SLICE, positions, strict=True)),
+        **dict(zip(("img_max_i", "img_max_j", "img_max_k"), (n - 1 for n in size), strict=True)),
+        "img_level": float(f"{level:.6g}"),
+        "img_width": float(f"{width:.6g}"),
+        "image_info": f"{image.name}: {' x '.join(map(str, slices.grid.size))} voxels",
+    }
 
 
 def run(session: EditingSession, control: Control, values: Sequence[Any]) -> bool:
@@ -463,7 +647,7 @@ def run(session: EditingSession, control: Control, values: Sequence[Any]) -> boo
     if is_input and control.state:
         shown = session_state(session)
         current = [shown.get(k) for k in control.state]
-        wanted = list(args[0]) if control.kind in ("ints", "floats") else [values[0]]
+        wanted = list(args[0]) if control.kind in ("ints", "floats", "choices") else [values[0]]
         if current == wanted or (control.kind == "switch" and current == [bool(values[0])]):
             return True
     return session.attempt(attrgetter(control.command)(session), *args)

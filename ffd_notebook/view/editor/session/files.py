@@ -1,7 +1,11 @@
 """File commands of an :class:`~.session.EditingSession` (``session.files``): lattice files and meshes.
 
 Lattice files are any deformation file :func:`ffd_notebook.io.load_deformation` reads, by
-extension: ``.ffd``, ITK transforms (``.tfm``, ``.txt``, ``.h5``, ``.hdf5``) and PyGeM ``.prm``.
+extension: ``.ffd``, ITK transforms (``.tfm``, ``.txt``, ``.h5``, ``.hdf5``), elastix transform
+parameter files (``.txt``, by content: the whole chain, as one FFD), PyGeM ``.prm``, and
+displacement fields (``.nii``, ``.nii.gz``, ``.nrrd``, ``.mha``), which become a lattice of the
+session's shape fitted to the field over its voxels (:func:`ffd_notebook.io.fit_lattice`; the
+message tells the residual).
 A loaded file brings its whole FFD (basis, border, affine part, ``only_inside``); saving writes the
 session's FFD, or refuses (a message, no file) where the format cannot hold it exactly.
 
@@ -32,13 +36,13 @@ from typing import TYPE_CHECKING, Any
 from ....ffd.deform import FFD
 from ....ffd.deformer import Deformer
 from ....ffd.lattice import Lattice
-from ....io import load_deformation, place_at_mesh_minimum, save_deformation
+from ....io import DisplacementField, fit_lattice, load_deformation, place_at_mesh_minimum, save_deformation
 from .lattices import copy_ffd, fitted_lattice
 
 if TYPE_CHECKING:
     from .session import EditingSession
 
-__all__ = ["SessionFiles"]
+__all__ = ["SessionFiles", "photo_name"]
 
 Path = str | os.PathLike[str]
 
@@ -48,6 +52,24 @@ _PLACES = {
     "ffd-min": "the mesh's minimum corner",
     "file": "the file's own placement",
 }
+
+
+def photo_name(photo: Any) -> str:
+    """What messages call a photo: its path quoted, an upload's name, or "the photo (an HxW array)".
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> photo_name("me.jpg"), photo_name(np.zeros((30, 40, 3), np.uint8))
+    ("'me.jpg'", 'the photo (a 40x30 array)')
+    """
+    if isinstance(photo, (str, os.PathLike)):
+        return repr(os.fspath(photo))
+    name = getattr(photo, "name", None)
+    if isinstance(name, str):
+        return name
+    shape = getattr(photo, "shape", (0, 0))
+    return f"the photo (a {shape[1]}x{shape[0]} array)"
 
 
 class SessionFiles:
@@ -73,7 +95,10 @@ class SessionFiles:
         ``"ffd-min"`` (a .ffd without one, put at the current mesh's minimum corner) or ``"file"``
         (ITK, PyGeM: by the file's own numbers). Safe to run in a worker thread.
         """
-        ffd = load_deformation(path)
+        loaded = load_deformation(path)
+        if isinstance(loaded, DisplacementField):  # a lattice of the session's shape, fitted over the field's voxels
+            return fit_lattice(loaded, tuple(max(4, n) for n in self.session.lattice.shape)), "file"
+        ffd = loaded
         if _PathType(path).suffix.lower() != ".ffd":
             return ffd, "file"
         if isinstance(ffd.lattice.metadata.get("placement"), dict):
@@ -83,8 +108,13 @@ class SessionFiles:
     def use_lattice(self, ffd: FFD, source: str, name: str) -> None:
         """Install an FFD from :meth:`read_lattice` (one undo step); ``name`` is what messages call the file."""
         self.session.swap_ffd(ffd, label="load lattice", source=source)
-        self.session.info(f"loaded a {'x'.join(map(str, ffd.lattice.shape))} lattice from {name} "
-                     f"({ffd.basis}, at {_PLACES[source]})")  # fmt: skip
+        shape = "x".join(map(str, ffd.lattice.shape))
+        fit = ffd.lattice.metadata.get("fit")
+        if isinstance(fit, dict):
+            self.session.info(f"loaded a {shape} lattice fitted to the displacement field {name} (residual RMS "
+                              f"{fit['rms']:.3g}, max {fit['max']:.3g})")  # fmt: skip
+            return
+        self.session.info(f"loaded a {shape} lattice from {name} ({ffd.basis}, at {_PLACES[source]})")
 
     def load_lattice(self, path: Path) -> Lattice:
         """Load a lattice file (.ffd, ITK, PyGeM .prm; undoable) and return its lattice (the session's
@@ -98,7 +128,8 @@ class SessionFiles:
         return ffd.lattice
 
     def save_lattice(self, path: Path) -> None:
-        """Save the session's FFD to a lattice file (format by extension), atomically.
+        """Save the session's FFD to a lattice file (format by extension), atomically; with an image shown,
+        the image warped by it too, beside it (:meth:`~.image.SessionImage.beside`).
 
         A format that cannot hold the FFD exactly (e.g. a Bernstein lattice in an ITK file) raises,
         with a message, and writes nothing.
@@ -109,6 +140,14 @@ class SessionFiles:
             self.session.error(f"could not save the lattice to {os.fspath(path)!r}: {exc}")
             raise
         self.session.info(f"saved the lattice to {os.fspath(path)}")
+        image = self.session.image
+        if image.loaded:  # the image warped by that lattice, beside it: lattice.warped.nii.gz
+            target = image.beside(path)
+            try:
+                image.save(target)
+            except (OSError, ValueError) as exc:
+                self.session.error(f"could not save the warped image to {os.fspath(target)!r}: {exc}")
+                raise
 
     def read_mesh(self, path: Path) -> tuple[Any, Deformer]:
         """Read a mesh and bind the lattice it will get, without changing anything: ``(surface, deformer)``.
@@ -116,11 +155,24 @@ class SessionFiles:
         Safe to run in a worker thread: the file is read into new objects, and the slow part of
         installing it (the deformer's weights) is done here too.
         """
-        mesh = self.session.mesh_io.read(path)
+        return self._bound(self.session.mesh_io.read(path))
+
+    def read_face(self, photo: Any) -> tuple[Any, Deformer]:
+        """Make the coloured face of a photo and bind the lattice it will get, without changing anything.
+
+        ``photo`` is a path, an ``(H, W, 3)`` uint8 array or a :class:`ffd_notebook.face.Photo`
+        (:func:`ffd_notebook.face.decode_photo` of an upload). Like :meth:`read_mesh`: ``(surface,
+        deformer)``, safe in a worker thread.
+        """
+        return self._bound(self.session.mesh_io.face(photo))
+
+    def _bound(self, mesh: Any) -> tuple[Any, Deformer]:
+        """``mesh`` and its deformer: the lattice the session gives a new mesh, bound to its points."""
+        # vertex weights belong to the old mesh's vertices: the new mesh starts without
         if self.session.lattice_source in ("ffd-placed", "given", "file"):
-            ffd = copy_ffd(self.session.ffd)
+            ffd = copy_ffd(self.session.ffd, weights=None)
         elif self.session.lattice_source == "ffd-min":
-            ffd = copy_ffd(self.session.ffd, place_at_mesh_minimum(self.session.lattice, mesh))
+            ffd = copy_ffd(self.session.ffd, place_at_mesh_minimum(self.session.lattice, mesh), weights=None)
         else:
             ffd = FFD(fitted_lattice(mesh, self.session.lattice.shape, self.session.basis), self.session.basis)
         return mesh, ffd.bind(mesh.points)
@@ -142,6 +194,38 @@ class SessionFiles:
             raise
         self.use_mesh(mesh, deformer, os.fspath(path))
         return mesh
+
+    def use_face(self, mesh: Any, deformer: Deformer, name: str) -> None:
+        """Use a face from :meth:`read_face` as the mesh (a new undo history, as a loaded mesh)."""
+        self.session.replace_mesh(mesh, deformer, label="face from photo", new_document=True)
+        self.session.info(f"made the face in {name}: {mesh.n_points} vertices, {mesh.n_cells} faces")
+
+    def load_face(self, photo: Any) -> Any:
+        """Replace the mesh with the coloured face of a photo (path, array or :class:`ffd_notebook.face.Photo`).
+
+        A new undo history, as for a loaded mesh. A photo with no face (:class:`~ffd_notebook.errors.NoFaceError`),
+        a file that is not an image, or no face runtime raise with a message and change nothing.
+        """
+        name = photo_name(photo)
+        try:
+            mesh, deformer = self.read_face(photo)
+        except (OSError, ValueError, ImportError) as exc:  # ImportError: no LiteRT (it says what to install)
+            detail = getattr(exc, "problem", None) or str(exc)  # NoFaceError, FileFormatError name the photo
+            self.session.error(f"could not make a face from {name}: {detail}")
+            raise
+        self.use_face(mesh, deformer, name)
+        return mesh
+
+    def load_face_upload(self, name: str, content: bytes) -> Any:
+        """:meth:`load_face` for the bytes of an uploaded photo file called ``name`` (a notebook's FileUpload)."""
+        from ....face import decode_photo
+
+        try:
+            photo = decode_photo(content, name)
+        except ValueError as exc:
+            self.session.error(f"could not make a face from {name}: {getattr(exc, 'problem', exc)}")
+            raise
+        return self.load_face(photo)
 
     def save_mesh(self, path: Path) -> None:
         """Save the deformed mesh (OBJ with colors, PLY, VTP, ... by extension), atomically."""

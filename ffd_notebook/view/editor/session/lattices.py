@@ -4,7 +4,10 @@ from __future__ import annotations
 
 from typing import Any
 
+import numpy as np
+
 from ....ffd.deform import FFD
+from ....ffd.interpolation import check_basis
 from ....ffd.lattice import Lattice
 
 __all__ = ["copy_ffd", "fitted_lattice"]
@@ -13,15 +16,23 @@ __all__ = ["copy_ffd", "fitted_lattice"]
 def fitted_lattice(mesh: Any, shape: tuple[int, int, int], basis: str) -> Lattice:
     """The lattice the editor fits around ``mesh`` (initial fit, new size, new basis, new mesh).
 
-    For the B-spline basis it uses the "clamp" border: the lattice's box is the mesh's own, at most
-    2% larger, so every control point, the outer ring included, visibly moves the mesh (with
-    "zero" the outer ring lies a whole spacing outside the mesh). Bernstein lattices span their box.
+    For the B-spline basis (and Blender's per-axis interpolations, on the same support) it uses the
+    "clamp" border: the lattice's box is the mesh's own, at most 2% larger, so every control point,
+    the outer ring included, visibly moves the mesh (with "zero" the outer ring lies a whole spacing
+    outside the mesh). Bernstein lattices span their box.
     """
-    return Lattice.around(mesh, shape, basis=basis, border="clamp" if basis == "bspline" else "zero")
+    local = check_basis(basis) != "bernstein"
+    return Lattice.around(mesh, shape, basis="bspline" if local else basis, border="clamp" if local else "zero")
 
 
-def copy_ffd(ffd: FFD, lattice: Lattice | None = None) -> FFD:
-    """A new FFD with ``ffd``'s basis, border, affine part and ``only_inside`` on a copy of its
-    lattice (or on ``lattice``)."""
+def copy_ffd(ffd: FFD, lattice: Lattice | None = None, **changes: Any) -> FFD:
+    """A new FFD with ``ffd``'s basis, border, affine part, ``only_inside``, ``outside``, strength and
+    weights on a copy of its lattice (or on ``lattice``); ``changes`` replace some of them
+    (``basis=...``, ``strength=...``, ``weights=...``)."""
     lattice = ffd.lattice.copy() if lattice is None else lattice
-    return FFD(lattice, ffd.basis, ffd.border, ffd.affine.copy(), ffd.only_inside)
+    weights = ffd.weights.copy() if isinstance(ffd.weights, np.ndarray) else ffd.weights
+    options = {"basis": ffd.basis, "border": ffd.border, "affine": ffd.affine.copy(), "only_inside": ffd.only_inside,
+               "outside": ffd.outside, "strength": ffd.strength, "weights": weights}  # fmt: skip
+    options.update(changes)
+    basis = options.pop("basis")
+    return FFD(lattice, basis, **options)

@@ -30,18 +30,22 @@ from numpy.typing import ArrayLike, NDArray
 
 from ....ffd.deform import FFD
 from ....ffd.deformer import Deformer
+from ....ffd.interpolation import check_basis
 from ....ffd.lattice import Lattice
 from .changes import Change, Subscribers
 from .files import SessionFiles
 from .history import History, LatticeSwap
+from .image import SessionImage
 from .lattices import copy_ffd, fitted_lattice
 from .message_log import MessageLog
 from .surface_drag import SurfaceDrag
+from .weights import WeightPaint
 
 __all__ = ["FIELDS", "POINTS_SHOWN", "Decimation", "EditingSession", "MeshIO", "PreparedStep"]
 
-#: what the mesh can be colored by: nothing (its own colors), |displacement|, folding (det J <= 0)
-FIELDS = (None, "displacement", "jacobian")
+#: what the mesh can be colored by: nothing (its own colors), |displacement|, folding (det J <= 0), the
+#: vertices' weights (how much of the deformation each follows, see :mod:`.weights`)
+FIELDS = (None, "displacement", "jacobian", "weights")
 #: which control points the view draws: all, those near the selection, the lattice's hull (dense lattices)
 POINTS_SHOWN = ("auto", "all", "near", "hull")
 
@@ -55,6 +59,7 @@ class MeshIO:
     decimate: Callable[[Any, float], Any]  # (mesh, reduction) -> new mesh
     with_points: Callable[[Any, Any], Any]  # (mesh, points) -> new mesh with those points
     color_array: Callable[[Any], str | None]  # mesh -> name of its per-vertex color array, or None
+    face: Callable[[Any], Any]  # photo (path, array, face.Photo) -> a coloured face mesh (face.face_from_photo)
 
 
 @dataclass
@@ -82,7 +87,7 @@ class Decimation:
     ffd: FFD
     offsets: NDArray[np.float64]
     mesh: Any
-    deformer: Deformer
+    deformer: Deformer | None  # None: bound when used (the lattice had vertex weights)
 
 
 class EditingSession:
@@ -138,11 +143,13 @@ class EditingSession:
         self._dragged: int | None = None
         self.surface = SurfaceDrag(self)  # pins, interaction mode, surface drags
         self.files = SessionFiles(self)  # lattice files and meshes
+        self.image = SessionImage(self)  # an image shown as warped slices, if any
         if lattice is None:
             lattice, self.lattice_source = fitted_lattice(mesh, shape, basis), "fit"
         else:
             self.lattice_source = "given"
         self._bind_mesh(mesh, FFD(lattice, basis).bind(mesh.points))
+        self.paint = WeightPaint(self)  # the vertices' weights and the brush that paints them
 
     # ------------------------------------------------------------------ state
     @property
@@ -157,9 +164,20 @@ class EditingSession:
         return self.deformer.ffd
 
     @property
-    def basis(self) -> str:
-        """The FFD basis, ``"bspline"`` or ``"bernstein"``."""
+    def basis(self) -> str | tuple[str, str, str]:
+        """The FFD basis, ``"bspline"``, ``"bernstein"`` or Blender's interpolations per axis (a tuple)."""
         return self.ffd.basis
+
+    @property
+    def interpolation(self) -> tuple[str, str, str] | None:
+        """Blender's interpolation of each axis (``("bspline",) * 3`` for the B-spline), None for Bernstein."""
+        basis = self.ffd.basis
+        return None if basis == "bernstein" else ("bspline",) * 3 if basis == "bspline" else basis  # type: ignore[return-value]
+
+    @property
+    def weights(self) -> NDArray[np.float64] | None:
+        """The vertices' weights (a copy; see :class:`~.weights.WeightPaint`), or None: all follow fully."""
+        return self.paint.weights
 
     @property
     def can_undo(self) -> bool:
@@ -193,6 +211,9 @@ class EditingSession:
         if self.field == "jacobian":
             # the deformer reuses its cached grouping of points by cell (~20 ms on 53k points)
             return (self.deformer.jacobian_determinant() <= 0.0).astype(np.float32)
+        if self.field == "weights":
+            weights = self.deformer.weights  # during a brush stroke: the stroke's, not yet the FFD's
+            return np.ones(len(self.rest_points), np.float32) if weights is None else weights.astype(np.float32)
         return None
 
     def flat_index(self, ijk: tuple[int, int, int]) -> int:
@@ -219,6 +240,7 @@ class EditingSession:
     def notify(self, kind: str, points: Any = None, label: str = "", started: float | None = None) -> None:
         """Tell every subscriber about one :class:`~.changes.Change` (from the session's commands and parts)."""
         change = Change(kind, points, label) if started is None else Change(kind, points, label, started)
+        self.image.follow(change)  # the warped slices first: every view then sees them up to date
         self._subscribers.emit(change)
 
     def info(self, text: str) -> None:
@@ -371,7 +393,14 @@ class EditingSession:
         if not isinstance(step, LatticeSwap):
             return None
         ffd, _ = step.after if forward else step.before
-        return PreparedStep(step, copy_ffd(ffd), self.mesh)
+        return PreparedStep(step, self._step_ffd(ffd), self.mesh)
+
+    def _step_ffd(self, ffd: FFD) -> FFD:
+        """A copy of an undo step's FFD to install on the current mesh."""
+        ffd = copy_ffd(ffd)
+        if isinstance(ffd.weights, np.ndarray) and len(ffd.weights) != len(self.rest_points):
+            ffd.weights = None  # weights of the mesh before a decimation
+        return ffd
 
     def _apply(self, pop: Callable[[], Any], prepared: PreparedStep | None, forward: bool) -> bool:
         if prepared is not None and (self.history.peek(forward) is not prepared.step or prepared.mesh is not self.mesh):
@@ -382,8 +411,10 @@ class EditingSession:
         label = "redo" if forward else "undo"
         if isinstance(step, LatticeSwap):
             ffd, self.lattice_source = step.after if forward else step.before
-            bound = prepared.deformer if prepared is not None and prepared.deformer is not None else None
-            self._bind_lattice(bound if bound is not None else copy_ffd(ffd).bind(self.mesh.points), label)
+            if prepared is not None and prepared.deformer is not None:
+                self._bind_lattice(prepared.deformer, label)  # bound in a worker thread
+            else:
+                self._bind_lattice(self._step_ffd(ffd).bind(self.mesh.points), label)
         else:
             idx = tuple(step.ijk.T)
             self.lattice.offsets[idx] = step.after if forward else step.before
@@ -428,7 +459,9 @@ class EditingSession:
         the slow part of :meth:`set_shape`: a worker thread may do it and hand the deformer over.
         """
         try:
-            return FFD(fitted_lattice(self.mesh, tuple(int(s) for s in np.ravel(shape)), self.basis), self.basis)
+            lattice = fitted_lattice(self.mesh, tuple(int(s) for s in np.ravel(shape)), self.basis)
+            # the per-axis interpolation, strength and vertex weights stay; the offsets start at zero
+            return copy_ffd(self.ffd, lattice, border=None, affine=None, only_inside=False)
         except (ValueError, TypeError) as exc:
             self.error(f"cannot build a {shape!r} lattice: {exc}")
             raise
@@ -468,6 +501,37 @@ class EditingSession:
         self.swap_ffd(deformer.ffd, label="basis", source="fit", deformer=deformer)
         self.info(f"basis: {basis}")
 
+    def set_interpolation(self, interpolation: Any) -> None:
+        """Blender's interpolation per axis (``("bspline", "catmull-rom", "linear")``; one name: every axis).
+
+        The offsets stay (as in Blender, where the interpolation is a property of the lattice); one
+        undo step. A Bernstein lattice has none: switch the basis to ``"bspline"`` first.
+        """
+        try:
+            if self.basis == "bernstein":
+                raise ValueError("a Bernstein lattice has no per-axis interpolation: switch the basis to bspline")
+            basis = check_basis(interpolation)
+            if basis == "bernstein":
+                raise ValueError("use set_basis for the Bernstein basis")
+            ffd = copy_ffd(self.ffd, basis=basis)
+        except ValueError as exc:
+            self.error(f"cannot set the interpolation: {exc}")
+            raise
+        if ffd.basis == self.basis:
+            return
+        self.swap_ffd(ffd, label="interpolation", source=self.lattice_source)
+        self.info(f"interpolation: {' / '.join(self.interpolation)}")
+
+    def set_strength(self, strength: float) -> None:
+        """Scale the whole deformation: 1 full, 0 none, negative the other way (Blender's strength); one undo step."""
+        try:
+            ffd = copy_ffd(self.ffd, strength=strength)
+        except ValueError as exc:
+            self.error(f"cannot set the strength: {exc}")
+            raise
+        if ffd.strength != self.ffd.strength:
+            self.swap_ffd(ffd, label="strength", source=self.lattice_source)
+
     def decimate(self, reduction: float) -> Any:
         """Decimate the loaded mesh by ``reduction`` (fraction of faces removed, ``0`` restores it).
 
@@ -490,14 +554,20 @@ class EditingSession:
             self.error(f"could not decimate: {exc}")
             raise
         ffd = self.ffd
-        return Decimation(reduction, source, ffd, ffd.lattice.offsets.copy(), mesh, ffd.bind(mesh.points))
+        # vertex weights belong to the mesh as it was: they are cleared when the result is used, and the lattice
+        # is bound then (the weights would not fit the new vertices)
+        deformer = None if ffd.weights is not None else ffd.bind(mesh.points)
+        return Decimation(reduction, source, ffd, ffd.lattice.offsets.copy(), mesh, deformer)
 
     def use_decimated(self, done: Decimation) -> Any:
         """Use a :meth:`decimation` (made from this session's current mesh and lattice: else a ValueError)."""
         if done.source is not self.source_mesh or done.ffd is not self.ffd:
             raise ValueError("the mesh or the lattice changed meanwhile; decimate again")
+        if self.ffd.weights is not None:  # one per vertex of the mesh as it was
+            self.ffd.weights = None
+            self.info("the vertex weights were cleared: the mesh has other vertices now")
         deformer = done.deformer
-        if not np.array_equal(done.offsets, self.ffd.lattice.offsets):  # edited meanwhile: bind again (fast)
+        if deformer is None or not np.array_equal(done.offsets, self.ffd.lattice.offsets):  # (edited meanwhile)
             deformer = self.ffd.bind(done.mesh.points)
         self.replace_mesh(done.mesh, deformer, label="decimate", new_document=False)
         self.info(f"decimated by {done.reduction:.0%}: {done.mesh.n_points} vertices, {done.mesh.n_cells} faces")

@@ -31,8 +31,9 @@ if TYPE_CHECKING:
 
 __all__ = ["MODES", "SurfaceDrag", "ray_hit"]
 
-#: what a left-button drag on the view moves: the lattice's spheres, or the mesh itself
-MODES = ("control points", "surface")
+#: what a left-button drag on the view does: move the lattice's spheres, the mesh itself, or paint the
+#: vertices' weights (:class:`~.weights.WeightPaint`)
+MODES = ("control points", "surface", "paint weights")
 
 
 @dataclass
@@ -98,7 +99,7 @@ class SurfaceDrag:
 
     # ------------------------------------------------------------------ mode and pins
     def set_mode(self, mode: str) -> None:
-        """What a left-button drag in the view moves: ``"control points"`` (spheres) or ``"surface"``."""
+        """What a left-button drag in the view does: ``"control points"``, ``"surface"`` or ``"paint weights"``."""
         if mode not in MODES:
             raise ValueError(f"interaction mode must be one of {MODES}, got {mode!r}")
         self.mode = mode

@@ -1,0 +1,400 @@
+"""Exchange with Blender: a Blender lattice object as an :class:`~ffd_notebook.FFD`, and back.
+
+Blender's lattice modifier moves a vertex ``x`` (world coordinates here) by
+``strength * weight(x) * sum_ijk w_u(i) w_v(j) w_w(k) d_ijk``, where ``d_ijk`` is the displacement
+of control point ``(i, j, k)`` (its ``co_deform`` minus its rest ``co``, through the object's
+transform), the weights are those of each axis' interpolation (linear, cardinal, Catmull-Rom or
+B-spline) with indices clamped at the lattice's ends, and ``weight`` is the vertex group's weight
+(Blender's ``lattice_deform.cc``). That is exactly ``FFD(lattice, basis=(...), border="clamp")``
+with the modifier's strength and vertex-group weights, which is what :func:`ffd_from_lattice`
+builds; :func:`lattice_from_ffd` goes the other way.
+
+Blender's ``bpy`` is imported only when a function here needs it, so this module imports in any
+Python: the conversions are split into a part that talks to Blender (:func:`lattice_record`,
+:func:`lattice_from_record`) and a NumPy part (:func:`ffd_from_record`, :func:`record_from_ffd`),
+whose "record" is a plain dict of arrays, strings and numbers that can be saved with
+``numpy.savez`` and carried between Blender's Python and another one. Inside Blender, put the
+folder holding ``ffd_notebook`` on ``sys.path``: the engine needs NumPy only.
+
+Examples
+--------
+>>> import numpy as np
+>>> from ffd_notebook import Lattice, FFD
+>>> from ffd_notebook.blender import ffd_from_record, record_from_ffd
+>>> lat = Lattice((3, 4, 2), spacing=(1.0, 0.5, 2.0), origin=(1, 2, 3), border="clamp")
+>>> lat.offsets[1, 2, 0] = (0.0, 0.3, 0.0)
+>>> rec = record_from_ffd(FFD(lat, border="clamp"))
+>>> rec["interpolation"], rec["matrix_world"].round(3)[:3, 3].tolist()
+(('bspline', 'bspline', 'bspline'), [2.0, 2.75, 4.0])
+>>> back = ffd_from_record(rec)
+>>> bool(np.allclose(back.lattice.offsets, lat.offsets)), back.lattice.shape
+(True, (3, 4, 2))
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+__all__ = [
+    "BLENDER_INTERPOLATIONS",
+    "evaluated_points",
+    "ffd_from_lattice",
+    "ffd_from_record",
+    "lattice_from_ffd",
+    "lattice_from_record",
+    "lattice_record",
+    "record_from_ffd",
+    "vertex_group_weights",
+]
+
+#: Blender's interpolation enum (``Lattice.interpolation_type_u``) -> the FFD basis of an axis.
+BLENDER_INTERPOLATIONS = {
+    "KEY_LINEAR": "linear",
+    "KEY_CARDINAL": "cardinal",
+    "KEY_CATMULL_ROM": "catmull-rom",
+    "KEY_BSPLINE": "bspline",
+}
+_TO_BLENDER = {v: k for k, v in BLENDER_INTERPOLATIONS.items()}
+_AXES = ("u", "v", "w")
+
+
+def _bpy() -> Any:
+    try:
+        import bpy
+    except ImportError as exc:  # the message says what to do, not only what failed
+        raise ImportError(
+            "ffd_notebook.blender needs Blender's Python module 'bpy': run this inside Blender "
+            "(with ffd_notebook's folder on sys.path), or install Blender as a module with "
+            "'pip install bpy' (Blender 4.5 is built for Python 3.11)"
+        ) from exc
+    return bpy
+
+
+def _matrix_array(matrix: Any) -> NDArray[np.float64]:
+    return np.array([list(row) for row in matrix], dtype=np.float64)
+
+
+def _point_array(collection: Any, attribute: str, count: int) -> NDArray[np.float64]:
+    flat = np.empty(count * 3, dtype=np.float32)
+    collection.foreach_get(attribute, flat)
+    return flat.astype(np.float64).reshape(count, 3)
+
+
+# ---------------------------------------------------------------------------------------------- Blender side
+def lattice_record(lattice_object: Any, modifier: Any = None) -> dict[str, Any]:
+    """Everything an FFD needs from a Blender lattice object (and a lattice modifier), as NumPy data.
+
+    Parameters
+    ----------
+    lattice_object : bpy.types.Object
+        An object whose data is a ``bpy.types.Lattice``.
+    modifier : bpy.types.LatticeModifier, optional
+        A lattice modifier using ``lattice_object``; its strength and vertex group (the weights of
+        the vertices of the mesh object that owns the modifier, inverted if it says so) are added.
+
+    Returns
+    -------
+    dict
+        ``shape`` (points per axis u, v, w), ``rest`` and ``deformed`` (``(nu, nv, nw, 3)``, the
+        points' ``co`` and ``co_deform`` in the lattice object's space), ``matrix_world`` (4x4),
+        ``interpolation`` (one FFD basis name per axis), ``outside`` (bool), ``strength``
+        (float) and ``weights`` (``(N,)`` array or None).
+    """
+    bpy = _bpy()
+    lattice = lattice_object.data
+    if not isinstance(lattice, bpy.types.Lattice):
+        raise TypeError(f"{lattice_object.name!r} is not a lattice object (its data is {type(lattice).__name__})")
+    shape = (lattice.points_u, lattice.points_v, lattice.points_w)
+    count = int(np.prod(shape))
+    # Blender numbers points u fastest: index = (w * nv + v) * nu + u
+    grid = (shape[2], shape[1], shape[0], 3)
+    rest = _point_array(lattice.points, "co", count).reshape(grid).transpose(2, 1, 0, 3)
+    deformed = _point_array(lattice.points, "co_deform", count).reshape(grid).transpose(2, 1, 0, 3)
+    record: dict[str, Any] = {
+        "shape": shape,
+        "rest": np.ascontiguousarray(rest),
+        "deformed": np.ascontiguousarray(deformed),
+        "matrix_world": _matrix_array(lattice_object.matrix_world),
+        "interpolation": tuple(BLENDER_INTERPOLATIONS[getattr(lattice, f"interpolation_type_{a}")] for a in _AXES),
+        "outside": bool(lattice.use_outside),
+        "strength": 1.0,
+        "weights": None,
+    }
+    if modifier is not None:
+        if modifier.type != "LATTICE":
+            raise TypeError(f"modifier {modifier.name!r} is a {modifier.type} modifier, not a lattice modifier")
+        if modifier.object is not None and modifier.object.name != lattice_object.name:
+            raise ValueError(
+                f"modifier {modifier.name!r} deforms with lattice {modifier.object.name!r}, not {lattice_object.name!r}"
+            )
+        record["strength"] = float(modifier.strength)
+        if modifier.vertex_group:
+            owner = modifier.id_data
+            weights = vertex_group_weights(owner, modifier.vertex_group)
+            record["weights"] = 1.0 - weights if modifier.invert_vertex_group else weights
+    return record
+
+
+def vertex_group_weights(mesh_object: Any, name: str) -> NDArray[np.float64]:
+    """Weights of the vertex group ``name`` of a mesh object, one per vertex (0 where a vertex is not in it).
+
+    Raises
+    ------
+    KeyError
+        If the object has no vertex group of that name.
+    """
+    group = mesh_object.vertex_groups.get(name)
+    if group is None:
+        raise KeyError(f"object {mesh_object.name!r} has no vertex group {name!r}")
+    vertices = mesh_object.data.vertices
+    out = np.zeros(len(vertices))
+    for i, vertex in enumerate(vertices):
+        for element in vertex.groups:
+            if element.group == group.index:
+                out[i] = element.weight
+                break
+    return out
+
+
+def evaluated_points(mesh_object: Any, *, world: bool = True) -> NDArray[np.float64]:
+    """Vertex positions of a mesh object after its modifiers (Blender's evaluated mesh), ``(N, 3)``.
+
+    Parameters
+    ----------
+    mesh_object : bpy.types.Object
+        A mesh object.
+    world : bool
+        World coordinates (through the object's ``matrix_world``) rather than the object's own.
+    """
+    bpy = _bpy()
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    depsgraph.update()
+    evaluated = mesh_object.evaluated_get(depsgraph)
+    mesh = evaluated.to_mesh()
+    try:
+        points = _point_array(mesh.vertices, "co", len(mesh.vertices))
+    finally:
+        evaluated.to_mesh_clear()
+    if world:
+        m = _matrix_array(mesh_object.matrix_world)
+        points = points @ m[:3, :3].T + m[:3, 3]
+    return points
+
+
+def lattice_from_record(record: dict[str, Any], name: str = "Lattice", *, collection: Any = None) -> Any:
+    """Create a Blender lattice object from a record (see :func:`record_from_ffd`).
+
+    The object is linked into ``collection`` (the scene's own by default) and placed by its
+    ``matrix_world`` so that its rest points are the record's; its points' ``co_deform`` carry
+    the displacements, and its interpolations and "outside" flag are the record's.
+    """
+    bpy = _bpy()
+    from mathutils import Matrix  # Blender's, present wherever bpy is
+
+    shape = tuple(int(n) for n in record["shape"])
+    lattice = bpy.data.lattices.new(name)
+    obj = bpy.data.objects.new(name, lattice)
+    (collection or bpy.context.scene.collection).objects.link(obj)
+    lattice.points_u, lattice.points_v, lattice.points_w = shape
+    for axis, kind in zip(_AXES, record["interpolation"], strict=True):
+        setattr(lattice, f"interpolation_type_{axis}", _TO_BLENDER[kind])
+    count = int(np.prod(shape))
+    # Blender chose the rest points (they depend on how the lattice was made): read them, and map
+    # them onto the record's with the object's transform.
+    local_rest = _point_array(lattice.points, "co", count).reshape(shape[::-1] + (3,)).transpose(2, 1, 0, 3)
+    first = local_rest[0, 0, 0]
+    local_step = np.array([local_rest[1, 0, 0, 0], local_rest[0, 1, 0, 1], local_rest[0, 0, 1, 2]]) - first
+    world = np.asarray(record["matrix_world"], dtype=np.float64)
+    rest = np.asarray(record["rest"], dtype=np.float64)
+    record_step = np.array([rest[1, 0, 0, 0], rest[0, 1, 0, 1], rest[0, 0, 1, 2]]) - rest[0, 0, 0]
+    # record: world = M (rest); rest = rest0 + idx * record_step (per axis)  ->  new local = first + idx * local_step
+    scale = record_step / local_step
+    linear = world[:3, :3] * scale
+    translation = world[:3, :3] @ rest[0, 0, 0] + world[:3, 3] - linear @ first
+    matrix = np.eye(4)
+    matrix[:3, :3] = linear
+    matrix[:3, 3] = translation
+    obj.matrix_world = Matrix(matrix.tolist())
+    displacement_world = (np.asarray(record["deformed"]) - rest) @ world[:3, :3].T
+    deformed_local = local_rest + displacement_world @ np.linalg.inv(linear).T
+    flat = np.ascontiguousarray(deformed_local.transpose(2, 1, 0, 3), dtype=np.float32).ravel()
+    lattice.points.foreach_set("co_deform", flat)
+    lattice.use_outside = bool(record.get("outside", False))
+    lattice.update_tag()
+    return obj
+
+
+def ffd_from_lattice(lattice_object: Any, modifier: Any = None) -> Any:
+    """The :class:`~ffd_notebook.FFD` of a Blender lattice object (and lattice modifier), in world coordinates.
+
+    The FFD's lattice is placed where Blender's rest points are (through the object's transform),
+    its offsets are the points' displacements (``co_deform - co``), each axis' basis is the
+    lattice's interpolation and the border is ``"clamp"``, Blender's. With a modifier, the FFD's
+    ``strength`` is the modifier's and its ``weights`` the vertex group's, one per vertex of the
+    mesh object that owns the modifier.
+
+    Parameters
+    ----------
+    lattice_object : bpy.types.Object
+        A lattice object.
+    modifier : bpy.types.LatticeModifier, optional
+        A lattice modifier using it.
+
+    Returns
+    -------
+    FFD
+        ``ffd.deform(world_points)`` gives what Blender's modifier gives (in world coordinates).
+    """
+    return ffd_from_record(lattice_record(lattice_object, modifier))
+
+
+def lattice_from_ffd(ffd: Any, name: str = "Lattice", *, target: Any = None, collection: Any = None) -> Any:
+    """Create the Blender lattice object that deforms a mesh as ``ffd`` does.
+
+    Parameters
+    ----------
+    ffd : FFD
+        A lattice FFD Blender can hold: no affine part, the ``"clamp"`` border, Blender's bases.
+    name : str
+        Name of the new lattice data and object.
+    target : bpy.types.Object, optional
+        A mesh object to give a lattice modifier using the new lattice, with the FFD's strength
+        and, if the FFD has per-vertex weights, a vertex group of them (named ``name + "_weights"``).
+    collection : bpy.types.Collection, optional
+        Where to link the new object (the scene's collection by default).
+
+    Returns
+    -------
+    bpy.types.Object
+        The new lattice object.
+    """
+    record = record_from_ffd(ffd)
+    obj = lattice_from_record(record, name, collection=collection)
+    if target is not None:
+        modifier = target.modifiers.new(name, "LATTICE")
+        modifier.object = obj
+        modifier.strength = float(record["strength"])
+        weights = record["weights"]
+        if weights is not None:
+            weights = np.asarray(weights, dtype=np.float64)
+            if len(weights) != len(target.data.vertices):
+                raise ValueError(
+                    f"the FFD has {len(weights)} weights but {target.name!r} has {len(target.data.vertices)} vertices"
+                )
+            group = target.vertex_groups.new(name=f"{name}_weights")
+            for value in np.unique(weights):
+                if value > 0:
+                    group.add(np.flatnonzero(weights == value).tolist(), float(value), "REPLACE")
+            modifier.vertex_group = group.name
+    return obj
+
+
+# ---------------------------------------------------------------------------------------------- NumPy side
+def ffd_from_record(record: dict[str, Any]) -> Any:
+    """The :class:`~ffd_notebook.FFD` a record describes (see :func:`lattice_record`), in world coordinates.
+
+    Raises
+    ------
+    ValueError
+        If the lattice cannot be an FFD lattice: an axis with one point, or rest points that are
+        not a regular grid. (A lattice under a non-uniformly scaled, rotated parent is sheared: a
+        sheared :class:`~ffd_notebook.Lattice`.)
+    """
+    from . import FFD, Lattice
+
+    shape = tuple(int(n) for n in record["shape"])
+    if min(shape) < 2:
+        raise ValueError(f"a Blender lattice with one point along an axis has no FFD lattice (points {shape})")
+    rest = np.asarray(record["rest"], dtype=np.float64).reshape(shape + (3,))
+    deformed = np.asarray(record["deformed"], dtype=np.float64).reshape(shape + (3,))
+    matrix = np.asarray(record["matrix_world"], dtype=np.float64)
+    linear, shift = matrix[:3, :3], matrix[:3, 3]
+    world_rest = rest @ linear.T + shift
+    origin = world_rest[0, 0, 0]
+    steps = np.stack([world_rest[1, 0, 0], world_rest[0, 1, 0], world_rest[0, 0, 1]]) - origin  # rows: axes
+    spacing = np.linalg.norm(steps, axis=1)
+    if not np.all(spacing > 0):
+        raise ValueError("the lattice's rest points coincide along an axis (a zero scale?)")
+    rotation = (steps / spacing[:, None]).T
+    if np.allclose(rotation.T @ rotation, np.eye(3), atol=1e-5):  # float32 data: orthogonal up to rounding
+        u, _, vt = np.linalg.svd(rotation)
+        rotation = u @ vt
+    # else a sheared lattice (an object under a non-uniformly scaled, rotated parent): Lattice holds that too
+    lattice = Lattice(shape, spacing, origin=origin, rotation=rotation, border="clamp")
+    expected = lattice.control_points()
+    if not np.allclose(expected, world_rest, atol=1e-5 * float(spacing.max()) + 1e-9):
+        raise ValueError("the lattice's rest points are not a regular grid")
+    lattice.offsets[...] = (deformed - rest) @ linear.T
+    interpolation = tuple(str(kind) for kind in record["interpolation"])
+    basis: Any = "bspline" if interpolation == ("bspline",) * 3 else interpolation
+    ffd = FFD(lattice, basis=basis, border="clamp")
+    options = {"outside": bool(record.get("outside", False))}
+    strength = float(record.get("strength", 1.0))
+    weights = record.get("weights")
+    if options["outside"] or strength != 1.0 or weights is not None:
+        _set_blender_options(ffd, outside=options["outside"], strength=strength, weights=weights)
+    return ffd
+
+
+def _set_blender_options(ffd: Any, *, outside: bool, strength: float, weights: ArrayLike | None) -> None:
+    if not hasattr(ffd, "strength"):
+        raise NotImplementedError("this FFD engine has no strength, weights or outside mode yet")
+    ffd.outside = outside
+    ffd.strength = strength
+    ffd.weights = None if weights is None else np.asarray(weights, dtype=np.float64)
+
+
+def record_from_ffd(ffd: Any) -> dict[str, Any]:
+    """A record (see :func:`lattice_record`) of the Blender lattice that deforms as ``ffd`` does.
+
+    The lattice object's rest points are placed in a unit box (Blender's default lattice is
+    ``[-0.5, 0.5]`` per axis) and its ``matrix_world`` scales, rotates and moves them onto
+    the FFD's control points.
+
+    Raises
+    ------
+    ValueError
+        If Blender's lattice cannot hold the FFD: an affine part, the ``"zero"`` border, the
+        Bernstein basis, ``only_inside``, weights given as a mesh array name, or a sheared lattice.
+    """
+    reasons = []
+    if not np.array_equal(ffd.affine, np.eye(4)):
+        reasons.append("it has an affine part (a Blender lattice has none: apply it to the object instead)")
+    basis = ffd.basis if isinstance(ffd.basis, tuple) else (ffd.basis,) * 3
+    unknown = [b for b in basis if b not in _TO_BLENDER]
+    if unknown:
+        reasons.append(f"its basis {unknown[0]!r} is none of Blender's interpolations {tuple(_TO_BLENDER)}")
+    if ffd.border != "clamp":
+        reasons.append(f"its border is {ffd.border!r} (Blender's lattice clamps at its ends: border='clamp')")
+    if getattr(ffd, "only_inside", False):
+        reasons.append("it deforms only inside its domain (only_inside=True)")
+    weights = getattr(ffd, "weights", None)
+    if isinstance(weights, str):
+        reasons.append(f"its weights name a mesh array ({weights!r}): give the array itself")
+    if getattr(ffd.lattice, "sheared", False):
+        reasons.append("its lattice is sheared, and a Blender object's own transform has no shear")
+    if reasons:
+        raise ValueError("a Blender lattice cannot hold this FFD: " + "; ".join(reasons))
+    lat = ffd.lattice
+    shape = lat.shape
+    idx = lat.indices().astype(np.float64)
+    extent = np.array([n - 1 for n in shape], dtype=np.float64)
+    rest = idx / extent - 0.5  # the unit box, Blender's default lattice
+    linear = lat.rotation * (lat.spacing * extent)  # columns: axis * (length of the lattice along it)
+    matrix = np.eye(4)
+    matrix[:3, :3] = linear
+    matrix[:3, 3] = lat.origin + linear @ np.full(3, 0.5)
+    deformed = rest + lat.offsets @ np.linalg.inv(linear).T
+    return {
+        "shape": shape,
+        "rest": rest,
+        "deformed": deformed,
+        "matrix_world": matrix,
+        "interpolation": tuple(basis),
+        "outside": bool(getattr(ffd, "outside", False)),
+        "strength": float(getattr(ffd, "strength", 1.0)),
+        "weights": None if weights is None else np.asarray(weights, dtype=np.float64),
+    }

@@ -1,0 +1,153 @@
+"""Photos in: a file (PNG, JPEG, anything Pillow reads) or an array, as an ``(H, W, 3)`` uint8 RGB array."""
+
+from __future__ import annotations
+
+import io
+import os
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import FileFormatError
+
+__all__ = ["PHOTO_SUFFIXES", "Photo", "decode_photo", "is_photo", "read_photo"]
+
+#: file name endings taken for photos (what the editor and ``python -m ffd_notebook`` make a face from)
+PHOTO_SUFFIXES = (".jpg", ".jpeg", ".png", ".bmp", ".tif", ".tiff", ".webp")
+
+
+class Photo:
+    """An RGB photo and the name errors use for it (the path, or a description of the array).
+
+    Examples
+    --------
+    >>> photo = Photo.of(np.zeros((4, 6), np.uint8))
+    >>> photo.rgb.shape, photo.name
+    ((4, 6, 3), 'the photo (a 6x4 array)')
+    """
+
+    def __init__(self, rgb: np.ndarray, name: str, path: str | None = None) -> None:
+        self.rgb = rgb
+        self.name = name
+        self.path = path
+
+    @property
+    def height(self) -> int:
+        return int(self.rgb.shape[0])
+
+    @property
+    def width(self) -> int:
+        return int(self.rgb.shape[1])
+
+    @classmethod
+    def of(cls, photo: str | os.PathLike[str] | np.ndarray | Photo) -> Photo:
+        """A path is read with :func:`read_photo`; an array is checked and made RGB; a Photo is itself."""
+        if isinstance(photo, Photo):
+            return photo
+        if isinstance(photo, (str, os.PathLike)):
+            return cls(read_photo(photo), os.fspath(photo), os.fspath(photo))
+        array = np.asarray(photo)
+        if array.ndim not in (2, 3) or (array.ndim == 3 and array.shape[2] not in (1, 3, 4)):
+            raise ValueError(f"a photo array must be (H, W, 3) RGB, (H, W, 4) RGBA or (H, W) grey; got {array.shape}")
+        if array.dtype != np.uint8:
+            raise ValueError(
+                f"a photo array must be uint8 (0-255), got {array.dtype}: convert it, e.g. skimage.util.img_as_ubyte"
+            )
+        return cls(_as_rgb(array), f"the photo (a {array.shape[1]}x{array.shape[0]} array)")
+
+
+def is_photo(source: object) -> bool:
+    """Whether ``source`` is a photo to make a face from: a path ending as :data:`PHOTO_SUFFIXES`, an
+    ``(H, W, 3)`` or ``(H, W, 4)`` uint8 array, or a :class:`Photo` (a mesh, a point array or a mesh file is not).
+
+    Examples
+    --------
+    >>> is_photo("me.JPG"), is_photo("face.obj"), is_photo(np.zeros((5, 5, 3), np.uint8)), is_photo(np.zeros((5, 3)))
+    (True, False, True, False)
+    """
+    if isinstance(source, Photo):
+        return True
+    if isinstance(source, (str, os.PathLike)):
+        return Path(source).suffix.lower() in PHOTO_SUFFIXES
+    return (
+        isinstance(source, np.ndarray) and source.dtype == np.uint8 and source.ndim == 3 and source.shape[2] in (3, 4)
+    )
+
+
+def _as_rgb(array: np.ndarray) -> np.ndarray:
+    if array.ndim == 2:
+        array = array[:, :, None]
+    if array.shape[2] == 1:
+        array = np.repeat(array, 3, axis=2)
+    return np.ascontiguousarray(array[:, :, :3])  # RGBA: the colour, without the alpha
+
+
+def read_photo(path: str | os.PathLike[str]) -> np.ndarray:
+    """Read a photo file as an ``(H, W, 3)`` uint8 RGB array, upright.
+
+    A JPEG's EXIF orientation (how a phone held sideways marks its pictures) is applied; grey-scale,
+    palette and RGBA images become RGB (the alpha channel is dropped, not blended).
+
+    Raises
+    ------
+    FileNotFoundError
+        If there is no such file.
+    FileFormatError
+        If the file is not an image Pillow can read, or is damaged.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> path = pathlib.Path(tempfile.mkdtemp()) / "notes.png"
+    >>> _ = path.write_text("not a picture")
+    >>> read_photo(path)
+    Traceback (most recent call last):
+    ...
+    ffd_notebook.errors.FileFormatError: .../notes.png: not an image file (PNG, JPEG, ...): ...
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"{path}: no such file")
+    return _decode(path, path)
+
+
+def decode_photo(content: bytes, name: str) -> Photo:
+    """A photo from the bytes of an image file (an upload), called ``name`` in errors: as :func:`read_photo`.
+
+    Examples
+    --------
+    >>> import io
+    >>> from PIL import Image
+    >>> buffer = io.BytesIO()
+    >>> Image.new("L", (40, 30), 90).save(buffer, format="PNG")
+    >>> photo = decode_photo(buffer.getvalue(), "me.png")
+    >>> photo.rgb.shape, photo.name, int(photo.rgb[0, 0, 2])
+    ((30, 40, 3), 'me.png', 90)
+    >>> decode_photo(b"GIF89a...", "me.gif")
+    Traceback (most recent call last):
+    ...
+    ffd_notebook.errors.FileFormatError: me.gif: not an image file (PNG, JPEG, ...): ...
+    """
+    return Photo(_decode(io.BytesIO(bytes(content)), name), name)
+
+
+def _decode(source: Path | io.BytesIO, name: str | os.PathLike[str]) -> np.ndarray:
+    from PIL import Image, ImageOps, UnidentifiedImageError
+
+    try:
+        with Image.open(source) as image:
+            image = ImageOps.exif_transpose(image)
+            if image.mode.startswith(("I", "F")):  # 16-bit or float grey: scale its range to 0-255
+                array = np.asarray(image, dtype=np.float64)
+                array = (array * (255.0 / max(float(array.max()), 1.0))).clip(0, 255).round().astype(np.uint8)
+            else:
+                if image.mode not in ("RGB", "RGBA", "L"):
+                    image = image.convert("RGBA" if "A" in image.mode or "transparency" in image.info else "RGB")
+                array = np.asarray(image)
+    except UnidentifiedImageError as exc:
+        raise FileFormatError(name, None, f"not an image file (PNG, JPEG, ...): {exc}") from None
+    except Image.DecompressionBombError as exc:  # over 2 x Image.MAX_IMAGE_PIXELS (~179 million pixels)
+        raise FileFormatError(name, None, f"too large for a photo: {exc}") from None
+    except (OSError, SyntaxError, ValueError) as exc:
+        raise FileFormatError(name, None, f"damaged or unreadable image: {exc}") from None
+    return _as_rgb(array)

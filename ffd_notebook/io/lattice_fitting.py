@@ -1,0 +1,273 @@
+"""Any deformation into an editable lattice: the least-squares B-spline FFD that best reproduces it.
+
+:func:`fit_lattice` samples a deformation (a displacement field, an elastix chain, an FFD, a GP
+sample, any callable on points) over a region and finds the lattice offsets ``c`` minimising
+``sum_p w_p |A x_p + b + sum B(u_p) c - T(x_p)|^2``, with the affine part ``(A, b)`` fitted first
+when asked (else the identity).
+
+On a regular grid aligned with the lattice (a field's own voxels, an elastix chain's fixed image,
+any reference grid) the B-spline matrix is a Kronecker product ``Bx (x) By (x) Bz`` of per-axis
+matrices, and so is its pseudo-inverse: the solve is three small pseudo-inverses applied along
+each axis in turn (about ``nx * Nx * Ny * Nz`` multiply-adds), never the ``N x n`` matrix. Any
+other region (a mesh's vertices, a mask, weights) goes through the sparse normal equations.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from .._util.points import as_points
+from ..ffd.basis import bspline, bspline_cells
+from ..ffd.deform import FFD
+from ..ffd.lattice import Lattice
+from .displacement_field import DisplacementField, sample_displacement_field
+from .tensor_grid import apply_along, axis_weights
+
+__all__ = ["fit_lattice"]
+
+_MAX_SPARSE_ENTRIES = 64 * 2_000_000  # the general path's matrix: 2M points (about 2 GB with its normal matrix)
+
+
+def _as_shape(shape: Any) -> tuple[int, int, int]:
+    values = (int(shape),) * 3 if np.isscalar(shape) else tuple(int(s) for s in shape)
+    if len(values) != 3 or min(values) < 4:
+        raise ValueError(
+            f"shape must be an int or three ints, each at least 4 (a cubic B-spline lattice), got {shape!r}"
+        )
+    return values  # type: ignore[return-value]
+
+
+def _orthonormal(direction: NDArray[np.float64]) -> NDArray[np.float64] | None:
+    """The direction itself if its columns are orthonormal (to rounding), else ``None``."""
+    if np.abs(direction.T @ direction - np.eye(3)).max() > 1e-9:
+        return None
+    return direction
+
+
+def _lattice_over_grid(field: DisplacementField, shape: tuple[int, int, int]) -> Lattice:
+    """A zero-border lattice whose domain is the field's grid box exactly, its axes along the grid's."""
+    rotation = _orthonormal(field.direction)
+    if rotation is None:
+        return Lattice.around(field.grid_points(), shape, margin=0.0)
+    extent = (np.array(field.shape) - 1) * field.spacing
+    extent = np.where(extent > 0, extent, field.spacing)  # a single-voxel axis still spans one spacing
+    spacing = extent / (np.array(shape) - 3)
+    return Lattice(shape, spacing, field.origin - rotation @ spacing, rotation)
+
+
+def _aligned(field: DisplacementField, lattice: Lattice) -> list[NDArray[np.float64]] | None:
+    """Per-axis lattice coordinates of the field's voxels if the grid runs along the lattice axes, else ``None``."""
+    if not np.allclose(field.direction, lattice.rotation, rtol=0, atol=1e-12):
+        return None
+    start = lattice.to_lattice(field.origin[None])[0]
+    step = field.spacing / lattice.spacing
+    return [start[a] + np.arange(field.shape[a]) * step[a] for a in range(3)]
+
+
+def _affine_fit(points: NDArray[np.float64], targets: NDArray[np.float64], weights: NDArray[np.float64] | None):
+    """Least-squares ``(A, b)`` with ``A x + b ~ targets``."""
+    design = np.column_stack([points, np.ones(len(points))])
+    if weights is not None:
+        root = np.sqrt(weights)[:, None]
+        design, targets = design * root, targets * root
+    solution, *_ = np.linalg.lstsq(design, targets, rcond=None)
+    return solution[:3].T, solution[3]
+
+
+def _grid_fit(field, lattice, coords, affine):
+    """The separable solve on a full aligned grid; returns offsets, affine (A, b) and the residual vectors."""
+    targets = field.vectors
+    a, b = np.eye(3), np.zeros(3)
+    if affine:
+        points = field.grid_points()
+        a, b = _affine_fit(points, points + targets.reshape(-1, 3), None)
+        targets = (points + targets.reshape(-1, 3) - points @ a.T - b).reshape(targets.shape)
+    mats = [axis_weights(coords[axis], lattice.shape[axis]) for axis in range(3)]
+    offsets = targets
+    for axis in range(3):
+        offsets = apply_along(np.linalg.pinv(mats[axis]), offsets, axis)
+    predicted = offsets
+    for axis in range(3):
+        predicted = apply_along(mats[axis], predicted, axis)
+    return offsets, (a, b), (targets - predicted).reshape(-1, 3)
+
+
+def _sparse_fit(points, targets, lattice, weights, affine):
+    """The general solve: sparse normal equations over scattered points."""
+    from scipy import sparse
+    from scipy.sparse.linalg import splu
+
+    a, b = np.eye(3), np.zeros(3)
+    if affine:
+        a, b = _affine_fit(points, targets, weights)
+    local = targets - points @ a.T - b
+    n = len(points)
+    if n * 64 > _MAX_SPARSE_ENTRIES:
+        raise ValueError(f"{n} scattered points are too many for the general fit (at most "
+                         f"{_MAX_SPARSE_ENTRIES // 64}); fit on a regular grid along the lattice axes")  # fmt: skip
+    uvw = lattice.to_lattice(points)
+    nx, ny, nz = lattice.shape
+    first, t = bspline_cells(uvw)
+    w = bspline(t)  # (n, 3, 4)
+    rows, cols, vals = [], [], []
+    for i in range(4):
+        for j in range(4):
+            for k in range(4):
+                ci, cj, ck = first[:, 0] + i, first[:, 1] + j, first[:, 2] + k
+                ok = (ci >= 0) & (ci < nx) & (cj >= 0) & (cj < ny) & (ck >= 0) & (ck < nz)
+                rows.append(np.flatnonzero(ok))
+                cols.append(((ci * ny + cj) * nz + ck)[ok])
+                vals.append((w[:, 0, i] * w[:, 1, j] * w[:, 2, k])[ok])
+    matrix = sparse.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
+                               shape=(n, nx * ny * nz))  # fmt: skip
+    weighted = matrix if weights is None else sparse.diags(weights) @ matrix
+    normal = (matrix.T @ weighted).tocsc()
+    diag = normal.diagonal()
+    # control points no point reaches get 0; the others a ridge at rounding level of their own diagonal (a
+    # rank-deficient sample set stays solvable; one relative to the largest diagonal would swamp the corners')
+    normal = normal + sparse.diags(np.where(diag > 0, 1e-13 * diag, 1.0))
+    rhs = weighted.T @ local
+    offsets = splu(normal).solve(rhs)
+    residual = local - matrix @ offsets
+    return offsets.reshape(nx, ny, nz, 3), (a, b), residual
+
+
+def _samples(deformation: Any, region: Any) -> tuple[DisplacementField | None, NDArray | None, NDArray | None]:
+    """What to fit: a field on a grid (and a mask), or scattered points and their targets."""
+    if isinstance(region, Mapping) or _is_image(region):
+        return sample_displacement_field(deformation, region), None, None
+    if isinstance(deformation, DisplacementField):
+        if region is None:
+            return deformation, None, None
+        mask = np.asarray(region)
+        if mask.dtype == bool:
+            if mask.shape != deformation.shape:
+                raise ValueError(f"a mask region must have the field's shape {deformation.shape}, got {mask.shape}")
+            return deformation, mask, None
+    if region is None:
+        geometry = getattr(deformation, "geometry", None)  # an elastix chain: its fixed image grid
+        if geometry and all(k in geometry for k in ("Size", "Spacing", "Origin", "Direction")):
+            grid = {"size": geometry["Size"], "spacing": geometry["Spacing"], "origin": geometry["Origin"],
+                    "direction": np.reshape(geometry["Direction"], (3, 3)).T}  # fmt: skip
+            return sample_displacement_field(deformation, grid), None, None
+        raise ValueError("a region is needed: points, a mesh, a mask on a field, or a reference grid")
+    points = as_points(region)
+    if isinstance(deformation, np.ndarray):  # displacements at the region's points (a GP sample on a mesh)
+        if deformation.shape != points.shape or not np.all(np.isfinite(deformation)):
+            raise ValueError(f"displacements given as an array must be finite and match the region's points "
+                             f"{points.shape}, got {deformation.shape}")  # fmt: skip
+        return None, points, points + deformation
+    deform = deformation.deform if hasattr(deformation, "deform") else deformation
+    if not callable(deform):
+        raise TypeError(f"expected a deformation (deform(points) or a callable), got {type(deformation).__name__}")
+    targets = np.asarray(deform(points), dtype=np.float64)
+    if targets.shape != points.shape or not np.all(np.isfinite(targets)):
+        raise ValueError(f"the deformation returned {targets.shape} values for {points.shape} points (or non-finite)")
+    return None, points, targets
+
+
+def _is_image(value: Any) -> bool:
+    return type(value).__module__.startswith("SimpleITK")
+
+
+def fit_lattice(
+    deformation: Any,
+    shape: tuple[int, int, int] | int | Lattice,
+    *,
+    region: Any = None,
+    weights: ArrayLike | None = None,
+    affine: bool = False,
+) -> FFD:
+    """The least-squares B-spline FFD that best reproduces a deformation over a region.
+
+    Parameters
+    ----------
+    deformation : DisplacementField, ElastixTransform, FFD, callable or array
+        Anything with ``deform(points)``, a callable taking ``(N, 3)`` points to where they go, or
+        an ``(N, 3)`` array of displacements at the ``region`` points (a GP sample on a mesh).
+    shape : int, tuple of int, or Lattice
+        Control points per axis of a new lattice whose domain (the "zero" border's, where the
+        weights sum to one) is the region's box, its axes along the field's grid when there is
+        one; or a :class:`~ffd_notebook.Lattice` to fit onto (its placement; offsets replaced).
+    region : optional
+        Where the deformation must be matched: ``None`` (a field's own voxels, an elastix chain's
+        fixed image grid), a boolean mask on a field's grid, ``(N, 3)`` points or a mesh, or a
+        reference grid (a mapping ``{"size", "spacing", "origin", "direction"}`` or a SimpleITK
+        image) on which the deformation is sampled.
+    weights : array_like, optional
+        Non-negative weight per sample (on a field: the grid's shape, or one per masked voxel).
+    affine : bool
+        Separate the affine part first (least squares), so the lattice holds only what no
+        affine map does; else the FFD's affine part is the identity.
+
+    Returns
+    -------
+    FFD
+        B-spline, "zero" border. ``ffd.lattice.metadata["fit"]`` holds the residual over the
+        samples: ``{"rms": ..., "max": ..., "samples": N}`` (lengths of the residual vectors).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from ffd_notebook import FFD, Lattice
+    >>> from ffd_notebook.io import DisplacementField, sample_displacement_field
+    >>> truth = Lattice((5, 5, 5), 2.0, origin=(-2.0, -2.0, -2.0))
+    >>> truth.offsets[...] = np.random.default_rng(0).normal(0.0, 0.3, truth.offsets.shape)
+    >>> field = sample_displacement_field(FFD(truth), {"size": (9, 9, 9), "spacing": 0.5})
+    >>> fitted = fit_lattice(field, truth)          # the same lattice: the offsets come back
+    >>> bool(np.allclose(fitted.lattice.offsets, truth.offsets, atol=1e-9))
+    True
+    >>> fitted.lattice.metadata["fit"]["max"] < 1e-9
+    True
+    """
+    if isinstance(shape, Lattice):
+        lattice = Lattice(shape.shape, shape.spacing, shape.origin, shape.rotation)
+        if min(lattice.shape) < 4:
+            raise ValueError(f"a cubic B-spline lattice needs at least 4 control points per axis, got {lattice.shape}")
+    else:
+        lattice = None
+        counts = _as_shape(shape)
+    field, mask_or_points, targets = _samples(deformation, region)
+    w = None if weights is None else np.asarray(weights, dtype=np.float64)
+    if w is not None and (not np.all(np.isfinite(w)) or np.any(w < 0)):
+        raise ValueError("weights must be finite and non-negative")
+    if field is not None:
+        if lattice is None:
+            lattice = _lattice_over_grid(field, counts)
+        coords = _aligned(field, lattice) if mask_or_points is None and w is None else None
+        if coords is not None:
+            offsets, (a, b), residual = _grid_fit(field, lattice, coords, affine)
+        else:
+            points = field.grid_points()
+            moved = points + field.vectors.reshape(-1, 3)
+            keep = None if mask_or_points is None else mask_or_points.reshape(-1)
+            if w is not None:
+                w = w.reshape(-1)
+                if keep is not None and len(w) == int(keep.sum()):
+                    w_full = np.zeros(len(points))
+                    w_full[keep] = w
+                    w = w_full
+                if len(w) != len(points):
+                    raise ValueError(f"weights must have one value per voxel ({len(points)}) or per masked voxel")
+            if keep is not None:
+                points, moved = points[keep], moved[keep]
+                w = None if w is None else w[keep]
+            offsets, (a, b), residual = _sparse_fit(points, moved, lattice, w, affine)
+    else:
+        points, moved = mask_or_points, targets
+        if lattice is None:
+            lattice = Lattice.around(points, counts, margin=0.0)
+        if w is not None and w.shape != (len(points),):
+            raise ValueError(f"weights must have one value per point ({len(points)}), got shape {w.shape}")
+        offsets, (a, b), residual = _sparse_fit(points, moved, lattice, w, affine)
+    lattice.set_offsets(offsets)
+    lengths = np.linalg.norm(residual, axis=1) if len(residual) else np.zeros(1)
+    rms, largest = float(np.sqrt(np.mean(lengths**2))), float(lengths.max())
+    lattice.metadata["fit"] = {"rms": rms, "max": largest, "samples": len(residual)}
+    matrix = np.eye(4)
+    matrix[:3, :3], matrix[:3, 3] = a, b
+    return FFD(lattice, "bspline", border="zero", affine=matrix)
