@@ -88,7 +88,8 @@ class Instrument:
         """Where each drawn control point is on screen: ``{"index", "u", "v", "z"}``, normalised, origin
         bottom-left (the points the display setting hides are left out: nobody can grab them), whether it
         moves some vertex (``"moves_mesh"``) and its largest pull on a vertex (``"pull"``: the fraction of
-        its own move that vertex makes)."""
+        its own move that vertex makes), and whether a press on it grabs it (``"visible"``: its sphere is in
+        front of the mesh there; a hidden one takes Alt, issue 24)."""
         plotter = self.editor.plotter
         ren = plotter.renderer
         w, h = plotter.render_window.GetSize()
@@ -102,14 +103,16 @@ class Instrument:
         pulls = sparse.coo_matrix((weight.ravel(), (rows, index.ravel())), shape=(len(index), n_points)).tocsr()
         pull = np.asarray(pulls.max(axis=0).todense()).ravel()
         out = []
+        actor = self.editor.scene.lattice_actor
         for i, center in enumerate(self.editor.session.control_points()):
             if i not in shown:
                 continue
             ren.SetWorldPoint(*center, 1.0)
             ren.WorldToDisplay()
             x, y, z = ren.GetDisplayPoint()
+            visible = bool(actor.in_front([i], x, y)[0])
             out.append({"index": i, "u": x / w, "v": y / h, "z": z, "moves_mesh": bool(pull[i] > 0),
-                        "pull": float(pull[i])})  # fmt: skip
+                        "pull": float(pull[i]), "visible": visible})  # fmt: skip
         return out
 
     def surface(self, probe: list[list[float]] | None = None) -> dict[str, Any]:

@@ -13,6 +13,7 @@ from .lazy import LazySolidTexture
 from .neighbourhoods import neighbourhood_distance, seam_error
 from .quality import color_histogram, colour_histogram, gradient_energy, histogram_distance, seam_energy
 from .sampling import SolidTexture, TextureSampler
+from .similarity import likeness, self_similarity, self_similarity_figure, volume_slices
 from .slices import as_rgb8, sliding_crops, volume_from_slices
 from .synthesis import Stage, plan_stages, synthesize
 from .tetra import boundary_faces
@@ -35,11 +36,15 @@ __all__ = [
     "feature_inclusiveness",
     "gradient_energy",
     "histogram_distance",
+    "likeness",
     "neighbourhood_distance",
     "plan_stages",
     "seam_energy",
     "seam_error",
+    "self_similarity",
+    "self_similarity_figure",
     "sliding_crops",
     "synthesize",
     "volume_from_slices",
+    "volume_slices",
 ]

@@ -7,46 +7,43 @@ optimised coarse to fine; at each level it alternates two steps, a few times:
 * **search**: for voxels on a sparse grid of every slice orientation, find the image neighbourhood
   nearest to the slice neighbourhood around the voxel (on PCA-reduced neighbourhoods, with a SciPy
   k-d tree: nearest-neighbour search is the whole cost, and a tree on ~16 dimensions is fast);
-* **optimise**: every voxel becomes the weighted mean of the colours that the matched image
-  neighbourhoods covering it (from all three orientations) put there. The weights
-  ``|s - e|^(r - 2)`` (``r = 0.8``) make it a robust (IRLS) minimisation of ``sum |s - e|^r``, and
-  the paper's *histogram matching* divides each weight by how over-represented the colour it
-  brings already is in the volume, which keeps the volume's colour statistics those of the image.
+* **update**: every matched image window proposes colours for the voxels it covers (from all three
+  orientations). Kopf's update takes their weighted mean, the weights ``|s - e|^(r - 2)``
+  (``r = 0.8``, IRLS) divided by how over-represented the colour already is in the volume (the
+  paper's *histogram matching*). Here, by default (``vote="best"``), a voxel instead takes the
+  colour of the one window that matched best (least distance, times the same over-use factor):
+  it follows its best neighbourhood instead of averaging neighbourhoods that disagree.
 
-Before every step, and once at the end, a sliced optimal-transport colour transfer gives the
-volume the image's joint colour distribution: averaging narrows it, and the per-bin weights alone
-do not undo that (measured: histogram distance 0.23 with them alone). Transferring only once at
-the end stretched the contrast of a volume optimised blurred, which undid most of the
-optimisation (mean slice-neighbourhood distance 4.8 before, 7.1 after, on the notebook's image);
-transferring before every step lets each step repair the structure at the right contrast (5.6
-after the final transfer, same histogram distance). Measured per step, the energy falls at
-every step of the finer levels; at the coarsest it rises slightly after the first step, which
-the histogram matching causes (without it, it falls and then stays flat): matching the colours
-costs some neighbourhood fit.
+Before every step, and once at the end, a sliced optimal-transport colour transfer gives the volume
+the image's joint colour distribution.
 
-The fit stops near 0.8x the extrusion's distance on the notebook's image (5.6 against 7.0), and
-what would lower it further lowers it by blurring: the optimised volume is smooth where the image
-has pixel-scale grain (5x5 windows with a colour standard deviation of 3-8 against the image's
-7-19), and a smooth window is nearer to some grainy image window than a wrongly grainy one is
-(the image blurred by a 1-pixel Gaussian is 5.2 from its own windows). Measured at 64^3, not
-kept: 4 levels (5.39, but features laid out 8x larger: washed-out blobs), a half-strength final
-transfer (5.44, low contrast), per-voxel robust weights (sharper, 5.9), more finest-level
-iterations (5.53 after 6 instead of 3), exact nearest neighbours in 32 PCA dimensions, 7x7 coarse
-neighbourhoods, k-coherence candidates, sparser or denser proposal grids (each by less than 0.1).
+Why "best": the mean blurs. Judged by :func:`~ffd_notebook.solidtex.self_similarity` (issue 26's
+measure: new samples of the texture score ~1, the image blurred by one pixel ~0.6-0.7), the mean
+gave slices at 0.48-0.62 on a 96 px crop of the histology image (96^3, 5x5 neighbourhoods). Measured
+on that crop, 96^3, per slice orientation (``tests/benchmarks/bench_solidtex.py --only exemplar``
+prints the defaults' figures):
 
-Also measured (issue 14's 0.7x target, 4.9), not the default: ``discrete_sweeps`` (a final discrete
-pass: voxels take real image colours that lower ``sum ||window - match||``) reaches 0.78-0.79x over
-3 seeds (4 sweeps, +15-20 s) but moves the histogram distance from 0.010 to 0.019-0.021 (the
-extrusion: 0.025), and most of its gain is that drift: a colour transfer after it gives 5.8, worse
-than without it; dense windows instead of the sparse grid gain 0.02 more at 3x the time; a
-histogram penalty on the choice made both worse; a sweep after every finest-level step instead gave
-5.66. Chen and Wang's (2010) position and index histograms (over-used image windows penalised in
-the search and in the weights) gave 5.68-5.69 against 5.61. The measure has a floor that isotropic
-synthesis does not seem able to pass: the image's own windows are 8.1 from their nearest window
-3 px or more away (6.6 from the nearest other window at all), so any slice window that is not a
-near-copy of the image scores ~6-8 and only smooth windows (5.2-5.5 for the image blurred by one
-pixel) or verbatim copies score less; 4.9 needs verbatim copies in every orientation at once, which
-a volume gets only along one axis (the extrusion's z slices: 0, its other slices: 10.5).
+* mean-shift to the proposals' mode (Wexler, Shechtman and Irani 2007; 3 passes, bandwidth 20):
+  0.52-0.64, a little sharper, not kept;
+* stronger robust weights, ``r = -4``: 0.62-0.73; ``r = -20`` (nearly one window wins): 0.85-0.94
+  on the histology image but 0.64-0.68 on gravel, whose stones are larger than 5x5 windows;
+* with 9x9 neighbourhoods: ``r = -6`` 0.85-1.12 (histology) but 0.73-0.84 (gravel); the best
+  window alone (this default): 1.11-1.28 (histology) and 1.02-1.09 (gravel), colour histogram
+  distance 0.0068 against the mean's 0.0073.
+
+What it costs: a voxel takes the window of one orientation, and its neighbours along another axis
+may take windows of another, so slices show short straight streaks and small blocks where the
+orientations disagree (visible at 3x zoom; the mean averages them away into blur). The slices are
+sharp and their windows are as varied as the image's, but they are not a 3D-consistent tissue:
+no round nuclei as the image has.
+
+The earlier measure, the mean distance from slice windows to their nearest image window
+(:func:`~ffd_notebook.solidtex.neighbourhood_distance`), rewarded blur (a smooth window is near
+some smooth part of the image); the notes that tuned the mean against it (issue 14) are in the
+project's history.
+
+``discrete_sweeps`` (a final discrete pass: voxels take real image colours that lower
+``sum ||window - match||``) is kept for the mean.
 
 The volume wraps around (its neighbourhoods are taken periodically), so the result tiles, and it
 is the exemplar :func:`~ffd_notebook.solidtex.synthesize` grows larger volumes from. Hand-written
@@ -122,13 +119,13 @@ def _histogram_penalty(volume: NDArray[np.float32], target: NDArray[np.float64])
 
 
 def _proposals(volume, index, stride, offset):
-    """For each slice orientation: the matched image windows, their weights, and where they go."""
+    """For each slice orientation: the matched image windows, their distances, and their IRLS weights."""
     n = index.n
     for axis in range(3):
         queries = _slice_queries(volume, axis, n, stride, offset)
         idx, dist = index.nearest(queries)
         weight = np.power(dist / np.sqrt(3 * n * n) + 0.05, 0.8 - 2.0).astype(np.float32)  # IRLS, r = 0.8
-        yield axis, index.windows[idx].reshape(-1, n, n, 3), weight
+        yield axis, index.windows[idx].reshape(-1, n, n, 3), dist.astype(np.float32), weight
 
 
 def _offsets(shape, axis, n, stride, offset):
@@ -144,28 +141,44 @@ def _offsets(shape, axis, n, stride, offset):
 
 
 def _optimise(
-    volume: NDArray[np.float32], index: _ImageNeighbourhoods, target_hist: NDArray[np.float64], stride: int, it: int
+    volume: NDArray[np.float32],
+    index: _ImageNeighbourhoods,
+    target_hist: NDArray[np.float64],
+    stride: int,
+    it: int,
+    vote: str = "best",
 ) -> NDArray[np.float32]:
-    """One search + optimise step: each voxel becomes the weighted mean of the colours proposed for it.
+    """One search + optimise step: each voxel takes the colour of its best window, or the weighted mean of all.
 
-    (A "discrete" variant that keeps the proposal nearest to the mean was tried: sharper-looking
-    but farther from the image by the method's own energy and by colour histogram.)
+    Every matched image window proposes colours for the voxels it covers (from all three slice
+    orientations). ``vote="mean"`` is Kopf's update: the IRLS-weighted mean of the proposals.
+    ``vote="best"``: the voxel takes the proposal of the window that matched best (least distance,
+    times the histogram over-use of the colour it brings): it follows its best neighbourhood
+    instead of averaging neighbourhoods that disagree, which is what blurs the mean.
     """
     shape = volume.shape[:3]
-    num = np.zeros((*shape, 3), np.float32)
-    den = np.zeros(shape, np.float32)
     penalty = _histogram_penalty(volume, target_hist)
     offset = it % stride  # move the sparse grid between iterations so every voxel gets centred
-    for axis, patches, weight in _proposals(volume, index, stride, offset):
+    num = np.zeros((*shape, 3), np.float32)
+    den = np.zeros(shape, np.float32) if vote == "mean" else np.full(shape, np.inf, np.float32)
+    for axis, patches, dist, weight in _proposals(volume, index, stride, offset):
         numv, denv = np.moveaxis(num, axis, 0), np.moveaxis(den, axis, 0)
         for dy, dx, grid, sub in _offsets(shape, axis, index.n, stride, offset):
             colour = patches[:, dy, dx]
             bins = np.clip(colour * (_BINS / 256.0), 0, _BINS - 1).astype(np.int64)
             over = penalty[0, bins[:, 0]] + penalty[1, bins[:, 1]] + penalty[2, bins[:, 2]]
-            w = (weight / (1.0 + over)).reshape(grid)
-            numv[sub] += w[..., None] * colour.reshape(*grid, 3)
-            denv[sub] += w
-    return (num / np.maximum(den, 1e-12)[..., None]).astype(np.float32, copy=False)
+            if vote == "mean":
+                w = (weight / (1.0 + over)).reshape(grid)
+                numv[sub] += w[..., None] * colour.reshape(*grid, 3)
+                denv[sub] += w
+            else:
+                score = (dist * (1.0 + over)).reshape(grid)
+                better = score < denv[sub]
+                denv[sub] = np.where(better, score, denv[sub])
+                numv[sub] = np.where(better[..., None], colour.reshape(*grid, 3), numv[sub])
+    if vote == "mean":
+        return num / np.maximum(den, 1e-12)[..., None]
+    return np.where(np.isfinite(den)[..., None], num, volume)
 
 
 def _discrete_sweep(
@@ -237,13 +250,14 @@ def _transfer_colours(volume: NDArray[np.float32], image: NDArray[np.float32], r
 
 def exemplar_from_image(
     image: Any,
-    size: int = 64,
+    size: int | None = None,
     *,
     levels: int = 3,
-    neighbourhood: int = 5,
+    neighbourhood: int = 9,
     iterations: tuple[int, ...] = (4, 3, 3),
     pca_dims: int = 16,
     discrete_sweeps: int = 0,
+    vote: str = "best",
     rng: RNGLike = 0,
     progress: bool = False,
     seed: int | None = None,
@@ -255,12 +269,15 @@ def exemplar_from_image(
     image : array_like
         A 2D grey or colour image (see :func:`~ffd_notebook.solidtex.as_rgb8`); its pixels become
         voxels at the finest level, so features keep their size in pixels.
-    size : int
-        Edge of the result; a multiple of ``2**(levels - 1)``.
+    size : int, optional
+        Edge of the result; a multiple of ``2**(levels - 1)``. Default: the image's own size (its
+        smaller side, rounded down to that multiple), so a slice shows as much as the image.
     levels : int
         Pyramid levels (coarse to fine; each halves the size and the image).
     neighbourhood : int
-        Edge of the slice neighbourhoods compared (odd).
+        Edge of the slice neighbourhoods compared (odd). The default 9 is about the size of the
+        histology image's nuclei; 5 (the old default) lets slices drift into blobs unlike any part
+        of the image (self-similarity 0.65-0.68 on gravel with 7, ~1 with 9, best voting).
     iterations : tuple of int
         Search/optimise steps per level, coarsest first (the last value repeats if short).
     pca_dims : int
@@ -269,6 +286,10 @@ def exemplar_from_image(
         Discrete sweeps after the optimisation (0: none): each voxel may take the colour that one
         of its matched image windows gives it, where that lowers the sum of window distances
         (about 2 s per sweep at 64^3; see the module notes for what it gains and costs).
+    vote : {"best", "mean"}
+        How a voxel combines the colours its matched windows propose: ``"best"`` takes the one of
+        the best-matching window (sharp; default), ``"mean"`` Kopf's IRLS-weighted mean (smooth:
+        slices at 0.5-0.6 self-similarity on the histology image). See the module notes.
     rng : int or numpy.random.Generator
         The result is the same for the same int. The optimisation needs an integer root seed (its
         colour transfers are seeded ``seed + iteration``): a Generator gives one 63-bit draw
@@ -281,7 +302,9 @@ def exemplar_from_image(
     Returns
     -------
     numpy.ndarray
-        ``(size, size, size, 3)`` uint8; it tiles periodically.
+        ``(size, size, size, 3)`` uint8; it tiles periodically. Judge it with
+        :func:`~ffd_notebook.solidtex.self_similarity` against the image (0.8-1.6 in every
+        orientation for a sharp, non-repeating result).
 
     Examples
     --------
@@ -292,6 +315,10 @@ def exemplar_from_image(
     ((16, 16, 16, 3), 'uint8')
     """
     img = as_rgb8(image).astype(np.float32)
+    if vote not in ("best", "mean"):
+        raise ValueError(f"vote must be 'best' or 'mean', got {vote!r}")
+    if size is None:
+        size = min(img.shape[:2]) // 2 ** (levels - 1) * 2 ** (levels - 1)
     if neighbourhood % 2 != 1 or neighbourhood < 3:
         raise ValueError(f"neighbourhood must be an odd number >= 3, got {neighbourhood}")
     scale = 2 ** (levels - 1)
@@ -327,9 +354,8 @@ def exemplar_from_image(
             for it in range(iters[level]):
                 if it or level:  # the shuffled start already has the image's colours
                     volume = _transfer_colours(volume, level_img, 5, seed + it)
-                volume = _optimise(volume.astype(np.float32), index, target_hist, 2, it)
+                volume = _optimise(volume.astype(np.float32), index, target_hist, 2, it, vote)
                 bar.update()
-    assert volume is not None  # levels >= 1
     volume = _transfer_colours(volume, img, 20, seed)
     if discrete_sweeps:  # ``index`` is the finest level's: the full image
         for sweep in range(discrete_sweeps):  # the sparse grid moves between sweeps, as in the optimisation

@@ -8,8 +8,10 @@ block is matched against all blocks before it; here the dependency order is fixe
 * blocks sit on a grid (edge ``block``, neighbours sharing ``overlap`` voxels, as in ``synthesize``);
   a block's *pass* is the number of its odd grid coordinates (0 to 3);
 * a block is matched only against its face neighbours along its odd axes, which are one pass
-  lower; pass-0 blocks are drawn at random (with the exemplar's colour-class probabilities). So a
-  block depends on blocks at most one step away along each axis, whatever the texture's size;
+  lower, and never takes a position within half a block of theirs (as in ``synthesize``: a block
+  next to itself is a visible repetition); pass-0 blocks are drawn at random (with the exemplar's
+  colour-class probabilities). So a block depends on blocks at most one step away along each axis,
+  whatever the texture's size;
 * every random draw of a block comes from a hash of ``(seed, iz, iy, ix)`` (SplitMix64, vectorised
   over all the blocks a cut needs): the same seed gives the same block wherever and whenever it is
   computed.
@@ -258,6 +260,7 @@ class LazySolidTexture:
             self._choice[tuple(blocks.T)] = cand[:, 0]
             return
         score = np.zeros(cand.shape, dtype=np.float32)
+        positions = self._pool[cand]  # (B, C, 3)
         for a in range(3):
             odd = self._odd[(a, *blocks.T)]
             for side, shift in ((0, -1), (1, 1)):
@@ -266,9 +269,13 @@ class LazySolidTexture:
                 use = odd & (nb[:, a] >= 0) & (nb[:, a] < self.n_blocks[a])
                 if not use.any():
                     continue
-                target = self._features[(a, 1 - side)][self._choice[tuple(nb[use].T)]]  # the neighbour's side
+                neighbour = self._choice[tuple(nb[use].T)]
+                target = self._features[(a, 1 - side)][neighbour]  # the neighbour's side
                 diff = self._features[(a, side)][cand[use]] - target[:, None, :]
                 score[use] += np.einsum("bcf,bcf->bc", diff, diff)
+                # no block next to itself (as synthesize): candidates within half a block of the neighbour's
+                gap = np.abs(positions[use] - self._pool[neighbour][:, None, :]).max(axis=2)
+                score[use] += np.where(gap < self.block // 2, np.float32(1e30), np.float32(0))
         self._choice[tuple(blocks.T)] = cand[np.arange(len(cand)), np.argmin(score, axis=1)]
 
     def _ensure_blocks(self, needed: NDArray[np.bool_]) -> None:

@@ -149,19 +149,41 @@ class BlockMatcher:
                 parts.append(box_mean(current, pool)[np.ix_(*idx)].reshape(-1, 3))
         return np.concatenate(parts).ravel()
 
-    def best(self, target: np.ndarray | None, has_prev, rng: np.random.Generator, candidates: int) -> np.ndarray:
-        """Position of the best block among random candidates of a randomly drawn class."""
+    def best(
+        self,
+        target: np.ndarray | None,
+        has_prev,
+        rng: np.random.Generator,
+        candidates: int,
+        avoid: np.ndarray | None = None,
+    ) -> np.ndarray:
+        """Position of the best block among random candidates of a randomly drawn class.
+
+        The class is drawn with the source's class probabilities (the paper's answer to the same
+        block being chosen again and again), the candidates at any offset of the source. ``avoid``
+        (``(k, 3)`` positions of the blocks already placed around this one) removes the candidates
+        within half a block of any of them: a block next to itself (or to a copy shifted by a few
+        voxels) repeats its content at the block step, a visible grid. If every candidate is that
+        close, the farthest is kept.
+        """
         c = rng.choice(3, p=self.probabilities)
         pick = rng.integers(0, len(self.positions[c]), size=min(candidates, len(self.positions[c])))
         corners = self.positions[c][pick]
+        near = np.zeros(len(corners), dtype=bool)
+        if avoid is not None and len(avoid):
+            gap = np.abs(corners[:, None, :] - np.asarray(avoid)[None, :, :]).max(axis=2).min(axis=1)
+            near = gap < max(1, self.block // 2)
+            if near.all():
+                return corners[int(np.argmax(gap))]
         if target is None:
-            return corners[0]
+            return corners[int(np.argmin(near))]
         feats = self.flat[self.linear[c][pick][:, None] + self.offsets(has_prev)[None, :]]
         feats = feats.reshape(len(pick), -1)
         cost = np.einsum("ij,ij->i", feats, feats) - 2.0 * (feats @ target)
         if self.histogram is not None and self.histogram.weight > 0:
             cost = np.maximum(cost + float(target @ target), 0.0)  # the whole SSD, to scale it
             cost *= np.exp(self.histogram.weight * self.histogram.over(self.source, corners, self.block))
+        cost[near] = np.inf
         return corners[int(np.argmin(cost))]
 
     def placed(self, corner) -> None:

@@ -7,6 +7,11 @@ optimisation lowers (:func:`~ffd_notebook.solidtex.exemplar_from_image`), and he
 quality figure: :func:`neighbourhood_distance` measures it on random slices of any volume, and
 :func:`seam_error` measures it only where blocks overlap (a feathered overlap is a blend of two
 blocks, not something the exemplar contains; a cut one is mostly one block or the other).
+
+As a quality figure it rewards blur: a smooth window is near some smooth part of the image (the
+histology image blurred by one pixel scores lower than new samples of it). Judge whether slices
+look like the texture with :func:`~ffd_notebook.solidtex.self_similarity` and
+:func:`~ffd_notebook.solidtex.likeness`, which blur, tiling and noise all fail.
 """
 
 from __future__ import annotations

@@ -6,8 +6,10 @@ The method of the liver volume-texture paper, in 3D:
 2. place blocks in raster-scan order (z, then y, then x), overlapping their predecessors by 1/6
    of the block; for each block draw a colour class with the source's class probabilities (so the
    same tiles are not picked again and again), then take, among random candidate positions of that
-   class, the block whose pooled overlap best matches what is already there (sum of squared
-   differences of 2x2x2-pooled colours, ``|a|^2 + |b|^2 - 2 a.b`` for all candidates at once);
+   class (at any offset of the source, not only block-aligned ones), the block whose pooled overlap
+   best matches what is already there (sum of squared differences of 2x2x2-pooled colours,
+   ``|a|^2 + |b|^2 - 2 a.b`` for all candidates at once), never one within half a block of a block
+   it touches (a block next to itself repeats its content at the block step: a visible grid);
 3. feather the overlaps (:mod:`~ffd_notebook.solidtex.blending`), or, with ``seams="cut"``, cut
    them along minimum-error seams (graph cuts, :mod:`~ffd_notebook.solidtex.seams`; not in the paper);
 4. with ``reuse=True``, synthesise only a small initial region from the exemplar, then repeatedly
@@ -174,6 +176,7 @@ def _run_stage(
     cut: bool = False,
     mismatch: list[float] | None = None,
     histogram: HistogramTerm | None = None,
+    positions: list | None = None,
 ) -> NDArray[np.float32]:
     b, o, step = stage.block, stage.overlap, stage.step
     matcher = BlockMatcher(source, stage, seed=int(rng.integers(2**31)), histogram=histogram)
@@ -181,6 +184,7 @@ def _run_stage(
     acc = np.zeros((*padded, 3), dtype=np.float32)
     wsum = np.zeros(padded, dtype=np.float32)  # with cuts: 1 where synthesised, and acc holds the colours
     nz, ny, nx = stage.n_blocks
+    chosen = np.full((nz, ny, nx, 3), -(10**9), dtype=np.int64)  # source position of each placed block
     for iz in range(nz):
         for iy in range(ny):
             for ix in range(nx):
@@ -189,13 +193,17 @@ def _run_stage(
                 has_prev = tuple(bool(i > 0) for i in index)
                 has_next = tuple(bool(i < n - 1) for i, n in zip(index, stage.n_blocks, strict=True))
                 region = tuple(slice(s, s + b) for s in origin)
+                # the blocks placed before this one that touch it (faces, edges, corners)
+                around = chosen[max(iz - 1, 0) : iz + 1, max(iy - 1, 0) : iy + 2, max(ix - 1, 0) : ix + 2]
+                around = around.reshape(-1, 3)
                 if keep is not None and np.all(origin + b <= np.array(keep)):
                     q = origin  # inside the region already synthesised: keep it where it is
                 elif not any(has_prev):
-                    q = matcher.best(None, has_prev, rng, candidates)
+                    q = matcher.best(None, has_prev, rng, candidates, around)
                 else:
                     target = matcher.target(acc[region], wsum[region], has_prev, o, stage.pool)
-                    q = matcher.best(target, has_prev, rng, candidates)
+                    q = matcher.best(target, has_prev, rng, candidates, around)
+                chosen[index] = q
                 matcher.placed(q)
                 new = source[q[0] : q[0] + b, q[1] : q[1] + b, q[2] : q[2] + b]
                 covered = wsum[region].copy()
@@ -216,6 +224,8 @@ def _run_stage(
                     mismatch[0] += _transition_energy(w, np.square(new - old).sum(-1), covered > 0, has_prev)
                     mismatch[1] += b * b * sum(has_prev)
                 bar.update()
+    if positions is not None:
+        positions.append(chosen)
     crop = tuple(slice(0, r) for r in stage.region)
     return acc[crop] / wsum[crop][..., None]
 
@@ -336,7 +346,8 @@ def synthesize(
         result passes from one to the other, per voxel of overlap face (see ``_transition_energy``;
         a cut pays it at the seam, feathering across the whole overlap), relative to that of two
         unrelated voxels of the stage's source (twice its colour variance): 1 is as bad as
-        joining blocks at random, 0 a perfect fit.
+        joining blocks at random, 0 a perfect fit. Also ``"positions"``: per stage, the
+        ``(*n_blocks, 3)`` corner in the stage's source of every block placed.
     seed : int, optional
         Deprecated alias of ``rng`` (a :class:`DeprecationWarning`).
 
@@ -385,7 +396,8 @@ def synthesize(
             # two unrelated voxels of the source differ by twice its colour variance, on average
             unrelated = 2.0 * float(source.reshape(-1, 3).var(axis=0, dtype=np.float64).sum())
             term = HistogramTerm(ex, histogram_weight) if histogram_weight > 0 else None
-            source = _run_stage(source, stage, rng, keep, candidates, bar, seams == "cut", tally, term)
+            placed = None if stats is None else stats.setdefault("positions", [])
+            source = _run_stage(source, stage, rng, keep, candidates, bar, seams == "cut", tally, term, placed)
             if stats is not None:
                 stats.setdefault("seam_mismatch", []).append(tally[0] / max(tally[1], 1) / max(unrelated, 1e-12))
             if match_statistics:

@@ -21,6 +21,7 @@ through the plotter's :class:`BrowserViews` (:func:`views_of`), the one place th
 
 from __future__ import annotations
 
+import functools
 import itertools
 import weakref
 from collections.abc import Callable
@@ -35,12 +36,16 @@ __all__ = [
     "BrowserViews",
     "aim_unset_cameras",
     "backend",
+    "current_cell_id",
     "execution_count",
     "fit_to_output",
+    "forget_shown",
     "in_kernel",
     "jupyter_server",
+    "keep_while_shown",
     "png_bytes",
     "push_to_browser",
+    "release_views",
     "serve_plotter",
     "show_changes",
     "show_plotter",
@@ -131,7 +136,7 @@ def serve_plotter(plotter: pv.Plotter) -> Any:
     Cameras nobody has placed are aimed at the scene first (:func:`aim_unset_cameras`).
     """
     from trame.ui.html import DivLayout
-    from trame_pyvista.jupyter import Widget, build_url
+    from trame_pyvista.jupyter import build_url
 
     from .remote_view import RemoteView
     from .web_security import url_with_token
@@ -143,10 +148,51 @@ def serve_plotter(plotter: pv.Plotter) -> Any:
         layout.root.style = "width: 100vw; height: 100vh; margin: 0; padding: 0; overflow: hidden;"
         view = RemoteView(plotter, style="width: 100%; height: 100%;")
     src = url_with_token(build_url(server, ui=page), _tokens[SERVER_NAME])
-    widget = Widget(view, src)
+    widget = _view_widget_class()(view, src)
     fit_to_output(widget, src, *plotter.window_size)
-    views_of(plotter).add(view)
+    views_of(plotter).add(view, on_close=functools.partial(_retire_page, server, page, weakref.ref(widget)))
     return widget
+
+
+#: what a view shows once its plotter is released (its owner closed, or collected)
+CLOSED_MESSAGE = (
+    "This view is closed: what it showed was closed, or is no longer referenced by any variable or output "
+    "(run its cell again to get a new one)."
+)
+
+
+def _retire_page(server: Any, page: str, widget: weakref.ref[Any]) -> None:
+    """A released view's page and iframe show :data:`CLOSED_MESSAGE` instead of a picture nobody updates."""
+    import html
+
+    text = html.escape(CLOSED_MESSAGE)
+    with server.state:
+        server.state[f"trame__template_{page}"] = f'<div style="font: 14px sans-serif; padding: 1em;">{text}</div>'
+    shown = widget()
+    if shown is not None:
+        shown.value = f'<div style="font-style: italic; color: #666; padding: 0.5em;">{text}</div>'
+
+
+@functools.cache
+def _view_widget_class() -> type:
+    import ipywidgets as widgets
+
+    class ViewWidget(widgets.HTML):  # type: ignore[misc]
+        """The iframe of a served view (like :class:`trame_pyvista.jupyter.Widget`, whose ``viewer`` is
+        ``RemoteView``). ipywidgets keeps every widget until it is closed, so this one refers to its view
+        weakly: ``viewer`` is None once the view is released."""
+
+        def __init__(self, viewer: Any, src: str) -> None:
+            super().__init__()
+            self._viewer = weakref.ref(viewer)
+            self.src = src
+
+        @property
+        def viewer(self) -> Any:
+            """The :class:`~.remote_view.RemoteView` shown, or None once it is released."""
+            return self._viewer()
+
+    return ViewWidget
 
 
 def aim_unset_cameras(plotter: pv.Plotter) -> None:
@@ -286,10 +332,14 @@ class BrowserViews:
     def __init__(self, on_error: Callable[[str], None] | None = None) -> None:
         self.viewers: list[Any] = []
         self.on_error = on_error
+        self._on_close: list[Callable[[], Any]] = []
 
-    def add(self, viewer: Any) -> None:
-        """Let ``viewer`` receive a new image on every :meth:`push`."""
+    def add(self, viewer: Any, *, on_close: Callable[[], Any] | None = None) -> None:
+        """Let ``viewer`` receive a new image on every :meth:`push`; :meth:`close` closes it (if it has a
+        ``close()``) and calls ``on_close()``."""
         self.viewers.append(viewer)
+        if on_close is not None:
+            self._on_close.append(on_close)
 
     def push(self) -> None:
         """Send a new image to every viewer; a failing viewer is reported to ``on_error`` (or raises)."""
@@ -325,19 +375,133 @@ class BrowserViews:
             render()
 
     def clear(self) -> None:
-        """Forget every viewer (the plotter is closing)."""
+        """Forget every viewer."""
         self.viewers.clear()
+
+    def close(self) -> None:
+        """Close every viewer and forget it (the plotter is being released).
+
+        Examples
+        --------
+        >>> class Viewer:
+        ...     closed = False
+        ...     def update(self):
+        ...         pass
+        ...     def close(self):
+        ...         self.closed = True
+        >>> views, viewer, log = BrowserViews(), Viewer(), []
+        >>> views.add(viewer, on_close=lambda: log.append("page retired")); views.close()
+        >>> viewer.closed, log, views.viewers
+        (True, ['page retired'], [])
+        """
+        viewers, self.viewers = self.viewers, []
+        on_close, self._on_close = self._on_close, []
+        for action in [*(v.close for v in viewers if hasattr(v, "close")), *on_close]:
+            try:
+                action()
+            except Exception as exc:
+                if self.on_error is None:
+                    raise
+                self.on_error(f"could not close a browser view: {exc!r}")
 
 
 _views: weakref.WeakKeyDictionary[Any, BrowserViews] = weakref.WeakKeyDictionary()
 
 
 def views_of(plotter: pv.Plotter) -> BrowserViews:
-    """The :class:`BrowserViews` of ``plotter`` (made on first use; forgotten with the plotter)."""
+    """The :class:`BrowserViews` of ``plotter`` (made on first use; forgotten with the plotter).
+
+    The views refer to no plotter (a value of this weak-keyed table that did would keep its key alive).
+    """
     views = _views.get(plotter)
     if views is None:
         views = _views[plotter] = BrowserViews()
     return views
+
+
+def release_views(plotter: pv.Plotter) -> None:
+    """Close the browser views of ``plotter`` (:meth:`BrowserViews.close`): their pages and iframes say
+    so, the server forgets them. Part of releasing a plotter; the shared server keeps running.
+
+    Examples
+    --------
+    >>> import pyvista as pv
+    >>> pl = pv.Plotter(off_screen=True)
+    >>> release_views(pl)   # never served: nothing to close
+    >>> pl.close()
+    """
+    views = _views.pop(plotter, None)
+    if views is not None:
+        views.close()
+
+
+# ---------------------------------------------------------------------- what a notebook output keeps alive
+#: cell id -> the owners (editors, explorers, viewers) its last run showed: an output keeps what it shows
+#: alive until its cell runs again (the output is replaced)
+_shown_by_cell: dict[str, list[Any]] = {}
+_shown_forever: list[Any] = []  # shown by a front-end that sends no cell ids: nothing says when it goes
+
+
+def current_cell_id() -> str | None:
+    """The id of the notebook cell being run (JupyterLab, Notebook 7 and VS Code send it), or None."""
+    try:
+        from IPython import get_ipython
+    except ImportError:  # pragma: no cover - IPython comes with Jupyter
+        return None
+    kernel = getattr(get_ipython(), "kernel", None)
+    if kernel is None:
+        return None
+    try:
+        parent = kernel.get_parent()
+    except Exception:  # an older kernel: no cell ids
+        return None
+    cell = (parent or {}).get("metadata", {}).get("cellId")
+    return cell if isinstance(cell, str) and cell else None
+
+
+def keep_while_shown(owner: Any) -> None:
+    """Keep ``owner`` alive while the output of the cell being run shows it, i.e. until that cell runs
+    again: the one strong reference a notebook output holds (the widgets in ipywidgets' registry refer
+    to their owner weakly). Without a cell id (a front-end that sends none) it is kept for the kernel's
+    life, since nothing tells when its output goes. Outside a kernel, nothing is kept.
+
+    Examples
+    --------
+    >>> keep_while_shown(object())   # not in a kernel: nothing to keep
+    >>> _shown_by_cell, _shown_forever
+    ({}, [])
+    """
+    if not in_kernel():
+        return
+    cell = current_cell_id()
+    if cell is None:
+        _shown_forever.append(owner)
+        return
+    _forget_replaced_outputs()
+    _shown_by_cell.setdefault(cell, []).append(owner)
+
+
+def forget_shown(owner: Any) -> None:
+    """Stop keeping ``owner`` for the outputs showing it (it was closed)."""
+    for owners in [*_shown_by_cell.values(), _shown_forever]:
+        owners[:] = [o for o in owners if o is not owner]
+
+
+_hooked: list[Any] = []  # the IPython shell whose "pre_run_cell" event forgets replaced outputs
+
+
+def _forget_replaced_outputs() -> None:
+    from IPython import get_ipython
+
+    shell = get_ipython()
+    if shell is None or any(s is shell for s in _hooked):
+        return
+
+    def cell_runs(info: Any) -> None:  # its old output is replaced: what only that output kept may go
+        _shown_by_cell.pop(getattr(info, "cell_id", None), None)
+
+    shell.events.register("pre_run_cell", cell_runs)
+    _hooked.append(shell)
 
 
 def png_bytes(image: NDArray[np.uint8]) -> bytes:

@@ -46,7 +46,7 @@ from typing import Any
 
 from trame_rca.view_adapter import RcaViewAdapter
 
-__all__ = ["ENCODER", "FrameScheduler", "InteractiveSizeAdapter", "RemoteView"]
+__all__ = ["ENCODER", "FrameScheduler", "InteractiveSizeAdapter", "PointerOwner", "RemoteView"]
 
 #: trame-rca's encoder name: Pillow's JPEG (libjpeg-turbo inside Pillow's wheels; see the module docstring)
 ENCODER = "jpeg"
@@ -159,11 +159,19 @@ class FrameScheduler:
         """Nothing to reset: images carry no state between frames."""
 
     async def close(self) -> None:
-        """Stop the frame loop."""
+        """Stop the frame loop and wait until it has stopped."""
+        self.stop()
+        await asyncio.gather(self._task, return_exceptions=True)
+
+    def stop(self) -> None:
+        """Stop the frame loop (it ends at its event loop's next turn) and forget the window and the push
+        callback: a pending task is held by its event loop, so a scheduler left running kept its render
+        window, and the whole scene in it, alive for the rest of the process."""
         self._closing = True
         self._requested.set()
         self._task.cancel()
-        await asyncio.gather(self._task, return_exceptions=True)
+        self._push = self._sent = self.before_render = None
+        self.rca = None
 
     @property
     def period_s(self) -> float:
@@ -217,6 +225,50 @@ class FrameScheduler:
                 await asyncio.wait_for(sent, self.SEND_TIMEOUT_S)
 
 
+class PointerOwner:
+    """One mouse for every browser tab showing a view: while a button is held in one tab (an *origin*), the
+    events of the others are dropped, so two tabs dragging at once make one drag, not two interleaved ones
+    (one interactor holds one pointer: interleaved moves would make the handle jump between the tabs' cursors
+    and end the drag at the other tab's release).
+
+    A tab that holds the pointer and then says nothing for ``timeout_s`` (closed in the middle of a drag)
+    loses it. Tabs that share one origin (trame-rca's default, "anonymous") are one pointer, as before.
+
+    Examples
+    --------
+    >>> owner = PointerOwner(timeout_s=5.0)
+    >>> owner.accepts("tab-a", "StartInteractionEvent", now=0.0), owner.accepts("tab-a", "LeftButtonPress", 0.0)
+    (True, True)
+    >>> owner.accepts("tab-b", "LeftButtonPress", now=0.1), owner.accepts("tab-b", "MouseMove", now=0.2)
+    (False, False)
+    >>> owner.accepts("tab-a", "LeftButtonRelease", now=0.3), owner.accepts("tab-a", "EndInteractionEvent", 0.3)
+    (True, True)
+    >>> owner.accepts("tab-b", "LeftButtonPress", now=0.4)   # free again
+    True
+    >>> owner.accepts("tab-a", "LeftButtonPress", now=9.0)   # tab-b went silent while holding it
+    True
+    """
+
+    def __init__(self, timeout_s: float = 10.0) -> None:
+        self.timeout_s = timeout_s
+        self.holder: Any = None
+        self._last = 0.0
+
+    def accepts(self, origin: Any, kind: str | None, now: float | None = None) -> bool:
+        """Whether the event ``kind`` from ``origin`` reaches the view (and who holds the pointer after it)."""
+        now = monotonic() if now is None else now
+        if self.holder is not None and origin != self.holder and now - self._last <= self.timeout_s:
+            return False
+        if kind in _PRESSES or kind == "StartInteractionEvent":
+            self.holder = origin
+        elif kind in _RELEASES or kind == "EndInteractionEvent":
+            self.holder = None
+        elif self.holder is not None and origin != self.holder:  # the silent holder's time ran out
+            self.holder = None
+        self._last = now
+        return True
+
+
 class InteractiveSizeAdapter(RcaViewAdapter):
     """trame-rca's view adapter, rendering at ``ratio`` of the size between the browser's Start and End of
     an interaction (trame-rca scales the events' coordinates by the same factor).
@@ -232,14 +284,25 @@ class InteractiveSizeAdapter(RcaViewAdapter):
     drag sets positions; a camera turn adds up the steps). In paired runs of
     tests/benchmarks/bench_browser.py (with the editor's 10k-triangle interactive copy, measured
     together) JupyterLab's drag went from 13.2-19.8 to 16.2-29.1 frames/s.
+
+    Several browser tabs may show one view (the app opened twice): the events' ``origin`` tells them
+    apart when the page gives each tab its own, and :class:`PointerOwner` lets one tab at a time hold the
+    mouse.
     """
 
     def __init__(self, window: Any, name: str, *, scheduler: FrameScheduler, ratio: float = 1.0, **kwargs: Any) -> None:
         # renders are asked for here (a kept move asks without being handled), not by trame-rca on every event
         super().__init__(window, name, scheduler=scheduler, do_schedule_render_on_interaction=False, **kwargs)
+        self.scheduler = scheduler
         self.ratio = ratio
         self._move: dict[str, Any] | None = None
+        self.pointer = PointerOwner()
         scheduler.before_render = self.flush
+
+    def release(self) -> None:
+        """Stop the frames and drop the window: the view is closed (events for it are no longer delivered)."""
+        self.scheduler.stop()
+        self._rca = self._move = None
 
     def flush(self) -> None:
         """Handle the mouse move kept for the next frame, if any (without asking for another frame)."""
@@ -249,6 +312,8 @@ class InteractiveSizeAdapter(RcaViewAdapter):
 
     def on_interaction(self, origin: Any, event: dict[str, Any]) -> None:
         kind = event.get("type")
+        if not self.pointer.accepts(origin, kind):
+            return  # another tab holds the mouse
         if kind == "MouseMove":
             self._move = event  # the newest position wins
             self.schedule_render()
@@ -269,6 +334,7 @@ class InteractiveSizeAdapter(RcaViewAdapter):
 
 #: trame-rca's button-press events
 _PRESSES = ("LeftButtonPress", "MiddleButtonPress", "RightButtonPress")
+_RELEASES = ("LeftButtonRelease", "MiddleButtonRelease", "RightButtonRelease")
 
 
 def _area_class() -> type:
@@ -311,7 +377,6 @@ class RemoteView:
         event_throttle_ms: int = 10,
         **kwargs: Any,
     ) -> None:
-        self.plotter = plotter
         from trame_rca.rca import window_wrapper
 
         self.area = _area_class()(display="image", event_throttle_ms=event_throttle_ms, **kwargs)
@@ -353,4 +418,24 @@ class RemoteView:
 
     def update(self) -> None:
         """Ask for a new frame (rendered and pushed by the scheduler, once per period at most)."""
-        self.handler.update()
+        if self.handler is not None:
+            self.handler.update()
+
+    @property
+    def closed(self) -> bool:
+        """Whether :meth:`close` has run."""
+        return self.handler is None
+
+    def close(self) -> None:
+        """Stop serving the plotter: the area's handler leaves the server (trame-rca keeps every registered
+        handler, and with it the render window, for as long as the server runs), the frame loop stops, and
+        the view keeps no VTK object. Safe to call twice."""
+        handler, self.handler = self.handler, None
+        if handler is None:
+            return
+        # (a view made before the server started waits in its area, which goes with this view)
+        unregister = getattr(self.server.root_server.controller, "rc_area_unregister", None)
+        if unregister is not None:
+            with contextlib.suppress(KeyError):
+                unregister(self.area.name)
+        handler.release()

@@ -7,9 +7,10 @@ Run from the repository root:
 In one process, an :class:`~ffd_notebook.view.editor.app.EditorApp` on the sample face (800x600)
 running on an asyncio loop, no browser: a 20^3 lattice rebuilt through the panel's shape control,
 a 502k-point sphere (binary PLY) loaded through the app's "load mesh" (its root folder and worker
-thread), and a 20^3 rebuild on that mesh. Prints the time until done and the longest
+thread), a 20^3 rebuild on that mesh, and, on it, undo and redo of a rebuild, a basis change and a decimation
+(issue 24). Prints the time until done and the longest
 stall of the loop (a 2 ms heartbeat; see tests/loop_watch.py): the time the page, HTTP and trame
-pings wait at worst. Target: no stall longer than a second.
+pings wait at worst. Target: no stall longer than 300 ms (issue 24; it was a second, issue 8).
 """
 
 from __future__ import annotations
@@ -24,7 +25,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # tests/: loop_wat
 
 from loop_watch import big_sphere, longest_stall
 
-TARGET_STALL_S = 1.0
+TARGET_STALL_S = 0.3
 
 
 async def rebuild_20(app) -> tuple[float, float]:
@@ -34,6 +35,27 @@ async def rebuild_20(app) -> tuple[float, float]:
         lambda: app.run("rebuild", [20, 20, 20]),
         lambda: app.editor.lattice.shape == (20, 20, 20) and not app.state.busy,
     )
+
+
+async def lattice_and_mesh_work(app, n_points: int) -> list[tuple[str, float, float]]:
+    """On the big mesh, through the panel: undo and redo of a rebuild (8^3, back to the lattice before it), a
+    basis change, and a decimation by half (issue 24: each bound the lattice to the mesh, or decimated, on the
+    loop: 0.5-9 s). What remains on the loop is drawing the result: one software render of the new mesh."""
+    editor, session = app.editor, app.editor.session
+    rows = []
+    idle = lambda: not app.state.busy  # noqa: E731
+    before = editor.lattice.shape
+    await longest_stall(lambda: app.run("rebuild", [8, 8, 8]), lambda: editor.lattice.shape == (8, 8, 8) and idle())
+    for label, key, shape in (("undo", "undo", before), ("redo", "redo", (8, 8, 8))):
+        row = await longest_stall(
+            lambda key=key: app.run(key), lambda shape=shape: editor.lattice.shape == shape and idle()
+        )
+        rows.append((f"{label} of a rebuild (8^3) on {n_points} points", *row))
+    row = await longest_stall(lambda: app.run("basis", ["bernstein"]), lambda: session.basis == "bernstein" and idle())
+    rows.append((f"basis -> bernstein on {n_points} points", *row))
+    row = await longest_stall(lambda: app.run("decimate", [0.5]), lambda: editor.mesh.n_points < n_points and idle())
+    rows.append((f"decimate by 50% ({n_points} -> {editor.mesh.n_points} points)", *row))
+    return rows
 
 
 async def run(resolution: int, steps: list[str]) -> None:
@@ -57,6 +79,7 @@ async def run(resolution: int, steps: list[str]) -> None:
             rows.append((f"load big.ply ({big.n_points} points)", total, stall))
             if "rebuild-big" in steps:
                 rows.append((f"rebuild 20^3 on the {big.n_points}-point mesh", *await rebuild_20(app)))
+            rows += await lattice_and_mesh_work(app, big.n_points)
         finally:
             app.close()
     print(f"loop stalls, 800x600, 2 shared cores (target: longest stall <= {TARGET_STALL_S} s)")

@@ -232,7 +232,8 @@ def pick_widget(
 ) -> tuple[int, float, float]:  # fmt: skip
     """A widget to drag and a drag vector.
 
-    The widget is the inner control point of the ``shape`` lattice that moves some vertex of the mesh
+    The widget is a visible one (a sphere in front of the mesh: a press on a hidden one turns the camera), the
+    inner control point of the ``shape`` lattice that moves some vertex of the mesh
     (``moves_mesh`` in the answer; outer ones, or those of a big lattice far from the mesh, may move none)
     in the view's middle that is farthest on screen from every other sphere; with ``outer``, the outer
     control point (on the lattice's hull) that pulls some vertex by at least :data:`OUTER_PULL` of its own move.
@@ -251,7 +252,11 @@ def pick_widget(
 
     pull = {w["index"]: w.get("pull", 1.0) for w in info["widgets"]}
 
+    visible = {w["index"]: w.get("visible", True) for w in info["widgets"]}
+
     def wanted(index: int) -> bool:
+        if not visible[index]:  # hidden behind the mesh: a press there turns the camera (issue 24)
+            return False
         return pull[index] >= OUTER_PULL and not inner(index) if outer else inner(index) and moves_mesh[index]
 
     candidates = [

@@ -8,6 +8,7 @@ from ffd_notebook.solidtex import (
     SolidTexture,
     histogram_distance,
     seam_energy,
+    self_similarity,
 )
 
 
@@ -106,3 +107,12 @@ def test_bad_input(exemplar):
         LazySolidTexture(exemplar.astype(float), 64)
     with pytest.raises(ValueError, match="block"):
         LazySolidTexture(exemplar, 64, block=64)
+
+
+def test_a_lazy_volume_twice_the_exemplar_does_not_tile(made):
+    # the lazy texture shares synthesize's devices (random class, any offset, no block next to itself):
+    # its slices are as varied as the image's, feathered like synthesize's default
+    name, image, ex = made
+    volume = LazySolidTexture(ex, 2 * ex.shape[0], rng=0).volume()
+    ratios = self_similarity(volume, image, slices=2)
+    assert 0.7 <= ratios.min() and ratios.max() <= 1.6, (name, ratios)

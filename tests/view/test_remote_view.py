@@ -295,3 +295,43 @@ def test_mouse_moves_are_coalesced_into_the_newest_before_each_frame_in_order():
         ("LeftButtonRelease", 210),
     ]
     assert len(rendered) == 2  # one frame for the moves, one for the release: a handled move asks for none
+
+
+async def _two_tabs(area: RecordingArea) -> None:
+    from ffd_notebook.view.remote_view import InteractiveSizeAdapter
+
+    scheduler = FrameScheduler(area, still_after=1000)
+    adapter = InteractiveSizeAdapter(area, "test_area", scheduler=scheduler)
+    scheduler.set_push_callback(lambda image, meta: None)
+    try:
+        adapter.on_interaction("tab-a", {"type": "StartInteractionEvent"})
+        adapter.on_interaction("tab-a", _mouse("LeftButtonPress", "down"))
+        # the other tab presses and drags meanwhile: one mouse, held by tab-a
+        adapter.on_interaction("tab-b", {"type": "StartInteractionEvent"})
+        adapter.on_interaction("tab-b", {**_mouse("LeftButtonPress", "down"), "x": 20})
+        adapter.on_interaction("tab-b", {**_mouse("MouseMove", "move"), "x": 30})
+        adapter.on_interaction("tab-a", {**_mouse("MouseMove", "move"), "x": 170})
+        adapter.on_interaction("tab-b", {**_mouse("LeftButtonRelease", "up"), "x": 30})
+        adapter.on_interaction("tab-a", {**_mouse("LeftButtonRelease", "up"), "x": 170})
+        adapter.on_interaction("tab-a", {"type": "EndInteractionEvent"})
+        # then tab-b has it
+        adapter.on_interaction("tab-b", {**_mouse("LeftButtonPress", "down"), "x": 40})
+        adapter.on_interaction("tab-b", {**_mouse("LeftButtonRelease", "up"), "x": 40})
+    finally:
+        await scheduler.close()
+
+
+def test_one_tab_at_a_time_holds_the_mouse():
+    area = RecordingArea()
+    asyncio.run(_two_tabs(area))
+    assert area.handled == [
+        ("StartInteractionEvent", -1),
+        ("MouseMove", 160),  # (the hover before a press)
+        ("LeftButtonPress", 160),
+        ("MouseMove", 170),
+        ("LeftButtonRelease", 170),
+        ("EndInteractionEvent", -1),
+        ("MouseMove", 40),
+        ("LeftButtonPress", 40),
+        ("LeftButtonRelease", 40),
+    ]

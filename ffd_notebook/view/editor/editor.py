@@ -21,6 +21,7 @@ plotted points and the lattice lines in place -> the next render shows them.
 
 from __future__ import annotations
 
+import functools
 import os
 import time
 from typing import Any
@@ -35,6 +36,7 @@ from ...ffd.deform import FFD
 from ...ffd.lattice import Lattice
 from ...io import write_mesh
 from ...meshing import as_surface, color_array_name, decimate_keeping_colors, deformed_copy
+from ..lifetime import Lifetime, weak_method
 from .scene.proxy import INTERACTIVE_CELLS
 from .scene.scene import EditorScene
 from .session.message_log import MessageLog
@@ -105,6 +107,11 @@ def _surface_of(mesh_or_path: Any, image: Any = None) -> pv.PolyData:
     if isinstance(mesh_or_path, (str, os.PathLike)):
         return read_surface(mesh_or_path)
     return as_surface(mesh_or_path)
+
+
+def _end_drag(session: EditingSession) -> Any:
+    """The handle's release callback: ``session.end_drag()`` (a function of the session, not of the editor)."""
+    return lambda _index: session.end_drag()
 
 
 class Editor:
@@ -178,11 +185,13 @@ class Editor:
         if image is not None:
             self.session.image.use(self.session.image.read(image), path if path is not None else image,
                                    os.path.basename(os.fspath(path)) if path is not None else "image")  # fmt: skip
+        # the scene's VTK callbacks are held by C++ objects, out of the garbage collector's sight: they refer to
+        # the editor weakly, and nothing the lifetime closes refers to it, so an editor nobody uses is freed
         self.scene = EditorScene(
             self.session,
             on_start=self.session.begin_drag,
-            on_move=self.on_widget_moved,
-            on_end=lambda _index: self.session.end_drag(),
+            on_move=weak_method(self.on_widget_moved),
+            on_end=_end_drag(self.session),
             window_size=window_size,
             off_screen=True if off_screen is None else bool(off_screen),
             interactive_cells=interactive_cells,
@@ -191,6 +200,9 @@ class Editor:
         self._widget: Any = None
         self._shown_in_cell: int | None = None
         self.scene.frame()
+        # what the editor made goes when it is closed, or when nobody refers to it any more (a variable
+        # reassigned, the output that showed it replaced: see ..jupyter.keep_while_shown)
+        self.lifetime = Lifetime(self, self.scene.close, self.session.close)
 
     # ------------------------------------------------------------------ what a notebook user reads
     @property
@@ -324,31 +336,38 @@ class Editor:
     def widget(self) -> Any:
         """The editor's notebook widget: its view next to a control panel (made once)."""
         if self._widget is None:
-            from .notebook.output import editor_widget
+            from .notebook.output import close_editor_widget, editor_widget
 
             self._widget = editor_widget(self)
+            self.lifetime.actions.insert(0, functools.partial(close_editor_widget, self._widget))
         return self._widget
 
     def display(self) -> None:
         """Show the editor in the notebook, once per cell (showing it again in the same cell does nothing)."""
         from IPython.display import display
 
-        from ..jupyter import execution_count
+        from ..jupyter import execution_count, keep_while_shown
         from .notebook.output import EditorOutput
 
         cell = execution_count()
         if cell is not None and cell == self._shown_in_cell:
             return
         display(EditorOutput(self))
+        keep_while_shown(self)  # until its cell runs again
         self._shown_in_cell = cell
 
     def _ipython_display_(self) -> None:
         self.display()
 
     def close(self) -> None:
-        """Release the plotter and widgets (the editor cannot be used afterwards)."""
-        self.scene.close()
-        self.session.close()
+        """Release the plotter, its browser views and the widgets now (the editor cannot be used afterwards).
+
+        An editor nobody refers to any more is released the same way when it is collected.
+        """
+        from ..jupyter import forget_shown
+
+        forget_shown(self)
+        self.lifetime.close()
 
     def __repr__(self) -> str:
         return (

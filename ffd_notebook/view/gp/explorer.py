@@ -18,6 +18,7 @@ points, colours and arrow vectors in place; no actor is re-created.
 
 from __future__ import annotations
 
+import functools
 import os
 from typing import Any
 
@@ -29,7 +30,8 @@ from numpy.typing import ArrayLike, NDArray
 from ..._util.deprecation import renamed_keyword
 from ...gp import ExponentialKernel, GaussianKernel, GaussianProcess, Kernel, LowRankGP, grid_points
 from ...meshing import as_surface
-from ..jupyter import show_changes, show_plotter
+from ..jupyter import forget_shown, keep_while_shown, release_views, show_changes, show_plotter
+from ..lifetime import Lifetime, weak_call
 from ..rendering import new_plotter
 from .model_modes import (
     VARIANCE_ARRAY,
@@ -146,6 +148,11 @@ class GPExplorer(ModelModes):
             self.grid = grid_points(np.asarray(self.mesh.bounds, dtype=np.float64), grid_shape, margin=0.05)
             self.model: LowRankGP = self._build_model()
         self.plotter = plotter if plotter is not None else new_plotter(**plotter_kwargs)
+        # released when the explorer is closed or collected: its browser views, and the plotter if it made it
+        # (PyVista keeps every plotter until it is closed); the widgets' callbacks refer to the explorer weakly
+        self.lifetime = Lifetime(self, functools.partial(release_views, self.plotter))
+        if plotter is None:
+            self.lifetime.add(self.plotter.close)
         self._add_actors()
         if widgets:
             self._add_widgets()
@@ -274,12 +281,20 @@ class GPExplorer(ModelModes):
         """Show the explorer: in Jupyter the server-rendered trame view its widgets need.
 
         See :func:`ffd_notebook.view.jupyter.show_plotter`; outside a kernel, ``plotter.show(**kwargs)``.
+        The output showing it keeps the explorer alive until its cell runs again
+        (:func:`~ffd_notebook.view.jupyter.keep_while_shown`).
         """
-        return show_plotter(self.plotter, **kwargs)
+        shown = show_plotter(self.plotter, **kwargs)
+        keep_while_shown(self)
+        return shown
 
     def close(self) -> None:
-        """Close the plotter and free its render window."""
-        self.plotter.close()
+        """Close the browser views and the plotter (if the explorer made it) and free its render window.
+
+        An explorer nobody refers to any more (no variable, no output showing it) is closed the same way.
+        """
+        forget_shown(self)
+        self.lifetime.close()
 
     # ------------------------------------------------------------------ drawing
     def _shown_at(self, point: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -325,7 +340,7 @@ class GPExplorer(ModelModes):
         pl = self.plotter
         if self.model_name is None:
             self.slider = pl.add_slider_widget(
-                lambda value: self.guarded(self._on_width, value),
+                weak_call(self, lambda self, value: self.guarded(self._on_width, value)),
                 rng=(0.02 * self.size, self.size),
                 value=self.sigma,
                 title="kernel width sigma",
@@ -337,10 +352,12 @@ class GPExplorer(ModelModes):
         else:
             self.add_mode_sliders()
         # a checkbox used as a push button: every click draws a new sample
-        self.button = pl.add_checkbox_button_widget(lambda _: self.guarded(self.sample), position=(10, 10), size=30)
+        self.button = pl.add_checkbox_button_widget(
+            weak_call(self, lambda self, _: self.guarded(self.sample)), position=(10, 10), size=30
+        )
         pl.add_text("sample", position=(48, 14), font_size=10)
         pl.enable_point_picking(
-            callback=lambda point, picker: self.guarded(self._on_pick, picker),
+            callback=weak_call(self, lambda self, point, picker: self.guarded(self._on_pick, picker)),
             use_picker=True,
             show_message=False,
             show_point=False,
@@ -363,11 +380,11 @@ class GPExplorer(ModelModes):
     def _add_landmark_widget(self, index: int) -> None:
         where, moved = self.landmarks[index]
 
-        def dragged(center: Any) -> None:
+        def dragged(self: GPExplorer, center: Any) -> None:
             self.guarded(self.move_landmark, index, np.asarray(center) - where)
 
         self.plotter.add_sphere_widget(
-            dragged,
+            weak_call(self, dragged),
             center=where + moved,
             radius=0.015 * self.size,
             color="orange",

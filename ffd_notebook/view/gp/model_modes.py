@@ -21,6 +21,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ...gp import LowRankGP, load_model
 from ...gp.noise import observation_noise
+from ..lifetime import weak_call
 
 __all__ = [
     "MODE_RANGE",
@@ -248,7 +249,7 @@ class ModelModes:
         for k in range(len(self.mode_sliders), wanted):
             x = 0.2 + 0.155 * k  # a row along the bottom, right of the "sample" button
             slider = self.plotter.add_slider_widget(
-                lambda value, k=k: self.guarded(self.set_mode, k, value),
+                weak_call(self, lambda self, value, k=k: self.guarded(self.set_mode, k, value)),
                 rng=MODE_RANGE,
                 value=0.0,
                 title=f"mode {k + 1}",

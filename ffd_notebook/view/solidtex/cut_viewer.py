@@ -15,6 +15,7 @@ place (the actors are never re-created).
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Callable
 from typing import Any
 
@@ -26,7 +27,8 @@ from vtkmodules.vtkCommonCore import vtkUnsignedCharArray
 from ...meshing.organ import REST, organ_surface, rest_points, texture_surface
 from ...solidtex.sampling import SolidTexture, TextureSampler  # noqa: F401  (SolidTexture: the doctests)
 from ..camera import frame_camera, unit_vector, view_direction
-from ..jupyter import show_changes, show_plotter
+from ..jupyter import forget_shown, keep_while_shown, release_views, show_changes, show_plotter
+from ..lifetime import Lifetime, weak_method
 from ..rendering import new_plotter
 
 __all__ = ["CutViewer", "TexturedOrgan", "add_cut"]
@@ -272,6 +274,11 @@ class CutViewer:
             if plotter is not None
             else new_plotter(off_screen=True if off_screen is None else off_screen, window_size=window_size)
         )
+        # released when the viewer is closed or collected: its browser views, and the plotter if it made it
+        # (PyVista keeps every plotter until it is closed); the plane widget's callback refers to it weakly
+        self.lifetime = Lifetime(self, functools.partial(release_views, self.plotter))
+        if plotter is None:
+            self.lifetime.add(self.plotter.close)
         self.origin = np.asarray(organ.grid.center if origin is None else origin, dtype=np.float64)
         self.normal = _unit(normal)
         self.outside, self.face = organ.cut(self.origin, self.normal)
@@ -281,7 +288,7 @@ class CutViewer:
         self.plotter.add_mesh(self.face, name="organ-cut", lighting=False, **opts)
         self.plotter.add_mesh(self.rim, name="organ-rim", color=RIM_COLOUR, line_width=2, lighting=False)
         self.widget = self.plotter.add_plane_widget(
-            self._on_plane,
+            weak_method(self._on_plane),
             normal=self.normal,
             origin=self.origin,
             bounds=organ.grid.bounds,
@@ -365,6 +372,19 @@ class CutViewer:
 
         The picture is of the current cut: PyVista's static backend would otherwise show the
         picture of an earlier ``show``.
+
+        The output showing it keeps the viewer alive until its cell runs again
+        (:func:`~ffd_notebook.view.jupyter.keep_while_shown`).
         """
         self.plotter.last_image = None
-        return show_plotter(self.plotter, **kwargs)
+        shown = show_plotter(self.plotter, **kwargs)
+        keep_while_shown(self)
+        return shown
+
+    def close(self) -> None:
+        """Close the browser views and the plotter (if the viewer made it).
+
+        A viewer nobody refers to any more (no variable, no output showing it) is closed the same way.
+        """
+        forget_shown(self)
+        self.lifetime.close()

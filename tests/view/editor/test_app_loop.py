@@ -61,3 +61,59 @@ def test_a_bad_rebuild_size_is_a_message_and_changes_nothing(tmp_path):
         assert app.editor.lattice.shape == (4, 6, 5) and app.state.nx == 4
     finally:
         app.close()
+
+
+def test_undo_redo_of_a_rebuild_a_basis_change_and_a_decimation_run_off_the_loop(tmp_path):
+    """Each runs in a worker thread (issue 24): right after the click the app is busy and nothing has changed
+    yet; the loop then swaps the result in. An undo of a drag is immediate."""
+    app = EditorApp(Editor(colored_sphere(60), window_size=(200, 150)), name=f"loop_{uuid.uuid4().hex}", root=tmp_path)
+    editor, session = app.editor, app.editor.session
+    n_points = editor.mesh.n_points
+
+    async def click(key, values, finished):
+        app.run(key, values)
+        started_busy, unchanged = app.state.busy, not finished()
+        for _ in range(2000):
+            if finished() and not app.state.busy:
+                return started_busy, unchanged
+            await asyncio.sleep(0.01)
+        raise TimeoutError(f"{key} did not finish: {list(session.messages)[-3:]}")
+
+    async def scenario():
+        app.run("rebuild", [6, 6, 6])
+        while app.state.busy or editor.lattice.shape != (6, 6, 6):
+            await asyncio.sleep(0.01)
+        return [
+            await click("undo", [], lambda: editor.lattice.shape == (5, 5, 5)),
+            await click("redo", [], lambda: editor.lattice.shape == (6, 6, 6)),
+            await click("basis", ["bernstein"], lambda: session.basis == "bernstein"),
+            await click("decimate", [0.5], lambda: editor.mesh.n_points < n_points),
+        ]
+
+    try:
+        for started_busy, unchanged in asyncio.run(scenario()):
+            assert started_busy and unchanged
+        assert editor.scene.display.n_points == editor.mesh.n_points  # the scene shows the decimated mesh
+        assert session.history.peek().label == "basis"  # a decimation is no undo step; the basis change is
+        editor.session.move_control_point((1, 1, 1), (0.0, 0.0, 0.1))
+        app.run("undo")  # an offset edit: undone at once, without a worker
+        assert not editor.lattice.offsets.any() and not app.state.busy
+    finally:
+        app.close()
+
+
+def test_a_prepared_undo_is_refused_once_the_history_changed():
+    editor = Editor(colored_sphere(), window_size=(160, 120))
+    try:
+        session = editor.session
+        session.set_shape((6, 6, 6))
+        prepared = session.prepare_step().bind()
+        session.move_control_point((1, 1, 1), (0.0, 0.0, 0.1))  # another step meanwhile
+        with pytest.raises(ValueError, match="changed meanwhile"):
+            session.undo(prepared)
+        assert session.lattice.shape == (6, 6, 6) and session.lattice.offsets.any()
+        session.undo()
+        assert session.prepare_step() is not None  # the rebuild is next
+        assert session.undo(session.prepare_step().bind()) and session.lattice.shape == (5, 5, 5)
+    finally:
+        editor.close()

@@ -112,6 +112,10 @@ class EditorApp:
             ("ffd_download_ffd", self.files.download_ffd),
             ("ffd_download_mesh", self.files.download_mesh),
             ("ffd_rebuild", self.files.rebuild),
+            ("ffd_undo", self.files.undo),
+            ("ffd_redo", self.files.redo),
+            ("ffd_basis", self.files.set_basis),
+            ("ffd_decimate", self.files.decimate),
             ("ffd_load_image", self.files.load_image_in_background),
             ("ffd_save_image", self.files.save_image_in_background),
         ):

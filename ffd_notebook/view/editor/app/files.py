@@ -220,6 +220,62 @@ class AppFiles:
         self.in_background(f"fitting a {name} lattice", lambda: ffd.bind(mesh.points), done,
                             f"the {name} lattice", "rebuild")  # fmt: skip
 
+    def undo(self) -> None:
+        """Undo: a step that replaces the lattice is bound to the mesh in a worker thread (about a second on a
+        500k-point mesh), any other on the loop at once."""
+        self._step(forward=False)
+
+    def redo(self) -> None:
+        """Redo, as :meth:`undo`."""
+        self._step(forward=True)
+
+    def _step(self, forward: bool) -> None:
+        session, verb = self.session, "redo" if forward else "undo"
+        prepared = session.prepare_step(forward)
+        act = session.redo if forward else session.undo
+        if prepared is None:
+            session.attempt(act)
+            self.sync()
+            return
+        self.in_background(f"{verb}: binding the lattice to the mesh", prepared.bind, act, "the lattice", verb)
+
+    def set_basis(self, basis: Any) -> None:
+        """Switch the basis; the refitted lattice is bound to the mesh in a worker thread."""
+        session = self.session
+        if basis == session.basis:
+            return
+        try:
+            ffd = session.basis_ffd(str(basis))  # a message if it cannot be built
+        except (TypeError, ValueError):
+            self.sync()
+            return
+        mesh = session.mesh
+
+        def done(deformer: Any) -> None:
+            if session.mesh is not mesh:
+                raise ValueError("the mesh changed meanwhile; choose the basis again")
+            session.set_basis(str(basis), deformer)
+
+        self.in_background(f"switching to the {basis} basis", lambda: ffd.bind(mesh.points), done,
+                            f"the {basis} basis", "switch the basis")  # fmt: skip
+
+    def decimate(self, reduction: Any) -> None:
+        """Decimate the mesh in a worker thread (seconds on a 500k-point mesh), with the lattice bound to the
+        result and its plotted copy prepared there too; the loop only swaps them in."""
+        session, scene = self.session, self.editor.scene
+
+        def work() -> tuple[Any, Any]:
+            done = session.decimation(reduction)
+            points = done.mesh.points if done.deformer is None else done.deformer.current()  # (bound when used)
+            return done, prepare_display(done.mesh, points, scene.interactive_cells)
+
+        def done(result: tuple[Any, Any]) -> None:
+            decimation, prepared = result
+            scene.offer_display(prepared)
+            session.use_decimated(decimation)
+
+        self.in_background("decimating the mesh", work, done, "the mesh", "decimate")
+
     def load_deformation_in_background(self, path: str) -> None:
         """Start loading a deformation file (.ffd, ITK, PyGeM .prm) from a path in the app's folder.
 

@@ -29,6 +29,17 @@ _DOWNLOAD_MESH = "utils.download('deformed.' + mesh_format, trigger('ffd_downloa
 _HINTS = {"Control point": "Control point (drag a sphere or type)"}
 
 
+#: a client-only state variable: each browser tab's own id (the origin of its view's mouse events)
+TAB_ID = "ffd_tab"
+
+
+def _disabled(control: Control) -> Any:
+    """A button's ``disabled``: while it cannot act (its ``enabled`` state), and, for work that runs in a
+    worker thread (an app trigger), while the app is busy."""
+    conditions = (["busy"] if control.app_trigger else []) + ([f"!{control.enabled}"] if control.enabled else [])
+    return (" || ".join(conditions),) if conditions else False
+
+
 def _section(title: str, first: bool = False) -> None:
     from trame.widgets import vuetify3 as v
 
@@ -78,7 +89,7 @@ def _control(app: Any, control: Control) -> None:
             click: Any = (app.run, f"['{control.key}', {args}]")
             if control.app_trigger:
                 click = f"trigger('{control.app_trigger}', {args})"
-            disabled = ("busy",) if control.app_trigger else ((f"!{control.enabled}",) if control.enabled else False)
+            disabled = _disabled(control)
             v.VBtn(control.label, click=click, block=True, size="small", id=ident, disabled=disabled)
         elif kind == "choice":
             items = (f"{control.key}_items",)
@@ -192,22 +203,23 @@ def _browser_files() -> None:
 def build_layout(app: Any) -> tuple[Any, Any]:
     """Build the page for ``app`` (an :class:`~ffd_notebook.view.editor.app.EditorApp`); return (layout, view)."""
     from trame.ui.vuetify3 import SinglePageWithDrawerLayout
-    from trame.widgets import html
+    from trame.widgets import client, html
     from trame.widgets import vuetify3 as v
 
     from ...remote_view import RemoteView
 
     toolbar = [c for c in app.controls if c.section == "toolbar"]
+    app.server.state[TAB_ID] = "anonymous"  # (trame-rca's default origin) until the tab sets its own
+    app.server.state.client_only(TAB_ID)
     with SinglePageWithDrawerLayout(app.server, width=340) as layout:
         layout.title.set_text("FFD editor")
         with layout.toolbar:
             v.VSpacer()
             for control in toolbar:
-                disabled = (f"!{control.enabled}",) if control.enabled else False
                 v.VBtn(
                     control.label,
                     click=(app.run, f"['{control.key}', []]"),
-                    disabled=disabled,
+                    disabled=_disabled(control),
                     variant="text",
                     id=control.dom_id,
                 )
@@ -219,5 +231,7 @@ def build_layout(app: Any) -> tuple[Any, Any]:
             with v.VContainer(fluid=True, classes="pa-0 fill-height"):
                 with html.Div(id="ffd-view", style="width: 100%; height: 100%; position: relative;"):
                     # server-side rendering paced by the renderer (see ..remote_view)
-                    view = RemoteView(app.editor.plotter, style="width: 100%; height: 100%;")
+                    # each tab tells its mouse events apart (one tab at a time holds the mouse: PointerOwner)
+                    view = RemoteView(app.editor.plotter, style="width: 100%; height: 100%;", origin=(TAB_ID,))
+                    client.ClientTriggers(mounted=f"{TAB_ID} = 'tab-' + Math.random().toString(36).slice(2)")
     return layout, view

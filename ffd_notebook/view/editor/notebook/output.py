@@ -12,12 +12,13 @@ import base64
 from typing import TYPE_CHECKING, Any
 
 from ...jupyter import STATIC_BACKENDS, backend, png_bytes, serve_plotter
+from ...lifetime import weak_call
 from ..session.changes import Change
 
 if TYPE_CHECKING:
     from ..editor import Editor
 
-__all__ = ["EditorOutput", "editor_widget"]
+__all__ = ["EditorOutput", "close_editor_widget", "editor_widget"]
 
 #: the changes after which the static picture is redrawn
 REDRAWN_AFTER = ("offsets", "lattice", "mesh", "display", "select")
@@ -29,11 +30,11 @@ def _static_view(editor: Editor) -> Any:
 
     view = widgets.Image(value=png_bytes(editor.screenshot()), format="png")
 
-    def follow(change: Change) -> None:
+    def follow(editor: Editor, change: Change) -> None:
         if change.kind in REDRAWN_AFTER:
             view.value = png_bytes(editor.screenshot())
 
-    editor.session.subscribe(follow)
+    editor.session.subscribe(weak_call(editor, follow))  # the session must not keep its editor alive
     return view
 
 
@@ -51,6 +52,27 @@ def editor_widget(editor: Editor) -> Any:
     view = _static_view(editor) if backend() in STATIC_BACKENDS else serve_plotter(editor.plotter)
     # the view shrinks to leave the panel its width; in a notebook narrower than both, the panel goes below
     return widgets.HBox([view, ControlPanel(editor)], layout=widgets.Layout(flex_flow="row wrap"))
+
+
+def close_editor_widget(box: Any) -> None:
+    """Close the panel of an editor's widget (made by :func:`editor_widget`): ipywidgets keeps every widget,
+    and its callbacks, until it is closed. The view stays: a served view's iframe says it is closed, a static
+    picture stays as it was."""
+    view, *panels = box.children
+    box.children = (view,)
+    for panel in panels:
+        _close_tree(panel)
+
+
+def _close_tree(widget: Any) -> None:
+    """Close ``widget``, its children and their layout and style widgets (each is a widget of its own, with a
+    comm, that closing its owner leaves open)."""
+    for child in getattr(widget, "children", ()):
+        _close_tree(child)
+    for part in (getattr(widget, "layout", None), getattr(widget, "style", None)):
+        if part is not None and hasattr(part, "close"):
+            part.close()
+    widget.close()
 
 
 class EditorOutput:

@@ -10,6 +10,7 @@ shown at the bottom. What each control shows comes from :func:`..session.control
 from __future__ import annotations
 
 import html
+import weakref
 from collections.abc import Sequence
 from typing import TYPE_CHECKING, Any
 
@@ -73,7 +74,8 @@ class ControlPanel(widgets.VBox):
     """
 
     def __init__(self, editor: Editor, controls: Sequence[Control] | None = None) -> None:
-        self.editor = editor
+        # ipywidgets keeps every widget until it is closed: the panel must not keep its editor alive
+        self._editor = weakref.ref(editor)
         controls = panel_controls.CONTROLS if controls is None else controls
         self.controls = [c for c in controls if "notebook" in c.panels]
         self._syncing = False
@@ -93,6 +95,14 @@ class ControlPanel(widgets.VBox):
         self._drag_sync = DragSync()
         editor.session.subscribe(self._follow)
         self.sync()
+
+    @property
+    def editor(self) -> Editor:
+        """The editor the controls act on (the panel refers to it weakly)."""
+        editor = self._editor()
+        if editor is None:
+            raise RuntimeError("this panel's editor is closed")
+        return editor
 
     # ------------------------------------------------------------------ building, one kind at a time
     def _build(self, control: Control) -> list[widgets.Widget]:

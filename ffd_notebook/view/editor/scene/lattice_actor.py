@@ -43,7 +43,15 @@ from numpy.typing import ArrayLike, NDArray
 from ....ffd.lattice import Lattice
 from ..session.session import POINTS_SHOWN
 
-__all__ = ["AUTO_ALL_UP_TO", "NEAR_RINGS", "LatticeActor", "shown_indices", "widget_radius"]
+__all__ = [
+    "AUTO_ALL_UP_TO",
+    "BEHIND_KEY",
+    "NEAR_RINGS",
+    "XRAY_OPACITY",
+    "LatticeActor",
+    "shown_indices",
+    "widget_radius",
+]
 
 WIDGET_COLOR = "royalblue"
 SELECTED_COLOR = "gold"
@@ -58,6 +66,11 @@ THIN_LINES_ABOVE = 1000
 #: display "auto" shows every control point of lattices up to this size, the hull of denser ones
 AUTO_ALL_UP_TO = 1000
 #: the handle is a polygon sphere: a little larger than the true sphere so it covers every pixel the glyph does
+#: the modifier key that grabs a control point hidden behind the mesh (Alt, Option on a Mac: VTK's camera takes
+#: Shift, pan, and Ctrl, spin; and on a Mac a Ctrl-click is a right click)
+BEHIND_KEY = "Alt"
+#: opacity of the faint copies of the spheres drawn through the mesh (the X-ray look)
+XRAY_OPACITY = 0.3
 _HANDLE_SCALE = 1.04
 
 
@@ -146,8 +159,10 @@ class LatticeActor:
         *,
         points_shown: str = "all",
         selected: int | None = None,
+        surface: Callable[[float, float], tuple[Any, Any, float]] | None = None,
     ) -> None:
         self.plotter = plotter
+        self.surface = surface
         self.shape = lattice.shape
         self.radius = widget_radius(lattice)
         self._edges = lattice.edges()
@@ -174,6 +189,7 @@ class LatticeActor:
             reset_camera=False,
             render=False,
         )
+        self.xray = self._add_xray()
         self.points_shown = "all"
         self.shown = np.arange(len(positions), dtype=np.int64)
         self._selected = selected
@@ -182,7 +198,7 @@ class LatticeActor:
         self.handle = self._make_handle()
         self._dragging = False
         self._tags: list[int] = []
-        self._size_tag = plotter.renderer.AddObserver("StartEvent", lambda *_: self.fit_point_size())
+        self._size_tag = plotter.renderer.AddObserver("StartEvent", lambda *_: self._before_render())
         iren = self._interactor()
         if iren is not None:
             # before the handle sees a press (it has priority 0.5), put it on the control point under the cursor
@@ -216,8 +232,9 @@ class LatticeActor:
         return handle
 
     def _grab(self, iren: Any, _event: str) -> None:
-        """Left-button press: the handle onto the control point under the cursor (or stay parked)."""
-        index = self.index_at(*iren.GetEventPosition())
+        """Left-button press: the handle onto the control point under the cursor (or stay parked); with
+        :data:`BEHIND_KEY` held, onto one behind the mesh (:meth:`index_at`)."""
+        index = self.index_at(*iren.GetEventPosition(), behind=bool(iren.GetAltKey()))
         if index is not None:
             self.place_handle(index)
 
@@ -273,6 +290,12 @@ class LatticeActor:
         out[:, 3] = self.radius * abs(projection[1, 1]) * height / 2.0 / np.abs(w)
         return out
 
+    def _before_render(self) -> None:
+        layer, main = self.xray[0], self.plotter.renderer
+        if layer.GetActiveCamera() is not main.GetActiveCamera():  # (a camera replaced, not moved)
+            layer.SetActiveCamera(main.GetActiveCamera())
+        self.fit_point_size()
+
     def fit_point_size(self) -> float:
         """Set the sprites' size (pixels) to the spheres' on-screen diameter at the shown points' median depth.
 
@@ -280,14 +303,19 @@ class LatticeActor:
         """
         radii = self.display_positions()[self.shown, 3] if len(self.shown) else np.ones(1)
         size = float(max(2.0, 2.0 * np.median(radii)))
-        prop = self.glyph_actor.GetProperty()
-        if prop.GetPointSize() != size:
-            prop.SetPointSize(size)
+        for prop in (self.glyph_actor.GetProperty(), self.xray[1].GetProperty()):
+            if prop.GetPointSize() != size:
+                prop.SetPointSize(size)
         return size
 
-    def index_at(self, x: float, y: float) -> int | None:
+    def index_at(self, x: float, y: float, *, behind: bool = False) -> int | None:
         """Flat index of the shown control point under display position ``(x, y)`` (pixels, origin
-        bottom-left) nearest to the camera, or None when the position is on no sphere.
+        bottom-left) that a press there grabs, or None (the camera turns).
+
+        A sphere is grabbed only if it begins in front of the mesh surface under the cursor (:attr:`surface`:
+        the distance along the view ray to the mesh, found by the NumPy ray test): the nearest such sphere.
+        A sphere hidden by the mesh is grabbed only with ``behind`` (:data:`BEHIND_KEY` held): the nearest
+        hidden one, else the nearest in front.
 
         Examples
         --------
@@ -306,7 +334,57 @@ class LatticeActor:
         if not hit.any():
             return None
         candidates = np.flatnonzero(hit)
-        return int(self.shown[candidates[np.argmin(screen[candidates, 2])]])
+        candidates = candidates[np.argsort(screen[candidates, 2], kind="stable")]  # the nearest first
+        if self.surface is None:
+            return int(self.shown[candidates[0]])
+        visible = self.in_front(self.shown[candidates], x, y)
+        if behind and not visible.all():
+            return int(self.shown[candidates[np.argmin(visible)]])
+        return int(self.shown[candidates[np.argmax(visible)]]) if visible.any() else None
+
+    def in_front(self, indices: ArrayLike, x: float, y: float) -> NDArray[np.bool_]:
+        """Whether each control point of ``indices`` (flat) begins in front of the mesh along the view ray
+        through display position ``(x, y)``: its sphere's nearest point on the ray (centre minus radius) comes
+        before the ray's first hit on the mesh (all True off the mesh, or without :attr:`surface`)."""
+        indices = np.asarray(indices, dtype=np.int64)
+        if self.surface is None:
+            return np.ones(len(indices), dtype=bool)
+        origin, direction, distance = self.surface(x, y)
+        begins = (np.asarray(self._positions, dtype=np.float64)[indices] - origin) @ direction - self.radius
+        return begins <= distance
+
+    # ------------------------------------------------------------------ the X-ray look
+    def _add_xray(self) -> tuple[Any, Any]:
+        """The spheres again, faint (:data:`XRAY_OPACITY`), in a renderer layer drawn over the scene: those the
+        mesh hides show through it, so the user knows they are there (and that :data:`BEHIND_KEY` reaches them).
+        Over a visible sphere the faint copy is the same colour: nothing changes there. Returns
+        ``(renderer, actor)``."""
+        from vtkmodules.vtkRenderingCore import vtkActor, vtkPolyDataMapper, vtkRenderer
+
+        main = self.plotter.renderer
+        window = self.plotter.render_window
+        layer = vtkRenderer()
+        layer.SetLayer(max(1, window.GetNumberOfLayers()))
+        window.SetNumberOfLayers(layer.GetLayer() + 1)
+        layer.InteractiveOff()  # mouse events go to the scene's renderer
+        layer.SetViewport(main.GetViewport())
+        layer.SetActiveCamera(main.GetActiveCamera())
+        mapper = vtkPolyDataMapper()
+        mapper.SetInputData(self.glyphs)
+        mapper.SetScalarModeToUsePointFieldData()
+        mapper.SelectColorArray("rgb")
+        mapper.SetColorModeToDirectScalars()
+        actor = vtkActor()
+        actor.SetMapper(mapper)
+        actor.PickableOff()
+        prop = actor.GetProperty()
+        prop.SetRepresentationToPoints()
+        prop.RenderPointsAsSpheresOn()
+        prop.SetOpacity(XRAY_OPACITY)
+        prop.LightingOff()
+        layer.AddActor(actor)
+        window.AddRenderer(layer)
+        return layer, actor
 
     # ------------------------------------------------------------------ what is shown
     def show_points(self, mode: str, selected: int | None = None) -> None:
@@ -374,3 +452,7 @@ class LatticeActor:
         self.handle.SetInteractor(None)
         self.plotter.renderer.RemoveObserver(self._size_tag)
         self.plotter.remove_actor([self.line_actor, self.glyph_actor], reset_camera=False, render=False)
+        layer, actor = self.xray
+        layer.RemoveActor(actor)
+        if self.plotter.render_window is not None:
+            self.plotter.render_window.RemoveRenderer(layer)

@@ -24,7 +24,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ....meshing import color_array_name
 from ...camera import frame_camera
-from ...jupyter import views_of
+from ...jupyter import release_views, views_of
 from ...rendering import new_plotter
 from ..session.changes import Change
 from ..session.session import EditingSession
@@ -240,8 +240,14 @@ class EditorScene:
             *self._callbacks,
             points_shown=self.session.points_shown,
             selected=self._selected_index(),
+            surface=self.ray_to_surface,
         )
         self._move_points(None, widgets=True, only_if_changed=True)
+
+    def ray_to_surface(self, x: float, y: float) -> tuple[NDArray[np.float64], NDArray[np.float64], float]:
+        """The view ray through display position ``(x, y)`` and how far along it the plotted mesh is:
+        :meth:`.surface_picking.SurfacePicking.ray_to_surface` (what a press can grab is in front of it)."""
+        return self.surface_picking.ray_to_surface(x, y)
 
     def _build_image(self) -> None:
         """Slice planes for the session's image (none if it has none); replaces any previous ones."""
@@ -338,7 +344,7 @@ class EditorScene:
     def close(self) -> None:
         """Stop following the session; release the widgets and the plotter."""
         self._unsubscribe()
-        self.views.clear()
+        release_views(self.plotter)  # the browser views stop, their pages say so; the server forgets them
         if self.plotter.iren is not None:
             for tag in self._button_tags:
                 self.plotter.iren.interactor.RemoveObserver(tag)

@@ -202,8 +202,19 @@ def _uploaded_file(values: Sequence[Any]) -> tuple[str, bytes]:
 
 
 CONTROLS: tuple[Control, ...] = (
-    Control("undo", "button", "Undo", "toolbar", command="undo", enabled="can_undo", tooltip="Undo the last change"),
-    Control("redo", "button", "Redo", "toolbar", command="redo", enabled="can_redo", tooltip="Redo"),
+    Control(
+        "undo",
+        "button",
+        "Undo",
+        "toolbar",
+        command="undo",
+        enabled="can_undo",
+        app_trigger="ffd_undo",
+        tooltip="Undo the last change",
+    ),
+    Control(
+        "redo", "button", "Redo", "toolbar", command="redo", enabled="can_redo", app_trigger="ffd_redo", tooltip="Redo"
+    ),
     Control("shape", "ints", "points per axis", "Lattice", state=("nx", "ny", "nz")),
     Control(
         "rebuild",
@@ -216,7 +227,17 @@ CONTROLS: tuple[Control, ...] = (
         app_trigger="ffd_rebuild",
         tooltip="Fit a new lattice of this size around the mesh",
     ),
-    Control("basis", "choice", "basis", "Lattice", state=("basis",), command="set_basis", choices=BASIS_CHOICES, row=1),
+    Control(
+        "basis",
+        "choice",
+        "basis",
+        "Lattice",
+        state=("basis",),
+        command="set_basis",
+        choices=BASIS_CHOICES,
+        row=1,
+        app_trigger="ffd_basis",
+    ),
     Control(
         "interpolation",
         "choices",
@@ -286,6 +307,13 @@ CONTROLS: tuple[Control, ...] = (
         "{moved_points} control point(s) moved",
         "Control point",
         state=("moved_points",),
+        row=3,
+    ),
+    Control(
+        "pick_help",
+        "label",
+        "Alt + drag grabs a control point behind the mesh (drawn faint through it)",
+        "Control point",
         row=3,
     ),
     Control(
@@ -454,6 +482,7 @@ CONTROLS: tuple[Control, ...] = (
         command="decimate",
         args=("reduction",),
         row=2,
+        app_trigger="ffd_decimate",
         parse=lambda v: (number(v[0], "the reduction"),),
         tooltip="Remove this fraction of the faces, keeping colours (0 restores the mesh)",
     ),

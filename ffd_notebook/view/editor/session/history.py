@@ -129,6 +129,11 @@ class History:
         """End the open step: the next change starts a new one even for the same key."""
         self._open_key = None
 
+    def peek(self, forward: bool = False) -> Step | None:
+        """The step :meth:`undo` (or, ``forward``, :meth:`redo`) would pop next, left in place; None if none."""
+        steps = self._undone if forward else self._done
+        return steps[-1] if steps else None
+
     def undo(self) -> Step | None:
         """Pop the last step (to be reverted by the caller); ``None`` if there is none."""
         self._open_key = None

@@ -35,14 +35,14 @@ from ....ffd.interpolation import check_basis
 from ....ffd.lattice import Lattice
 from .changes import Change, Subscribers
 from .files import SessionFiles
-from .history import History, LatticeSwap, OffsetEdit
+from .history import History, LatticeSwap
 from .image import SessionImage
 from .lattices import copy_ffd, fitted_lattice
 from .message_log import MessageLog
 from .surface_drag import SurfaceDrag
 from .weights import WeightPaint
 
-__all__ = ["FIELDS", "POINTS_SHOWN", "EditingSession", "Field", "MeshIO", "PointsShown"]
+__all__ = ["FIELDS", "POINTS_SHOWN", "Decimation", "EditingSession", "Field", "MeshIO", "PointsShown", "PreparedStep"]
 
 #: what the mesh can be colored by: nothing (its own colors), |displacement|, folding (det J <= 0), the
 #: vertices' weights (how much of the deformation each follows, see :mod:`.weights`)
@@ -65,6 +65,34 @@ class MeshIO:
     with_points: Callable[[Any, Any], Any]  # (mesh, points) -> new mesh with those points
     color_array: Callable[[Any], str | None]  # mesh -> name of its per-vertex color array, or None
     face: Callable[[Any], Any]  # photo (path, array, face.Photo) -> a coloured face mesh (face.face_from_photo)
+
+
+@dataclass
+class PreparedStep:
+    """An undo or redo step that replaces the lattice (:meth:`EditingSession.prepare_step`): the FFD it installs
+    and, once :meth:`bind` has run (in a worker thread, say), that FFD bound to the mesh."""
+
+    step: Any
+    ffd: FFD
+    mesh: Any
+    deformer: Deformer | None = None
+
+    def bind(self) -> PreparedStep:
+        """Bind the FFD to the mesh's points (the slow part); returns self."""
+        self.deformer = self.ffd.bind(self.mesh.points)
+        return self
+
+
+@dataclass
+class Decimation:
+    """A decimated mesh and the session's lattice bound to it (:meth:`EditingSession.decimation`)."""
+
+    reduction: float
+    source: Any
+    ffd: FFD
+    offsets: NDArray[np.float64]
+    mesh: Any
+    deformer: Deformer | None  # None: bound when used (the lattice had vertex weights)
 
 
 class EditingSession:
@@ -354,24 +382,46 @@ class EditingSession:
         self.notify("select", None, label)
 
     # ------------------------------------------------------------------ undo / redo
-    def undo(self) -> bool:
-        """Revert the last step; False if there was none."""
-        return self._apply(self.history.undo(), forward=False)
+    def undo(self, prepared: PreparedStep | None = None) -> bool:
+        """Revert the last step; False if there was none. ``prepared``: :meth:`prepare_step` of it (its lattice
+        bound to the mesh in a worker thread)."""
+        return self._apply(self.history.undo, prepared, forward=False)
 
-    def redo(self) -> bool:
-        """Re-apply the last undone step; False if there was none."""
-        return self._apply(self.history.redo(), forward=True)
+    def redo(self, prepared: PreparedStep | None = None) -> bool:
+        """Re-apply the last undone step; False if there was none. ``prepared``: as for :meth:`undo`."""
+        return self._apply(self.history.redo, prepared, forward=True)
 
-    def _apply(self, step: OffsetEdit | LatticeSwap | None, forward: bool) -> bool:
+    def prepare_step(self, forward: bool = False) -> PreparedStep | None:
+        """The next undo (``forward``: redo) step if it replaces the lattice, with a copy of the FFD it installs;
+        None for any other step. Binding that FFD to the mesh (``prepared.bind()``, about a second on a
+        500k-point mesh) is the slow part of undoing it: a worker thread may do it and pass the result to
+        :meth:`undo` / :meth:`redo`, which check that the history and the mesh have not changed meanwhile."""
+        step = self.history.peek(forward)
+        if not isinstance(step, LatticeSwap):
+            return None
+        ffd, _ = step.after if forward else step.before
+        return PreparedStep(step, self._step_ffd(ffd), self.mesh)
+
+    def _step_ffd(self, ffd: FFD) -> FFD:
+        """A copy of an undo step's FFD to install on the current mesh."""
+        ffd = copy_ffd(ffd)
+        if isinstance(ffd.weights, np.ndarray) and len(ffd.weights) != len(self.rest_points):
+            ffd.weights = None  # weights of the mesh before a decimation
+        return ffd
+
+    def _apply(self, pop: Callable[[], Any], prepared: PreparedStep | None, forward: bool) -> bool:
+        if prepared is not None and (self.history.peek(forward) is not prepared.step or prepared.mesh is not self.mesh):
+            raise ValueError("the history or the mesh changed meanwhile; try again")
+        step = pop()
         if step is None:
             return False
         label = "redo" if forward else "undo"
         if isinstance(step, LatticeSwap):
             ffd, self.lattice_source = step.after if forward else step.before
-            ffd = copy_ffd(ffd)
-            if isinstance(ffd.weights, np.ndarray) and len(ffd.weights) != len(self.rest_points):
-                ffd.weights = None  # weights of the mesh before a decimation
-            self._bind_lattice(ffd.bind(self.mesh.points), label)
+            if prepared is not None and prepared.deformer is not None:
+                self._bind_lattice(prepared.deformer, label)  # bound in a worker thread
+            else:
+                self._bind_lattice(self._step_ffd(ffd).bind(self.mesh.points), label)
         else:
             idx = tuple(step.ijk.T)
             self.lattice.offsets[idx] = step.after if forward else step.before
@@ -435,16 +485,27 @@ class EditingSession:
         self.swap_ffd(deformer.ffd, label="shape", source="fit", deformer=deformer)
         self.info(f"new {'x'.join(map(str, deformer.ffd.lattice.shape))} lattice around the mesh")
 
-    def set_basis(self, basis: BasisName) -> None:
-        """Switch the basis; refits the lattice around the mesh for it (offsets start at zero; undoable)."""
-        if basis == self.basis:
-            return
+    def basis_ffd(self, basis: BasisName) -> FFD:
+        """The FFD :meth:`set_basis` installs for ``basis`` (the lattice refitted for it); changes nothing (a
+        message and a ValueError if it cannot be built). Binding it to the mesh is the slow part."""
         try:
-            lattice = fitted_lattice(self.mesh, self.lattice.shape, basis)
+            return FFD(fitted_lattice(self.mesh, self.lattice.shape, basis), basis)
         except ValueError as exc:
             self.error(f"cannot switch to the {basis!r} basis: {exc}")
             raise
-        self.swap_lattice(lattice, basis, label="basis", source="fit")
+
+    def set_basis(self, basis: str, deformer: Deformer | None = None) -> None:
+        """Switch the basis; refits the lattice around the mesh for it (offsets start at zero; undoable).
+
+        ``deformer``: :meth:`basis_ffd` of ``basis``, already bound to the current mesh's points.
+        """
+        if basis == self.basis:
+            return
+        if deformer is None:
+            deformer = self.basis_ffd(basis).bind(self.mesh.points)
+        elif deformer.ffd.basis != basis or len(deformer.points) != len(self.rest_points):
+            raise ValueError(f"the deformer is not a {basis!r} lattice bound to this mesh")
+        self.swap_ffd(deformer.ffd, label="basis", source="fit", deformer=deformer)
         self.info(f"basis: {basis}")
 
     def set_interpolation(self, interpolation: Any) -> None:
@@ -485,6 +546,11 @@ class EditingSession:
         are kept; the lattice and its offsets are kept and the deformer is re-bound to the new
         vertices; the undo history stays valid.
         """
+        return self.use_decimated(self.decimation(reduction))
+
+    def decimation(self, reduction: float) -> Decimation:
+        """The work of :meth:`decimate`, changing nothing (a worker thread may do it): the decimated mesh and the
+        lattice bound to it. A message and a ValueError if it cannot be done."""
         try:
             reduction = float(reduction)
             source = self.source_mesh
@@ -494,12 +560,25 @@ class EditingSession:
         except (TypeError, ValueError) as exc:
             self.error(f"could not decimate: {exc}")
             raise
+        ffd = self.ffd
+        # vertex weights belong to the mesh as it was: they are cleared when the result is used, and the lattice
+        # is bound then (the weights would not fit the new vertices)
+        deformer = None if ffd.weights is not None else ffd.bind(mesh.points)
+        return Decimation(reduction, source, ffd, ffd.lattice.offsets.copy(), mesh, deformer)
+
+    def use_decimated(self, done: Decimation) -> Any:
+        """Use a :meth:`decimation` (made from this session's current mesh and lattice: else a ValueError)."""
+        if done.source is not self.source_mesh or done.ffd is not self.ffd:
+            raise ValueError("the mesh or the lattice changed meanwhile; decimate again")
         if self.ffd.weights is not None:  # one per vertex of the mesh as it was
             self.ffd.weights = None
             self.info("the vertex weights were cleared: the mesh has other vertices now")
-        self.replace_mesh(mesh, self.ffd.bind(mesh.points), label="decimate", new_document=False)
-        self.info(f"decimated by {reduction:.0%}: {mesh.n_points} vertices, {mesh.n_cells} faces")
-        return mesh
+        deformer = done.deformer
+        if deformer is None or not np.array_equal(done.offsets, self.ffd.lattice.offsets):  # (edited meanwhile)
+            deformer = self.ffd.bind(done.mesh.points)
+        self.replace_mesh(done.mesh, deformer, label="decimate", new_document=False)
+        self.info(f"decimated by {done.reduction:.0%}: {done.mesh.n_points} vertices, {done.mesh.n_cells} faces")
+        return done.mesh
 
     # ------------------------------------------------------------------ coloring
     def show_colors(self, show: bool = True) -> None:
