@@ -18,9 +18,40 @@ True
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 from ._util.lazy import lazy_getattr
 from .errors import FileFormatError
 from .ffd import FFD, Deformer, Lattice
+
+# the lazy names below, declared for type checkers and IDEs (tests/test_typing.py keeps both in step)
+if TYPE_CHECKING:
+    from .errors import NoFaceError as NoFaceError
+    from .face import face_from_photo as face_from_photo
+    from .images import warp_image as warp_image
+    from .io import DisplacementField as DisplacementField
+    from .io import ElastixTransform as ElastixTransform
+    from .io import fit_lattice as fit_lattice
+    from .io import load_deformation as load_deformation
+    from .io import load_displacement_field as load_displacement_field
+    from .io import load_elastix as load_elastix
+    from .io import load_ffd as load_ffd
+    from .io import load_prm as load_prm
+    from .io import load_transform as load_transform
+    from .io import place_at_mesh_minimum as place_at_mesh_minimum
+    from .io import read_mesh as read_mesh
+    from .io import read_obj as read_obj
+    from .io import sample_displacement_field as sample_displacement_field
+    from .io import save_deformation as save_deformation
+    from .io import save_displacement_field as save_displacement_field
+    from .io import save_elastix as save_elastix
+    from .io import save_ffd as save_ffd
+    from .io import save_prm as save_prm
+    from .io import save_transform as save_transform
+    from .io import write_mesh as write_mesh
+    from .io import write_obj as write_obj
+    from .view import Editor as Editor
+    from .view import edit as edit
 
 __version__ = "0.1.0"
 

@@ -14,6 +14,15 @@ __all__ = ["BatchError", "FileFormatError", "NoFaceError", "PathRefused"]
 class FileFormatError(ValueError):
     """A file could not be read: names the file, the line (1-based, if known) and the problem.
 
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The file.
+    line : int or None
+        The 1-based line of the problem, or None when it has no line (binary files, HDF5).
+    problem : str
+        What was expected and what was found.
+
     Examples
     --------
     >>> err = FileFormatError("lattice.ffd", 12, "expected 3 numbers, got 'a b'")
@@ -63,7 +72,21 @@ class PathRefused(ValueError):
 
 
 class BatchError(RuntimeError):
-    """Some samples of a batch failed; the others were written. ``result`` holds everything."""
+    """Some samples of a batch failed; the others were written. ``result`` holds everything.
+
+    Parameters
+    ----------
+    result : BatchResult
+        What the run did; ``result.failed`` names each failed sample and why.
+
+    Examples
+    --------
+    >>> import pathlib
+    >>> from ffd_notebook.batch import BatchResult
+    >>> error = BatchError(BatchResult(pathlib.Path("out"), made=[0], failed={1: "sample 1: folds"}))
+    >>> str(error)
+    '1 of 2 samples failed: sample 1: folds'
+    """
 
     def __init__(self, result: BatchResult) -> None:
         self.result = result

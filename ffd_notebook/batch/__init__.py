@@ -23,11 +23,22 @@ True
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 from .._util.lazy import lazy_getattr
 from .folding import FoldFree, volume_grid
 from .gp_model import RandomGP
 from .models import LatticeSample, RandomLattice
 from .seeds import sample_rng
+
+if TYPE_CHECKING:  # the lazy names below, declared for type checkers and IDEs
+    from ..errors import BatchError as BatchError
+    from .cluster import local_cluster as local_cluster
+    from .engine import BatchResult as BatchResult
+    from .engine import generate as generate
+    from .engine import replay as replay
+    from .files import LatticeFiles as LatticeFiles
+    from .output import read_manifest as read_manifest
 
 # the engine writes meshes and LatticeFiles reads files through ffd_notebook.io (PyVista): imported on first use
 _LAZY = {

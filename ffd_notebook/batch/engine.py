@@ -43,8 +43,10 @@ TASKS_PER_WORKER = 4
 class BatchResult:
     """What :func:`generate` did.
 
-    Attributes
+    Parameters
     ----------
+    out : pathlib.Path
+        The output folder.
     rows : list of dict
         The manifest: every finished sample of the folder (this run's and earlier ones), by id.
     made, skipped : list of int
@@ -60,6 +62,13 @@ class BatchResult:
         Seconds from the first task submitted to the last result.
     scheduler : str
         Which scheduler ran the tasks.
+
+    Examples
+    --------
+    >>> import pathlib
+    >>> result = BatchResult(pathlib.Path("out"), made=[0, 1], failed={2: "sample 2: folds"})
+    >>> len(result.made), sorted(result.failed)
+    (2, [2])
     """
 
     out: Path
@@ -318,6 +327,18 @@ def replay(out: str | os.PathLike[str], index: int, *, part: str = "mesh"):
 
     ``part="image"`` or ``"label"``: the sample's warped image or label map (a SimpleITK
     image) of a run made with images, voxel for voxel what was written.
+
+    Parameters
+    ----------
+    out : str or os.PathLike
+        The output folder of a :func:`generate` run.
+    index : int
+        The sample's id.
+
+    Returns
+    -------
+    pyvista.PolyData
+        The deformed mesh, as the run made it.
 
     Examples
     --------

@@ -68,11 +68,49 @@ class LatticeFiles:
                                  "python -m ffd_notebook convert FIELD OUT --fit SHAPE)")  # fmt: skip
 
     def to_spec(self) -> dict[str, Any]:
-        """The parameters as JSON values, with the model's name under ``"model"``."""
+        """The parameters as JSON values, with the model's name under ``"model"``.
+
+        Returns
+        -------
+        dict
+            JSON-serialisable: what the run records and ``model_from_spec`` reads back.
+
+        Examples
+        --------
+        >>> import pathlib, tempfile
+        >>> from ffd_notebook import Lattice, save_ffd
+        >>> path = pathlib.Path(tempfile.mkdtemp()) / "a.ffd"
+        >>> save_ffd(path, Lattice((4, 4, 4), 1.0))
+        >>> spec = LatticeFiles([path]).to_spec()
+        >>> spec["model"], spec["files"] == [str(path.resolve())]
+        ('files', True)
+        """
         return {"model": self.name, "files": list(self.files)}
 
     def bind(self, points: ArrayLike | None) -> BoundFiles:
-        """The files do not depend on the mesh: read them."""
+        """The files do not depend on the mesh: read them.
+
+        Parameters
+        ----------
+        points : array_like or None
+            Not used: the deformations are the files'.
+
+        Returns
+        -------
+        BoundFiles
+            The files read: sample ``i`` is the ``i``-th deformation.
+
+        Examples
+        --------
+        >>> import pathlib, tempfile
+        >>> from ffd_notebook import FFD, Lattice
+        >>> from ffd_notebook.io import save_deformation
+        >>> path = pathlib.Path(tempfile.mkdtemp()) / "a.ffd"
+        >>> save_deformation(path, FFD(Lattice((4, 4, 4), 1.0)))
+        >>> bound = LatticeFiles([path]).bind(None)
+        >>> len(bound.deformations)
+        1
+        """
         return BoundFiles(self, tuple(load_deformation(f) for f in self.files))
 
 

@@ -27,6 +27,18 @@ ON_FOLD = ("redraw", "scale")
 def volume_grid(points: ArrayLike, n: int) -> NDArray[np.float64]:
     """``n^3`` points on a regular grid spanning the points' bounding box (corners included).
 
+    Parameters
+    ----------
+    points : array_like
+        ``(N, 3)`` points.
+    n : int
+        Grid points per axis.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(n**3, 3)`` float64 grid points.
+
     Examples
     --------
     >>> volume_grid([[0.0, 0.0, 0.0], [2.0, 1.0, 1.0]], 3)[[0, -1]].tolist()

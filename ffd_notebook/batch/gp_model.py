@@ -15,7 +15,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..ffd.lattice import Lattice
-from ..gp import BSplineKernel, GaussianKernel, GaussianProcess, LowRankGP
+from ..gp import BSplineKernel, GaussianKernel, GaussianProcess, Kernel, LowRankGP
 
 __all__ = ["GPSample", "RandomGP"]
 
@@ -88,12 +88,45 @@ class RandomGP:
                 raise ValueError(f"{field} must be a positive integer, got {getattr(self, field)!r}")
 
     def to_spec(self) -> dict[str, Any]:
-        """The parameters as JSON values, with the model's name under ``"model"``."""
+        """The parameters as JSON values, with the model's name under ``"model"``.
+
+        Returns
+        -------
+        dict
+            JSON-serialisable: what the run records and ``model_from_spec`` reads back.
+
+        Examples
+        --------
+        >>> spec = RandomGP(sigma=20.0, scale=2.0).to_spec()
+        >>> spec["model"], spec["kernel"], spec["sigma"]
+        ('gp', 'gaussian', 20.0)
+        """
         return {"model": self.name, **asdict(self)}
 
     def bind(self, points: ArrayLike) -> BoundGP:
-        """Build the low-rank model on the points (a mesh's vertices)."""
+        """Build the low-rank model on the points (a mesh's vertices).
+
+        Parameters
+        ----------
+        points : array_like
+            ``(N, 3)`` points (a mesh's vertices).
+
+        Returns
+        -------
+        BoundGP
+            The model on those points: ``draw(rng, index)`` gives a sample.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from ffd_notebook.batch import sample_rng
+        >>> pts = np.random.default_rng(0).random((200, 3)) * 50
+        >>> bound = RandomGP(sigma=30.0, scale=1.0, n_inducing=50, rank=10).bind(pts)
+        >>> bound.draw(sample_rng(0, 0), 0).deform(pts).shape
+        (200, 3)
+        """
         pts = np.asarray(points, dtype=np.float64)
+        kernel: Kernel
         if self.kernel == "gaussian":
             kernel = GaussianKernel(sigma=self.sigma, scale=self.scale)
         else:

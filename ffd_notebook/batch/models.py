@@ -15,10 +15,10 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..ffd.basis import BASES
+from ..ffd.basis import BASES, BasisName
 from ..ffd.deform import FFD
 from ..ffd.lattice import Lattice
-from ..ffd.support import check_border
+from ..ffd.support import Border, check_border
 
 __all__ = ["LatticeSample", "RandomLattice"]
 
@@ -53,27 +53,105 @@ def _triple(value: Any, name: str, kind: type) -> tuple:
 class LatticeSample:
     """One drawn deformation: an FFD, and the factor its lattice offsets were scaled by.
 
-    Attributes
+    Parameters
     ----------
     ffd : FFD
         The deformation (its lattice holds the drawn offsets).
     scale : float
         1.0 unless the fold check scaled the draw down.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from ffd_notebook import FFD, Lattice
+    >>> from ffd_notebook.batch import LatticeSample
+    >>> lat = Lattice((4, 4, 4), 1.0)
+    >>> lat.offsets[1, 1, 1] = (0.2, 0.0, 0.0)
+    >>> sample = LatticeSample(FFD(lat))
+    >>> sample.scaled(0.5).scale
+    0.5
     """
 
     ffd: FFD
     scale: float = 1.0
 
     def deform(self, points: ArrayLike) -> NDArray[np.float64]:
-        """Deformed ``(N, 3)`` points (:meth:`FFD.deform`)."""
+        """Deformed ``(N, 3)`` points (:meth:`FFD.deform`).
+
+        Parameters
+        ----------
+        points : array_like
+            ``(N, 3)`` points.
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(N, 3)`` deformed points.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from ffd_notebook import FFD, Lattice
+        >>> from ffd_notebook.batch import LatticeSample
+        >>> lat = Lattice((4, 4, 4), 1.0)
+        >>> lat.offsets[1, 1, 1] = (0.2, 0.0, 0.0)
+        >>> sample = LatticeSample(FFD(lat))
+        >>> sample.deform([[1.0, 1.0, 1.0]]).round(4).tolist()
+        [[1.0593, 1.0, 1.0]]
+        """
         return self.ffd.deform(points)
 
     def jacobian_determinant(self, points: ArrayLike) -> NDArray[np.float64]:
-        """The exact (analytic) Jacobian determinant of the FFD at each point."""
+        """The exact (analytic) Jacobian determinant of the FFD at each point.
+
+        Parameters
+        ----------
+        points : array_like
+            ``(N, 3)`` points.
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(N,)`` determinants; ``<= 0`` where the deformation folds.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from ffd_notebook import FFD, Lattice
+        >>> from ffd_notebook.batch import LatticeSample
+        >>> lat = Lattice((4, 4, 4), 1.0)
+        >>> lat.offsets[1, 1, 1] = (0.2, 0.0, 0.0)
+        >>> sample = LatticeSample(FFD(lat))
+        >>> bool(sample.jacobian_determinant([[1.0, 1.0, 1.0]])[0] > 0)
+        True
+        """
         return self.ffd.jacobian_determinant(points)
 
     def scaled(self, factor: float) -> LatticeSample:
-        """The same draw with every offset multiplied by ``factor`` (the affine part kept)."""
+        """The same draw with every offset multiplied by ``factor`` (the affine part kept).
+
+        Parameters
+        ----------
+        factor : float
+            What to multiply the offsets by.
+
+        Returns
+        -------
+        LatticeSample
+            A new sample (this one is not changed), its ``scale`` multiplied by ``factor``.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from ffd_notebook import FFD, Lattice
+        >>> from ffd_notebook.batch import LatticeSample
+        >>> lat = Lattice((4, 4, 4), 1.0)
+        >>> lat.offsets[1, 1, 1] = (0.2, 0.0, 0.0)
+        >>> sample = LatticeSample(FFD(lat))
+        >>> half = sample.scaled(0.5)
+        >>> half.ffd.lattice.offsets[1, 1, 1].tolist(), sample.ffd.lattice.offsets[1, 1, 1].tolist()
+        ([0.1, 0.0, 0.0], [0.2, 0.0, 0.0])
+        """
         lattice = self.ffd.lattice.copy()
         lattice.offsets *= factor
         return LatticeSample(with_lattice(self.ffd, lattice), self.scale * factor)
@@ -128,8 +206,8 @@ class RandomLattice:
     num_control_points: int | tuple[int, int, int] = 7
     max_displacement: float | tuple[float, float, float] = 7.5
     locked_borders: int = 2
-    basis: str = "bspline"
-    border: str = "zero"
+    basis: BasisName = "bspline"
+    border: Border = "zero"
     margin: float = 0.05
 
     name = "random-lattice"
@@ -158,11 +236,45 @@ class RandomLattice:
         object.__setattr__(self, "max_displacement", disp)
 
     def to_spec(self) -> dict[str, Any]:
-        """The parameters as JSON values, with the model's name under ``"model"``."""
+        """The parameters as JSON values, with the model's name under ``"model"``.
+
+        Returns
+        -------
+        dict
+            JSON-serialisable: what ``manifest``/``settings.json`` record and ``model_from_spec`` reads.
+
+        Examples
+        --------
+        >>> from ffd_notebook.batch import RandomLattice
+        >>> spec = RandomLattice(num_control_points=5).to_spec()
+        >>> spec["model"], spec["num_control_points"], spec["border"]
+        ('random-lattice', [5, 5, 5], 'zero')
+        """
         return {"model": self.name, **{k: list(v) if isinstance(v, tuple) else v for k, v in asdict(self).items()}}
 
     def bind(self, points: ArrayLike) -> BoundLattice:
-        """Fit the lattice around the points (a mesh's vertices)."""
+        """Fit the lattice around the points (a mesh's vertices).
+
+        Parameters
+        ----------
+        points : array_like
+            ``(N, 3)`` points.
+
+        Returns
+        -------
+        BoundLattice
+            The model on those points: ``draw(rng, index)`` gives a :class:`LatticeSample`.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from ffd_notebook.batch import RandomLattice, sample_rng
+        >>> pts = np.random.default_rng(0).random((100, 3)) * 10
+        >>> bound = RandomLattice(num_control_points=5, max_displacement=1.0).bind(pts)
+        >>> sample = bound.draw(sample_rng(0, 3), 3)
+        >>> sample.ffd.lattice.shape, sample.deform(pts).shape
+        ((5, 5, 5), (100, 3))
+        """
         pts = np.asarray(points, dtype=np.float64)
         lattice = Lattice.around(
             pts, shape=self.num_control_points, margin=self.margin, basis=self.basis, border=self.border

@@ -150,6 +150,16 @@ class Layout:
 def read_manifest(out: str | os.PathLike[str]) -> dict[str, np.ndarray]:
     """The manifest of an output folder as columns (NumPy arrays; numbers parsed).
 
+    Parameters
+    ----------
+    out : str or os.PathLike
+        An output folder (holding ``manifest.csv``).
+
+    Returns
+    -------
+    dict of numpy.ndarray
+        Column name -> values, one per finished sample.
+
     Examples
     --------
     >>> import pathlib, tempfile

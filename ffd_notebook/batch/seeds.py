@@ -14,6 +14,18 @@ def sample_rng(seed: int, index: int) -> np.random.Generator:
     ``SeedSequence(seed).spawn(...)``: what sample ``index`` is depends neither on how many
     samples there are nor on which worker makes it, or when.
 
+    Parameters
+    ----------
+    seed : int
+        The run's root seed.
+    index : int
+        The sample's id.
+
+    Returns
+    -------
+    numpy.random.Generator
+        A generator used only for that sample.
+
     Examples
     --------
     >>> a = sample_rng(7, 3).random()

@@ -18,8 +18,10 @@ True
 
 from __future__ import annotations
 
+from .basis import BasisName
 from .deform import FFD
 from .deformer import Deformer
 from .lattice import Lattice
+from .support import Border
 
-__all__ = ["FFD", "Deformer", "Lattice"]
+__all__ = ["FFD", "BasisName", "Border", "Deformer", "Lattice"]

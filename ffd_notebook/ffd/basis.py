@@ -20,7 +20,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from math import comb
-from typing import NamedTuple
+from typing import Literal, NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -30,6 +30,7 @@ __all__ = [
     "BSPLINE",
     "BSPLINE_MATRIX",
     "AxisBasis",
+    "BasisName",
     "bernstein",
     "bernstein_derivative",
     "bernstein_values",
@@ -41,6 +42,9 @@ __all__ = [
 
 #: The FFD bases, in the order user interfaces list them.
 BASES = ("bspline", "bernstein")
+
+#: The type of a ``basis`` argument: one of :data:`BASES`.
+BasisName = Literal["bspline", "bernstein"]
 
 #: Power-basis coefficients of the uniform cubic B-spline pieces: ``bspline(t) ==
 #: [1, t, t**2, t**3] @ BSPLINE_MATRIX`` (columns are B_0 .. B_3 of the FFD report).

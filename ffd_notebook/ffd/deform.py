@@ -16,6 +16,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from .._util.points import as_points
 from . import oneshot
+from .basis import BasisName
 from .deformer import Deformer
 from .fit import fit_points as _fit_points
 from .influence import blend, check_strength, influence, point_weights
@@ -23,7 +24,7 @@ from .interpolation import axis_bases, check_basis
 from .jacobian import bernstein_lattice_jacobian, bspline_lattice_jacobian, det3, jacobian_to_world
 from .lattice import Lattice
 from .outside import outside_offsets
-from .support import CellGroups, check_border, in_domain
+from .support import Border, CellGroups, check_border, in_domain
 
 __all__ = ["FFD"]
 
@@ -98,8 +99,8 @@ class FFD:
     def __init__(
         self,
         lattice: Lattice,
-        basis: str = "bspline",
-        border: str | None = None,
+        basis: BasisName | tuple[str, str, str] = "bspline",
+        border: Border | None = None,
         affine: ArrayLike | None = None,
         only_inside: bool = False,
         *,
@@ -193,18 +194,47 @@ class FFD:
         return influence(s, w, n)
 
     @property
-    def border(self) -> str:
+    def border(self) -> Border:
         """The B-spline border rule in use: the one given, else the lattice's."""
         return self.lattice.border if self._border is None else self._border
 
     # ------------------------------------------------------------------ evaluation
     def apply_affine(self, points: ArrayLike) -> NDArray[np.float64]:
-        """The global part ``A x + b`` alone."""
+        """The global part ``A x + b`` alone.
+
+        Parameters
+        ----------
+        points : array_like
+            ``(N, 3)`` points in world coordinates.
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(N, 3)`` float64: each point moved by the affine part only.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from ffd_notebook import FFD, Lattice
+        >>> ffd = FFD(Lattice((4, 4, 4), 1.0), affine=np.diag([2.0, 1.0, 1.0, 1.0]))
+        >>> ffd.apply_affine([[1.0, 1.0, 1.0]]).tolist()
+        [[2.0, 1.0, 1.0]]
+        """
         pts = as_points(points)
         return pts @ self.affine[:3, :3].T + self.affine[:3, 3]
 
     def displacement(self, points: ArrayLike) -> NDArray[np.float64]:
         """The local part ``T_local(x)``: lattice-driven displacement of each point, ``(N, 3)``.
+
+        Parameters
+        ----------
+        points : array_like
+            ``(N, 3)`` points in world coordinates.
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(N, 3)`` float64: the local displacement of each point (without the affine part).
 
         Examples
         --------
@@ -241,6 +271,11 @@ class FFD:
             ``(N,)`` weights in [0, 1], or the name of a point-data array of ``points`` (a mesh);
             by default :attr:`weights` (none: every point gets the whole deformation).
 
+        Returns
+        -------
+        numpy.ndarray
+            ``(N, 3)`` float64: the deformed points (new array; ``points`` is not changed).
+
         Examples
         --------
         >>> import numpy as np
@@ -274,6 +309,16 @@ class FFD:
         derivatives, chained through the lattice frame (``d uvw / dx = R^T / spacing``). With a
         strength ``s`` and weights ``w`` (see :meth:`deform`): ``I + s w (J - I)``, the weights
         being constants of the points.
+
+        Parameters
+        ----------
+        points : array_like
+            ``(N, 3)`` points in world coordinates.
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(N, 3, 3)`` float64: ``J[n, i, j] = d T_i / d x_j`` at point ``n``.
 
         Examples
         --------
@@ -309,6 +354,16 @@ class FFD:
     ) -> NDArray[np.float64]:
         """Determinant of the Jacobian at each point; ``<= 0`` where the deformation folds.
 
+        Parameters
+        ----------
+        points : array_like
+            ``(N, 3)`` points in world coordinates.
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(N,)`` float64 determinants.
+
         Examples
         --------
         >>> import numpy as np
@@ -342,6 +397,22 @@ class FFD:
 
         Least squares when not every target can be met; ``pinned`` points stay where they are.
         Returns the change, ``(nx, ny, nz, 3)``. See :func:`ffd_notebook.ffd.fit.fit_points`.
+
+        Parameters
+        ----------
+        points : array_like
+            ``(K, 3)`` rest positions of the points to move.
+        targets : array_like
+            ``(K, 3)`` where ``deform(points)`` must land.
+        pinned : array_like, optional
+            ``(P, 3)`` rest positions whose deformed positions must not change.
+        weights : array_like, optional
+            ``(K,)`` relative weights of the targets when they cannot all be met.
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(nx, ny, nz, 3)``: the change made to ``lattice.offsets``.
 
         Examples
         --------

@@ -228,6 +228,17 @@ class Deformer:
         -------
         numpy.ndarray
             The deformer's output buffer (overwritten by the next call).
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from ffd_notebook import FFD, Lattice
+        >>> pts = np.random.default_rng(0).random((100, 3))
+        >>> deformer = FFD(Lattice.around(pts, shape=5)).bind(pts, dtype=np.float64)
+        >>> deformer.ffd.lattice.offsets[2, 2, 2] = (0.0, 0.2, 0.0)
+        >>> moved = deformer.update(changed=[(2, 2, 2)])
+        >>> bool(np.allclose(moved, deformer.ffd.deform(pts)))
+        True
         """
         if self._geometry_key() != self._key or not np.array_equal(self.ffd.affine, self._affine):
             self._bind()
@@ -271,6 +282,11 @@ class Deformer:
         Binding evaluates once; installing a freshly bound deformer need not evaluate again (on a
         500k-point mesh a full evaluation takes about a second, and the editor installs on its event loop).
 
+        Returns
+        -------
+        numpy.ndarray
+            ``(N, 3)``: the deformer's output buffer (overwritten by the next evaluation).
+
         Examples
         --------
         >>> import numpy as np
@@ -293,6 +309,11 @@ class Deformer:
 
         The same values as :meth:`FFD.jacobian_determinant` on the bound points, reusing the
         cached grouping of points by cell (the editor's folding view calls it on every drag).
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(N,)`` float64 determinants, in the order of the bound points.
 
         Examples
         --------

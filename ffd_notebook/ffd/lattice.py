@@ -17,8 +17,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .._util.points import as_points
-from .basis import BASES
-from .support import check_border
+from .basis import BASES, BasisName
+from .support import Border, check_border
 
 __all__ = ["Lattice"]
 
@@ -99,7 +99,7 @@ class Lattice:
         origin: ArrayLike = (0.0, 0.0, 0.0),
         rotation: ArrayLike | None = None,
         offsets: ArrayLike | None = None,
-        border: str = "zero",
+        border: Border = "zero",
     ) -> None:
         shape_arr = np.asarray(shape)
         if shape_arr.shape != (3,) or not np.all(shape_arr == np.round(shape_arr)) or np.any(shape_arr < 2):
@@ -151,7 +151,7 @@ class Lattice:
         return not np.allclose(self._rotation.T @ self._rotation, np.eye(3), atol=_ORTHOGONAL)
 
     @property
-    def border(self) -> str:
+    def border(self) -> Border:
         """``"zero"`` or ``"clamp"``: what the B-spline FFD assumes beyond the lattice."""
         return self._border
 
@@ -166,8 +166,8 @@ class Lattice:
         points_or_mesh: Any,
         shape: tuple[int, int, int] | int = (5, 5, 5),
         margin: float | None = None,
-        basis: str = "bspline",
-        border: str = "zero",
+        basis: BasisName = "bspline",
+        border: Border = "zero",
     ) -> Lattice:
         """Fit an axis-aligned lattice around a point set or mesh.
 
@@ -245,6 +245,11 @@ class Lattice:
     def copy(self) -> Lattice:
         """Return an independent copy (offsets and metadata included).
 
+        Returns
+        -------
+        Lattice
+            A new lattice with copies of the offsets, placement and metadata.
+
         Examples
         --------
         >>> a = Lattice((2, 2, 2), 1.0)
@@ -263,7 +268,26 @@ class Lattice:
         return int(np.prod(self.shape))
 
     def set_offsets(self, offsets: ArrayLike) -> None:
-        """Replace all offsets (in place, so views of ``offsets`` stay valid)."""
+        """Replace all offsets (in place, so views of ``offsets`` stay valid).
+
+        Parameters
+        ----------
+        offsets : array_like
+            ``(nx, ny, nz, 3)`` finite values.
+
+        Raises
+        ------
+        ValueError
+            A wrong shape, or NaN or infinite values (the offsets are then unchanged).
+
+        Examples
+        --------
+        >>> lat = Lattice((2, 2, 2), 1.0)
+        >>> view = lat.offsets
+        >>> lat.set_offsets(lat.offsets + 1.0)
+        >>> float(view.sum())
+        24.0
+        """
         arr = np.asarray(offsets, dtype=np.float64)
         if arr.shape != self.shape + (3,):
             raise ValueError(f"offsets must have shape {self.shape + (3,)}, got {arr.shape}")
@@ -272,11 +296,31 @@ class Lattice:
         self.offsets[...] = arr
 
     def reset(self) -> None:
-        """Set every offset to zero."""
+        """Set every offset to zero.
+
+        Examples
+        --------
+        >>> lat = Lattice((2, 2, 2), 1.0)
+        >>> lat.offsets += 1.0
+        >>> lat.reset()
+        >>> float(abs(lat.offsets).sum())
+        0.0
+        """
         self.offsets[...] = 0.0
 
     def indices(self) -> NDArray[np.int64]:
-        """All control-point indices as an ``(nx, ny, nz, 3)`` integer array."""
+        """All control-point indices as an ``(nx, ny, nz, 3)`` integer array.
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(nx, ny, nz, 3)`` int: entry ``[i, j, k]`` is ``(i, j, k)``.
+
+        Examples
+        --------
+        >>> Lattice((2, 3, 2), 1.0).indices()[1, 2, 0].tolist()
+        [1, 2, 0]
+        """
         return np.stack(np.meshgrid(*[np.arange(n) for n in self.shape], indexing="ij"), axis=-1)
 
     def control_points(self, deformed: bool = False) -> NDArray[np.float64]:
@@ -286,6 +330,11 @@ class Lattice:
         ----------
         deformed : bool
             If true, add the offsets to the rest positions.
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(nx, ny, nz, 3)`` float64 world positions.
 
         Examples
         --------
@@ -298,6 +347,16 @@ class Lattice:
     def to_lattice(self, points: ArrayLike) -> NDArray[np.float64]:
         """Lattice coordinates ``(u, v, w)`` of world points (control point (i, j, k) is at (i, j, k)).
 
+        Parameters
+        ----------
+        points : array_like
+            ``(N, 3)`` world points (or one point).
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(N, 3)`` float64 lattice coordinates.
+
         Examples
         --------
         >>> Lattice((3, 3, 3), 2.0, origin=(1, 1, 1)).to_lattice([[3.0, 2.0, 1.0]]).tolist()
@@ -307,12 +366,40 @@ class Lattice:
         return ((pts - self.origin) @ self._inverse.T) / self.spacing
 
     def to_world(self, lattice_coords: ArrayLike) -> NDArray[np.float64]:
-        """World positions of lattice coordinates (the inverse of :meth:`to_lattice`)."""
+        """World positions of lattice coordinates (the inverse of :meth:`to_lattice`).
+
+        Parameters
+        ----------
+        lattice_coords : array_like
+            ``(N, 3)`` lattice coordinates ``(u, v, w)``.
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(N, 3)`` float64 world positions.
+
+        Examples
+        --------
+        >>> lat = Lattice((3, 3, 3), 2.0, origin=(1, 1, 1))
+        >>> lat.to_world(lat.to_lattice([[3.0, 2.0, 1.0]])).tolist()
+        [[3.0, 2.0, 1.0]]
+        """
         uvw = np.asarray(lattice_coords, dtype=np.float64).reshape(-1, 3)
         return (uvw * self.spacing) @ self.rotation.T + self.origin
 
     def bounds(self) -> NDArray[np.float64]:
-        """World bounding box of the rest lattice as ``[xmin, xmax, ymin, ymax, zmin, zmax]``."""
+        """World bounding box of the rest lattice as ``[xmin, xmax, ymin, ymax, zmin, zmax]``.
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(6,)`` float64, PyVista's bounds order.
+
+        Examples
+        --------
+        >>> Lattice((3, 2, 2), 1.0, origin=(1, 0, 0)).bounds().tolist()
+        [1.0, 3.0, 0.0, 1.0, 0.0, 1.0]
+        """
         pts = self.control_points().reshape(-1, 3)
         return np.column_stack([pts.min(0), pts.max(0)]).ravel()
 
@@ -320,6 +407,11 @@ class Lattice:
         """Pairs of flat control-point indices joined by a lattice line, shape ``(E, 2)``.
 
         Flat index of ``(i, j, k)`` is ``(i * ny + j) * nz + k`` (C order, like ``offsets``).
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(E, 2)`` int64 pairs of flat indices.
 
         Examples
         --------

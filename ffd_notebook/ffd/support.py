@@ -34,7 +34,7 @@ Examples
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, Literal, cast
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -43,6 +43,7 @@ from .basis import BSPLINE, AxisBasis
 
 __all__ = [
     "BORDERS",
+    "Border",
     "CellGroups",
     "axis_support",
     "check_border",
@@ -58,8 +59,11 @@ __all__ = [
 #: control points, as in Blender's lattice: the weights then sum to one everywhere).
 BORDERS = ("zero", "clamp")
 
+#: The type of a ``border`` argument: one of :data:`BORDERS`.
+Border = Literal["zero", "clamp"]
 
-def check_border(border: str) -> str:
+
+def check_border(border: str) -> Border:
     """``border`` if it is one of :data:`BORDERS`, else a ``ValueError``.
 
     Examples
@@ -69,7 +73,7 @@ def check_border(border: str) -> str:
     """
     if border not in BORDERS:
         raise ValueError(f"border must be one of {BORDERS}, got {border!r}")
-    return border
+    return cast(Border, border)
 
 
 def axis_support(

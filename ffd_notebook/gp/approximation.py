@@ -118,14 +118,14 @@ def pivoted_cholesky_basis(
 
 def select(bases: list[ScalarBasis], n_components: int) -> tuple[NDArray, NDArray, NDArray]:
     """All 3D basis functions sorted by eigenvalue: (eigenvalues, output axis, (basis, vector) index)."""
-    eig, axis, which = [], [], []
+    eigs, axes, whichs = [], [], []
     for b, basis in enumerate(bases):
         outputs = (0, 1, 2) if n_components == 1 else (b,)
         for a in outputs:
-            eig.append(basis.eigenvalues)
-            axis.append(np.full(len(basis.eigenvalues), a))
-            which.append(np.column_stack([np.full(len(basis.eigenvalues), b), np.arange(len(basis.eigenvalues))]))
-    eig, axis, which = np.concatenate(eig), np.concatenate(axis), np.concatenate(which)
+            eigs.append(basis.eigenvalues)
+            axes.append(np.full(len(basis.eigenvalues), a))
+            whichs.append(np.column_stack([np.full(len(basis.eigenvalues), b), np.arange(len(basis.eigenvalues))]))
+    eig, axis, which = np.concatenate(eigs), np.concatenate(axes), np.concatenate(whichs)
     order = np.lexsort((axis, which[:, 1], -eig))
     return eig[order], axis[order], which[order]
 
@@ -142,5 +142,5 @@ def choose_rank(eigenvalues: NDArray, total: float, rank: int | None, variance: 
         if not 0 < variance <= 1:
             raise ValueError(f"variance must be a fraction in (0, 1], got {variance}")
         captured = np.cumsum(eigenvalues) / total
-        return int(min(np.searchsorted(captured, variance * (1 - 1e-12)) + 1, len(eigenvalues)))
+        return min(int(np.searchsorted(captured, variance * (1 - 1e-12))) + 1, len(eigenvalues))
     return len(eigenvalues)

@@ -56,6 +56,15 @@ class Kernel(ABC):
 
     A few kernels are not diagonal (a posterior after noise with 3x3 covariances): they set
     :attr:`is_diagonal` to False, override :meth:`__call__` and have no :meth:`components`.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from ffd_notebook.gp import GaussianKernel
+    >>> k = GaussianKernel(sigma=1.0, scale=2.0)
+    >>> x = np.zeros((1, 3)); y = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]])
+    >>> (k + k).matrix(x).tolist() == (2.0 * k).matrix(x).tolist()
+    True
     """
 
     #: 1 if the same scalar kernel drives all three output components (``k_s I3``), else 3.
@@ -65,15 +74,79 @@ class Kernel(ABC):
 
     @abstractmethod
     def components(self, x: ArrayLike, y: ArrayLike) -> NDArray[np.float64]:
-        """Scalar kernel matrices of the output components, shape ``(n_components, N, M)``."""
+        """Scalar kernel matrices of the output components, shape ``(n_components, N, M)``.
+
+        Parameters
+        ----------
+        x : array_like
+            ``(N, 3)`` points.
+        y : array_like
+            ``(M, 3)`` points.
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(n_components, N, M)`` float64.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from ffd_notebook.gp import GaussianKernel
+        >>> k = GaussianKernel(sigma=1.0, scale=2.0)
+        >>> x = np.zeros((1, 3)); y = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]])
+        >>> k.components(x, y).round(4).tolist()
+        [[[4.0, 1.4715]]]
+        """
 
     def diagonal(self, x: ArrayLike) -> NDArray[np.float64]:
-        """``k(x_i, x_i)`` per component, shape ``(n_components, N)`` (the prior variance)."""
+        """``k(x_i, x_i)`` per component, shape ``(n_components, N)`` (the prior variance).
+
+        Parameters
+        ----------
+        x : array_like
+            ``(N, 3)`` points.
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(n_components, N)`` float64 variances.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from ffd_notebook.gp import GaussianKernel
+        >>> k = GaussianKernel(sigma=1.0, scale=2.0)
+        >>> x = np.zeros((1, 3)); y = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]])
+        >>> k.diagonal(y).tolist()
+        [[4.0, 4.0]]
+        """
         x = as_points(x)
         return np.stack([np.diagonal(c) for c in self.components(x, x)])
 
     def component_matrices(self, x: ArrayLike, y: ArrayLike) -> NDArray[np.float64]:
-        """The three scalar kernel matrices, shape ``(3, N, M)`` (repeated if isotropic)."""
+        """The three scalar kernel matrices, shape ``(3, N, M)`` (repeated if isotropic).
+
+        Parameters
+        ----------
+        x : array_like
+            ``(N, 3)`` points.
+        y : array_like
+            ``(M, 3)`` points.
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(3, N, M)`` float64.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from ffd_notebook.gp import GaussianKernel
+        >>> k = GaussianKernel(sigma=1.0, scale=2.0)
+        >>> x = np.zeros((1, 3)); y = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]])
+        >>> k.component_matrices(x, y).shape
+        (3, 1, 2)
+        """
         comps = self.components(x, y)
         return np.broadcast_to(comps, (3, *comps.shape[1:]))
 
@@ -82,6 +155,29 @@ class Kernel(ABC):
 
         Cholesky factor of each distinct component's ``N x N`` matrix times standard normals
         (``rng.standard_normal((N, n, 3))``).
+
+        Parameters
+        ----------
+        points : numpy.ndarray
+            ``(N, 3)`` points.
+        n : int
+            How many fields.
+        rng : numpy.random.Generator
+            The random source.
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(n, N, 3)`` fields.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from ffd_notebook.gp import GaussianKernel
+        >>> k = GaussianKernel(sigma=1.0, scale=2.0)
+        >>> x = np.zeros((1, 3)); y = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]])
+        >>> k.sample(y, 3, np.random.default_rng(0)).shape
+        (3, 2, 3)
         """
         comps = self.components(points, points)
         z = rng.standard_normal((len(points), n, 3))
@@ -104,6 +200,18 @@ class Kernel(ABC):
 
     def matrix(self, x: ArrayLike, y: ArrayLike | None = None) -> NDArray[np.float64]:
         """The ``(3N, 3M)`` kernel matrix; row ``3 i + a`` is point ``i``, component ``a``.
+
+        Parameters
+        ----------
+        x : array_like
+            ``(N, 3)`` points.
+        y : array_like, optional
+            ``(M, 3)`` points; ``x`` by default.
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(3N, 3M)`` float64.
 
         Examples
         --------
@@ -140,7 +248,23 @@ def _diagonal_only(*kernels: Kernel) -> None:
 
 
 class SumKernel(Kernel):
-    """``k1 + k2``: the displacement is the sum of two independent processes."""
+    """``k1 + k2``: the displacement is the sum of two independent processes.
+
+    Parameters
+    ----------
+    first : Kernel
+        The first kernel.
+    second : Kernel
+        The second kernel.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from ffd_notebook.gp import ExponentialKernel, GaussianKernel
+    >>> k = GaussianKernel(1.0) + ExponentialKernel(1.0)
+    >>> float(k.components(np.zeros((1, 3)), np.zeros((1, 3)))[0, 0, 0])
+    2.0
+    """
 
     def __init__(self, first: Kernel, second: Kernel) -> None:
         _diagonal_only(first, second)
@@ -159,6 +283,13 @@ class SumKernel(Kernel):
 
 class ProductKernel(Kernel):
     """``k1 * k2`` component by component: the covariance of the product of independent processes.
+
+    Parameters
+    ----------
+    first : Kernel
+        The first kernel.
+    second : Kernel
+        The second kernel.
 
     Examples
     --------
@@ -185,7 +316,23 @@ class ProductKernel(Kernel):
 
 
 class ScaledKernel(Kernel):
-    """``factor * k``: the covariance multiplied by a positive number or a per-component 3-vector."""
+    """``factor * k``: the covariance multiplied by a positive number or a per-component 3-vector.
+
+    Parameters
+    ----------
+    kernel : Kernel
+        The kernel scaled.
+    factor : float or array_like
+        A positive number, or a positive 3-vector (one factor per output component).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from ffd_notebook.gp import GaussianKernel
+    >>> k = [1.0, 1.0, 0.25] * GaussianKernel(1.0)
+    >>> k.diagonal(np.zeros((1, 3))).ravel().tolist()
+    [1.0, 1.0, 0.25]
+    """
 
     def __init__(self, kernel: Kernel, factor: ArrayLike) -> None:
         _diagonal_only(kernel)
@@ -205,6 +352,11 @@ class ScaledKernel(Kernel):
 
 class DiagonalKernel(Kernel):
     """A kernel per axis: ``diag(k_x, k_y, k_z)``, each output component its own process.
+
+    Parameters
+    ----------
+    kx, ky, kz : Kernel
+        Output-isotropic kernels of the x, y and z components.
 
     Examples
     --------
@@ -270,7 +422,24 @@ class MirroredKernel(Kernel):
         self.n_components = 3
 
     def mirror(self, points: ArrayLike) -> NDArray[np.float64]:
-        """The points reflected across the mirror plane, ``(N, 3)``."""
+        """The points reflected across the mirror plane, ``(N, 3)``.
+
+        Parameters
+        ----------
+        points : array_like
+            ``(N, 3)`` points.
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(N, 3)`` reflected points.
+
+        Examples
+        --------
+        >>> from ffd_notebook.gp import GaussianKernel
+        >>> MirroredKernel(GaussianKernel(1.0), axis=0, center=1.0).mirror([[3.0, 2.0, 0.0]]).tolist()
+        [[-1.0, 2.0, 0.0]]
+        """
         out = as_points(points).copy()
         out[:, self.axis] = 2.0 * self.center - out[:, self.axis]
         return out
@@ -291,7 +460,31 @@ class MirroredKernel(Kernel):
         return out
 
     def sample(self, points: NDArray[np.float64], n: int, rng: np.random.Generator) -> NDArray[np.float64]:
-        """``(u(x) + M u(M x)) / sqrt 2`` from one joint draw of ``u``: exactly symmetric, not up to jitter."""
+        """``(u(x) + M u(M x)) / sqrt 2`` from one joint draw of ``u``: exactly symmetric, not up to jitter.
+
+        Parameters
+        ----------
+        points : numpy.ndarray
+            ``(N, 3)`` points.
+        n : int
+            How many fields.
+        rng : numpy.random.Generator
+            The random source.
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(n, N, 3)`` left-right symmetric fields.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from ffd_notebook.gp import GaussianKernel
+        >>> k = MirroredKernel(GaussianKernel(1.0), axis=0)
+        >>> u = k.sample(np.array([[1.0, 0.0, 0.0], [-1.0, 0.0, 0.0]]), 1, np.random.default_rng(0))[0]
+        >>> bool(np.allclose(u[0], u[1] * [-1, 1, 1]))   # the mirror image's displacement, x flipped
+        True
+        """
         both = np.vstack([points, self.mirror(points)])
         # points that are mirror images of each other must share one draw of u: merge them up to rounding
         extent = float(np.ptp(both, axis=0).max()) or 1.0

@@ -31,7 +31,22 @@ __all__ = ["ArrowField", "arrow_field", "grid_points", "sample_jointly"]
 
 
 class ArrowField(NamedTuple):
-    """Arrow positions and the displacement at each, both ``(M, 3)``."""
+    """Arrow positions and the displacement at each, both ``(M, 3)``.
+
+    Parameters
+    ----------
+    points : numpy.ndarray
+        ``(M, 3)`` arrow tails.
+    vectors : numpy.ndarray
+        ``(M, 3)`` displacements.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> field = ArrowField(np.zeros((2, 3)), np.array([[3.0, 4.0, 0.0], [0.0, 0.0, 1.0]]))
+    >>> field.magnitudes.tolist()
+    [5.0, 1.0]
+    """
 
     points: NDArray[np.float64]
     vectors: NDArray[np.float64]
@@ -53,6 +68,11 @@ def grid_points(bounds: ArrayLike, shape: int | Sequence[int] = (5, 5, 5), margi
         Points per axis.
     margin : float
         Grow the box on every side by this fraction of its largest extent.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(nx * ny * nz, 3)`` float64 points.
 
     Examples
     --------
@@ -89,6 +109,11 @@ def arrow_field(
     rng : int or Generator, optional
         Random state for a process sample.
 
+    Returns
+    -------
+    ArrowField
+        The grid points and the displacement at each.
+
     Examples
     --------
     >>> from ffd_notebook import FFD, Lattice
@@ -112,6 +137,20 @@ def sample_jointly(
     process: GaussianProcess, point_sets: Sequence[ArrayLike], rng: int | np.random.Generator | None = None
 ) -> list[NDArray[np.float64]]:
     """One sample of ``process`` drawn at all point sets together, split back, ``[(N_i, 3), ...]``.
+
+    Parameters
+    ----------
+    process : GaussianProcess
+        The process.
+    point_sets : sequence of array_like
+        Point sets ``(N_i, 3)``.
+    rng : int or numpy.random.Generator, optional
+        The random source.
+
+    Returns
+    -------
+    list of numpy.ndarray
+        One ``(N_i, 3)`` field per point set, from one joint draw.
 
     Examples
     --------

@@ -103,6 +103,13 @@ class ExponentialKernel(_StationaryKernel):
     Rougher than :class:`GaussianKernel`: samples are continuous but not differentiable.
     A 3-vector ``sigma`` divides each axis by ``sigma_i^2`` before taking the distance.
 
+    Parameters
+    ----------
+    sigma : float or array_like
+        Length scale (a number, or one per axis).
+    scale : float or array_like
+        Standard deviation of the displacement (a number, or one per component).
+
     Examples
     --------
     >>> import numpy as np
@@ -125,6 +132,18 @@ def bspline_weights(lattice: Lattice, points: ArrayLike) -> sp.csr_matrix:
     the lattice are dropped). Columns are flat control-point indices in C order, like
     ``lattice.offsets.reshape(-1, 3)``, so ``W @ offsets.reshape(-1, 3)`` is the FFD
     displacement.
+
+    Parameters
+    ----------
+    lattice : Lattice
+        The lattice.
+    points : array_like
+        ``(N, 3)`` points.
+
+    Returns
+    -------
+    scipy.sparse.csr_matrix
+        ``(N, nx * ny * nz)``: row ``n`` holds the weights of the control points that reach point ``n``.
 
     Examples
     --------
@@ -155,6 +174,13 @@ class BSplineKernel(Kernel):
     point's offset is drawn i.i.d. from ``N(0, scale^2)`` per component: a sample of this
     process *is* a random FFD on ``lattice`` (the lattice's own offsets are ignored).
 
+    Parameters
+    ----------
+    lattice : Lattice
+        The lattice whose control points' offsets are random.
+    scale : float or array_like
+        Standard deviation of each offset component (a number or a 3-vector).
+
     Examples
     --------
     >>> import numpy as np
@@ -174,11 +200,52 @@ class BSplineKernel(Kernel):
         self.n_components = 1 if self.scale.ndim == 0 else 3
 
     def weights(self, points: ArrayLike) -> sp.csr_matrix:
-        """Sparse ``(N, n_ctrl)`` control-point weights (see :func:`bspline_weights`)."""
+        """Sparse ``(N, n_ctrl)`` control-point weights (see :func:`bspline_weights`).
+
+        Parameters
+        ----------
+        points : array_like
+            ``(N, 3)`` points.
+
+        Returns
+        -------
+        scipy.sparse.csr_matrix
+            ``(N, nx * ny * nz)`` weights.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from ffd_notebook import Lattice
+        >>> k = BSplineKernel(Lattice((5, 5, 5), 1.0, origin=(-2, -2, -2)), scale=2.0)
+        >>> w = k.weights(np.zeros((1, 3)))
+        >>> w.shape, round(float(w.sum()), 6)
+        ((1, 125), 1.0)
+        """
         return bspline_weights(self.lattice, points)
 
     def random_offsets(self, n: int, rng: np.random.Generator) -> NDArray[np.float64]:
-        """``n`` sets of i.i.d. ``N(0, scale^2)`` control-point offsets, ``(n, nx, ny, nz, 3)``."""
+        """``n`` sets of i.i.d. ``N(0, scale^2)`` control-point offsets, ``(n, nx, ny, nz, 3)``.
+
+        Parameters
+        ----------
+        n : int
+            How many sets.
+        rng : numpy.random.Generator
+            The random source.
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(n, nx, ny, nz, 3)`` offsets.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from ffd_notebook import Lattice
+        >>> k = BSplineKernel(Lattice((5, 5, 5), 1.0, origin=(-2, -2, -2)), scale=2.0)
+        >>> k.random_offsets(2, np.random.default_rng(0)).shape
+        (2, 5, 5, 5, 3)
+        """
         return rng.standard_normal((n, *self.lattice.shape, 3)) * self.scale
 
     def random_lattice(self, rng: int | np.random.Generator | None = None) -> Lattice:
@@ -187,13 +254,58 @@ class BSplineKernel(Kernel):
         Uses the same draws as ``sample(points, 1, rng)``, so for the same seed
         ``FFD(kernel.random_lattice(seed)).displacement(points)`` equals
         ``GaussianProcess(kernel).sample(points, 1, seed)[0]``.
+
+        Parameters
+        ----------
+        rng : int or numpy.random.Generator, optional
+            The random source.
+
+        Returns
+        -------
+        Lattice
+            A copy of the kernel's lattice with random offsets.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from ffd_notebook import Lattice
+        >>> k = BSplineKernel(Lattice((5, 5, 5), 1.0, origin=(-2, -2, -2)), scale=2.0)
+        >>> from ffd_notebook import FFD
+        >>> from ffd_notebook.gp import GaussianProcess
+        >>> pts = np.zeros((1, 3))
+        >>> a = FFD(k.random_lattice(3)).displacement(pts)
+        >>> bool(np.allclose(a, GaussianProcess(k).sample(pts, 1, 3)[0]))
+        True
         """
         lattice = self.lattice.copy()
         lattice.offsets[...] = self.random_offsets(1, as_generator(rng))[0]
         return lattice
 
     def sample(self, points: NDArray[np.float64], n: int, rng: np.random.Generator) -> NDArray[np.float64]:
-        """Random FFDs evaluated at the points (weight space: exact, no factorisation, any ``N``)."""
+        """Random FFDs evaluated at the points (weight space: exact, no factorisation, any ``N``).
+
+        Parameters
+        ----------
+        points : numpy.ndarray
+            ``(N, 3)`` points.
+        n : int
+            How many fields.
+        rng : numpy.random.Generator
+            The random source.
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(n, N, 3)`` fields.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from ffd_notebook import Lattice
+        >>> k = BSplineKernel(Lattice((5, 5, 5), 1.0, origin=(-2, -2, -2)), scale=2.0)
+        >>> k.sample(np.zeros((4, 3)), 2, np.random.default_rng(0)).shape
+        (2, 4, 3)
+        """
         offsets = self.random_offsets(n, rng).reshape(n, -1, 3)
         weights = self.weights(points)
         return np.stack([weights @ o for o in offsets])

@@ -21,6 +21,18 @@ def cholesky(matrix: NDArray[np.float64], max_tries: int = 8) -> NDArray[np.floa
     faster than machine precision); a jitter of ``1e-12``, ``1e-11``, ... times the mean
     diagonal is tried in turn.
 
+    Parameters
+    ----------
+    matrix : numpy.ndarray
+        A symmetric positive semi-definite ``(n, n)`` matrix.
+    max_tries : int
+        How many times the jitter may grow (tenfold each time) before giving up.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(n, n)`` lower-triangular ``L`` with ``L @ L.T`` = ``matrix`` + jitter.
+
     Examples
     --------
     >>> import numpy as np

@@ -116,6 +116,20 @@ class LowRankGP:
             Chooses the inducing points.
         progress : bool
             Show a progress bar while the kernel matrix is evaluated.
+
+        Returns
+        -------
+        LowRankGP
+            The model in eigen form on ``points``.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from ffd_notebook.gp import GaussianKernel, GaussianProcess
+        >>> pts = np.random.default_rng(0).random((200, 3))
+        >>> model = LowRankGP.nystrom(GaussianProcess(GaussianKernel(0.5)), pts, n_inducing=50, rank=10, rng=0)
+        >>> model.rank
+        10
         """
         return cls(*build.nystrom_parts(process, points, n_inducing, rank, variance, rng, progress))
 
@@ -139,6 +153,30 @@ class LowRankGP:
         pivots are taken. Costs ``O(N r^2)`` for ``r`` pivots. ``rank`` and ``variance`` then
         truncate the eigenbasis as in :meth:`nystrom`. The variance kept is reported by
         :attr:`kept_variance` and :attr:`captured_variance`.
+
+        Parameters
+        ----------
+        process : GaussianProcess
+            The process to approximate.
+        points : array_like
+            ``(N, 3)`` points.
+        tolerance : float
+            Stop when the remaining trace is below this fraction of the total.
+        max_rank : int
+            The largest rank tried.
+        rank : int, optional
+            Keep this many components.
+        variance : float, optional
+            Keep the fewest components holding this fraction of the variance.
+        progress : bool
+            Show a progress bar.
+        absolute_tolerance : float
+            Stop when the remaining trace is below this value.
+
+        Returns
+        -------
+        LowRankGP
+            The model in eigen form on ``points``.
 
         Examples
         --------
@@ -179,6 +217,15 @@ class LowRankGP:
             The reference shape; a mesh's triangles become the model's :attr:`cells`.
         meshes : sequence of (N, 3) array_like or meshes
             At least two examples.
+        rank : int, optional
+            Keep this many principal components.
+        variance : float, optional
+            Keep the fewest components holding this fraction of the variance.
+
+        Returns
+        -------
+        LowRankGP
+            Mean and principal components (rank at most ``len(meshes) - 1``).
 
         Examples
         --------
@@ -206,6 +253,35 @@ class LowRankGP:
         ``mean`` is the mean displacement ``(N, 3)``, ``basis`` ``(3N, r)`` with rows
         ``3 i + a`` (point ``i``, component ``a``), ``variances`` ``(r,)``. The basis is kept as
         given (it need not be orthonormal), so coefficients mean what they meant in the file.
+
+        Parameters
+        ----------
+        reference : array_like
+            ``(N, 3)`` reference points.
+        mean : array_like
+            ``(N, 3)`` mean displacement.
+        basis : array_like
+            ``(3N, r)`` basis vectors in the columns.
+        variances : array_like
+            ``(r,)`` non-negative variances.
+        cells : array_like, optional
+            ``(M, 3)`` triangles of the reference mesh, kept for Statismo files.
+
+        Returns
+        -------
+        LowRankGP
+            The model, its basis kept as given.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from ffd_notebook.gp import LowRankGP
+        >>> rng = np.random.default_rng(0)
+        >>> ref = rng.random((30, 3))
+        >>> model = LowRankGP.from_examples(ref, [ref + 0.05 * rng.standard_normal((30, 3)) for _ in range(5)])
+        >>> again = LowRankGP.from_basis_matrix(ref, model.mean(), model.basis_matrix(), model.eigenvalues)
+        >>> bool(np.allclose(again.instance([1.0, 0, 0, 0]), model.instance([1.0, 0, 0, 0])))
+        True
         """
         return cls(*build.matrix_parts(reference, mean, basis, variances, cells))
 
@@ -260,11 +336,44 @@ class LowRankGP:
         return space.base_mean(pts) + space.vectors_at(pts) @ shift
 
     def mean(self, points: ArrayLike | None = None) -> NDArray[np.float64]:
-        """Mean displacement ``(N, 3)`` at the point set (default) or at other points."""
+        """Mean displacement ``(N, 3)`` at the point set (default) or at other points.
+
+        Parameters
+        ----------
+        points : array_like, optional
+            ``(M, 3)`` other points; the model's point set by default.
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(N, 3)`` float64.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from ffd_notebook.gp import LowRankGP
+        >>> rng = np.random.default_rng(0)
+        >>> ref = rng.random((30, 3))
+        >>> model = LowRankGP.from_examples(ref, [ref + 0.05 * rng.standard_normal((30, 3)) for _ in range(5)])
+        >>> model.mean().shape
+        (30, 3)
+        """
         return self._fields(None, points)
 
     def instance(self, coefficients: ArrayLike, points: ArrayLike | None = None) -> NDArray[np.float64]:
         """The displacement field ``mean + sum_k sqrt(lambda_k) c_k phi_k``, ``(N, 3)``.
+
+        Parameters
+        ----------
+        coefficients : array_like
+            ``(rank,)`` coefficients.
+        points : array_like, optional
+            ``(M, 3)`` other points; the model's point set by default.
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(N, 3)`` displacements.
 
         Examples
         --------
@@ -285,7 +394,32 @@ class LowRankGP:
     def sample(
         self, n: int = 1, rng: int | np.random.Generator | None = None, points: ArrayLike | None = None
     ) -> NDArray[np.float64]:
-        """Draw ``n`` random displacement fields, ``(n, N, 3)``, at the point set or other points."""
+        """Draw ``n`` random displacement fields, ``(n, N, 3)``, at the point set or other points.
+
+        Parameters
+        ----------
+        n : int
+            How many fields.
+        rng : int or numpy.random.Generator, optional
+            The random source.
+        points : array_like, optional
+            ``(M, 3)`` other points; the model's point set by default.
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(n, N, 3)`` fields.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from ffd_notebook.gp import LowRankGP
+        >>> rng = np.random.default_rng(0)
+        >>> ref = rng.random((30, 3))
+        >>> model = LowRankGP.from_examples(ref, [ref + 0.05 * rng.standard_normal((30, 3)) for _ in range(5)])
+        >>> model.sample(3, rng=0).shape
+        (3, 30, 3)
+        """
         coefs = as_generator(rng).standard_normal((n, self.rank))
         # any factor of the covariance gives the same distribution: no need for the eigen form
         return np.stack([self._fields(ops.weights(self._factor, c), points) for c in coefs])
@@ -294,11 +428,42 @@ class LowRankGP:
         return self._space.vectors_t if points is None else self._space.vectors_at(as_points(points)).T
 
     def variance(self, points: ArrayLike | None = None) -> NDArray[np.float64]:
-        """Pointwise variance of each displacement component held by the model, ``(N, 3)``."""
+        """Pointwise variance of each displacement component held by the model, ``(N, 3)``.
+
+        Parameters
+        ----------
+        points : array_like, optional
+            ``(M, 3)`` other points; the model's point set by default.
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(N, 3)`` float64.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from ffd_notebook.gp import LowRankGP
+        >>> rng = np.random.default_rng(0)
+        >>> ref = rng.random((30, 3))
+        >>> model = LowRankGP.from_examples(ref, [ref + 0.05 * rng.standard_normal((30, 3)) for _ in range(5)])
+        >>> bool(np.all(model.variance() >= 0))
+        True
+        """
         return ops.pointwise_variance(self._factor, self._vectors_t(points))
 
     def covariance(self, points: ArrayLike | None = None) -> NDArray[np.float64]:
         """The model's ``(3M, 3M)`` covariance matrix at points (row ``3 i + a``), like a dense process's.
+
+        Parameters
+        ----------
+        points : array_like, optional
+            ``(M, 3)`` other points; the model's point set by default.
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(3M, 3M)`` float64.
 
         Examples
         --------
@@ -319,13 +484,50 @@ class LowRankGP:
         return out
 
     def basis_function(self, k: int) -> NDArray[np.float64]:
-        """Basis function ``phi_k`` over the point set, ``(N, 3)`` (unit norm for the package's models)."""
+        """Basis function ``phi_k`` over the point set, ``(N, 3)`` (unit norm for the package's models).
+
+        Parameters
+        ----------
+        k : int
+            Which basis function (0 has the largest variance).
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(N, 3)`` float64.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from ffd_notebook.gp import LowRankGP
+        >>> rng = np.random.default_rng(0)
+        >>> ref = rng.random((30, 3))
+        >>> model = LowRankGP.from_examples(ref, [ref + 0.05 * rng.standard_normal((30, 3)) for _ in range(5)])
+        >>> model.basis_function(0).shape
+        (30, 3)
+        """
         factor, eig = self._basis_form()
         scale = 1.0 / np.sqrt(eig[k]) if eig[k] > 0 else 0.0
         return (np.einsum("aq,qn->na", factor[:, :, k], self._space.vectors_t)) * scale
 
     def basis_matrix(self) -> NDArray[np.float64]:
-        """All basis functions as Statismo's ``pcaBasis``: ``(3N, rank)``, row ``3 i + a``."""
+        """All basis functions as Statismo's ``pcaBasis``: ``(3N, rank)``, row ``3 i + a``.
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(3N, rank)`` float64.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from ffd_notebook.gp import LowRankGP
+        >>> rng = np.random.default_rng(0)
+        >>> ref = rng.random((30, 3))
+        >>> model = LowRankGP.from_examples(ref, [ref + 0.05 * rng.standard_normal((30, 3)) for _ in range(5)])
+        >>> model.basis_matrix().shape
+        (90, 4)
+        """
         factor, eig = self._basis_form()
         scale = np.divide(1.0, np.sqrt(eig), out=np.zeros_like(eig), where=eig > 0)
         per_axis = [(factor[a].T @ self._space.vectors_t).T * scale for a in range(3)]  # (N, r) each
@@ -335,6 +537,29 @@ class LowRankGP:
         """Coefficients of the model instance closest to a displacement field on the point set.
 
         Minimises ``|instance(c) - d|^2 + noise * |c|^2`` (``noise > 0`` pulls towards the mean).
+
+        Parameters
+        ----------
+        displacements : array_like
+            ``(N, 3)`` displacements at the point set.
+        noise : float
+            Observation noise variance (0: the orthogonal projection).
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(rank,)`` coefficients.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from ffd_notebook.gp import LowRankGP
+        >>> rng = np.random.default_rng(0)
+        >>> ref = rng.random((30, 3))
+        >>> model = LowRankGP.from_examples(ref, [ref + 0.05 * rng.standard_normal((30, 3)) for _ in range(5)])
+        >>> c = np.array([1.0, -0.5, 0.0, 0.0])
+        >>> (model.coefficients(model.instance(c)).round(6) + 0.0).tolist()
+        [1.0, -0.5, 0.0, 0.0]
         """
         d = np.asarray(displacements, dtype=np.float64)
         if d.shape != self.points.shape:
@@ -343,12 +568,46 @@ class LowRankGP:
         return ops.least_squares(factor, self._space, d - self._mean_values, noise)
 
     def project(self, displacements: ArrayLike, noise: float = 0.0) -> NDArray[np.float64]:
-        """The model instance closest to a displacement field, ``(N, 3)``."""
+        """The model instance closest to a displacement field, ``(N, 3)``.
+
+        Parameters
+        ----------
+        displacements : array_like
+            ``(N, 3)`` displacements at the point set.
+        noise : float
+            Observation noise variance.
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(N, 3)``: the instance of :meth:`coefficients`.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from ffd_notebook.gp import LowRankGP
+        >>> rng = np.random.default_rng(0)
+        >>> ref = rng.random((30, 3))
+        >>> model = LowRankGP.from_examples(ref, [ref + 0.05 * rng.standard_normal((30, 3)) for _ in range(5)])
+        >>> field = model.instance([0.5, 0.0, 0.0, 0.0])
+        >>> bool(np.allclose(model.project(field), field))
+        True
+        """
         return self.instance(self.coefficients(displacements, noise))
 
     # ------------------------------------------------------------------ densities
     def logpdf(self, coefficients: ArrayLike) -> float:
         """Log density of coefficients: ``log N(c; 0, I)`` (Scalismo's ``logpdf``).
+
+        Parameters
+        ----------
+        coefficients : array_like
+            ``(rank,)`` coefficients.
+
+        Returns
+        -------
+        float
+            The log density.
 
         Examples
         --------
@@ -371,6 +630,26 @@ class LowRankGP:
         ``scipy.stats.multivariate_normal(mean, cov, allow_singular=True)``), evaluated at the
         field's projection onto the subspace (the closest instance). Directions without variance
         are left out.
+
+        Parameters
+        ----------
+        displacements : array_like
+            ``(N, 3)`` displacements at the point set.
+
+        Returns
+        -------
+        float
+            The log density of its coefficients.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from ffd_notebook.gp import LowRankGP
+        >>> rng = np.random.default_rng(0)
+        >>> ref = rng.random((30, 3))
+        >>> model = LowRankGP.from_examples(ref, [ref + 0.05 * rng.standard_normal((30, 3)) for _ in range(5)])
+        >>> bool(model.logpdf_of(model.mean()) > model.logpdf_of(model.instance([3.0, 0.0, 0.0, 0.0])))
+        True
         """
         d = np.asarray(displacements, dtype=np.float64)
         if d.shape != self.points.shape:
@@ -387,6 +666,20 @@ class LowRankGP:
         landmark ``(L,)`` or per landmark and component ``(L, 3)``, or one 3x3 covariance per
         landmark ``(L, 3, 3)`` (Scalismo's ``MultivariateNormalDistribution`` per point). Only
         ``3L x 3L`` and ``3L x rank`` systems are solved; the result has the same basis and rank.
+
+        Parameters
+        ----------
+        landmarks : array_like
+            ``(L, 3)`` points (any, not only the point set's).
+        displacements : array_like
+            ``(L, 3)`` observed displacements.
+        noise : array_like
+            A variance, variances per landmark, or ``(L, 3, 3)`` covariances.
+
+        Returns
+        -------
+        LowRankGP
+            The posterior model.
 
         Examples
         --------
@@ -417,6 +710,16 @@ class LowRankGP:
         model and ``other`` an analytic bias model (``LowRankGP.pivoted_cholesky`` of a kernel
         on ``self.points``) that adds the flexibility the few examples lack. Exact: the result
         is put in eigen form over both bases together (rank up to the sum of the ranks).
+
+        Parameters
+        ----------
+        other : LowRankGP
+            A model on the same point set.
+
+        Returns
+        -------
+        LowRankGP
+            The sum of the two processes, in eigen form.
 
         Examples
         --------

@@ -130,6 +130,7 @@ def _condition(
     new = factor.copy()
     step = np.zeros((factor.shape[1], 3))
     if nz.is_diagonal and separable:
+        assert nz.variances is not None  # diagonal noise is given by its variances
         for a in range(3):
             cols = np.flatnonzero(axes == a)
             if len(cols) == 0:

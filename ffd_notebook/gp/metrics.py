@@ -48,7 +48,29 @@ def _mean_distance(a: NDArray[np.float64], b: NDArray[np.float64]) -> NDArray[np
 
 
 def compactness(model: LowRankGP) -> NDArray[np.float64]:
-    """Cumulative variance of the first ``M`` components, ``M = 1..rank`` (``(rank,)``)."""
+    """Cumulative variance of the first ``M`` components, ``M = 1..rank`` (``(rank,)``).
+
+    Parameters
+    ----------
+    model : LowRankGP
+        The model.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(rank,)`` cumulative variances, increasing.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from ffd_notebook.gp import LowRankGP
+    >>> rng = np.random.default_rng(0)
+    >>> ref = rng.random((30, 3))
+    >>> meshes = [ref + 0.05 * rng.standard_normal((30, 3)) for _ in range(5)]
+    >>> c = compactness(LowRankGP.from_examples(ref, meshes))
+    >>> len(c), bool(np.all(np.diff(c) >= 0))
+    (4, True)
+    """
     return np.cumsum(model.eigenvalues)
 
 
@@ -58,6 +80,28 @@ def generalization(reference: ArrayLike | object, meshes: Sequence[ArrayLike | o
     For each example, a model is built from the other ``n - 1`` (at most ``n - 2`` components),
     the example is projected onto its first ``M`` components, and the mean vertex distance to
     the example is averaged over the examples. Decreases with ``M``.
+
+    Parameters
+    ----------
+    reference : array_like or mesh
+        ``(N, 3)`` reference points (or a mesh).
+    meshes : sequence
+        At least 3 shapes in correspondence with the reference.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(n - 2,)`` mean point distances, for ``M = 1..n-2`` components.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from ffd_notebook.gp import LowRankGP
+    >>> rng = np.random.default_rng(0)
+    >>> ref = rng.random((30, 3))
+    >>> meshes = [ref + 0.05 * rng.standard_normal((30, 3)) for _ in range(5)]
+    >>> generalization(ref, meshes).shape
+    (3,)
     """
     ref = as_points(getattr(reference, "points", reference), "reference")
     shapes = _shapes(meshes)
@@ -84,6 +128,32 @@ def specificity(
 
     ``n_samples`` coefficient vectors are drawn once; for each ``M`` the first ``M`` are used
     (the rest zero). Returns ``(rank,)``.
+
+    Parameters
+    ----------
+    model : LowRankGP
+        The model.
+    meshes : sequence
+        The training shapes.
+    n_samples : int
+        Random instances per number of components.
+    rng : int or numpy.random.Generator, optional
+        The random source.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(rank,)`` mean distances.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from ffd_notebook.gp import LowRankGP
+    >>> rng = np.random.default_rng(0)
+    >>> ref = rng.random((30, 3))
+    >>> meshes = [ref + 0.05 * rng.standard_normal((30, 3)) for _ in range(5)]
+    >>> specificity(LowRankGP.from_examples(ref, meshes), meshes, n_samples=10, rng=0).shape
+    (4,)
     """
     shapes = _shapes(meshes)
     coefs = as_generator(rng).standard_normal((n_samples, model.rank))

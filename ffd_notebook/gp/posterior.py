@@ -57,6 +57,23 @@ class PosteriorKernel(Kernel):
     Built by :meth:`GaussianProcess.posterior <ffd_notebook.gp.GaussianProcess.posterior>`; it is
     a kernel like any other (a posterior can be conditioned again). ``noise`` is anything
     :func:`~ffd_notebook.gp.noise.observation_noise` takes.
+
+    Parameters
+    ----------
+    prior : Kernel
+        The kernel before the observations.
+    landmarks : array_like
+        ``(L, 3)`` observed points ``X``.
+    noise : array_like
+        A variance, variances per landmark (``(L,)`` or ``(L, 3)``) or ``(L, 3, 3)`` covariances.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from ffd_notebook.gp import GaussianKernel, PosteriorKernel
+    >>> k = PosteriorKernel(GaussianKernel(1.0), [[0.0, 0.0, 0.0]], noise=0.01)
+    >>> float(k.matrix([[0.0, 0.0, 0.0]])[0, 0].round(4))   # 1 - 1 / 1.01: little left at a landmark
+    0.0099
     """
 
     def __init__(self, prior: Kernel, landmarks: ArrayLike, noise: ArrayLike = 0.0) -> None:
@@ -65,6 +82,7 @@ class PosteriorKernel(Kernel):
         self.noise = observation_noise(noise, len(self.landmarks))
         self.is_diagonal = prior.is_diagonal and self.noise.is_diagonal
         if self.is_diagonal:
+            assert self.noise.variances is not None  # diagonal noise is given by its variances
             self.groups = _factor_groups(prior, self.landmarks, self.noise.variances)
             self.n_components = len(self.groups)
         else:
@@ -128,13 +146,51 @@ class PosteriorKernel(Kernel):
 
     # ---------------------------------------------------------------- solves
     def solve(self, residual: NDArray[np.float64]) -> list[NDArray[np.float64]]:
-        """``(K + noise)^-1 r`` for residuals ``(L, 3)``: per group ``(L, len(outputs))``, or one ``(3L,)``."""
+        """``(K + noise)^-1 r`` for residuals ``(L, 3)``: per group ``(L, len(outputs))``, or one ``(3L,)``.
+
+        Parameters
+        ----------
+        residual : numpy.ndarray
+            ``(L, 3)`` residuals.
+
+        Returns
+        -------
+        list of numpy.ndarray
+            Per group of output components ``(L, len(outputs))``, or one ``(3L,)`` for 3x3 noise.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from ffd_notebook.gp import GaussianKernel, PosteriorKernel
+        >>> k = PosteriorKernel(GaussianKernel(1.0), [[0.0, 0.0, 0.0]], noise=0.01)
+        >>> [a.round(4).tolist() for a in k.solve(np.ones((1, 3)))]
+        [[[0.9901, 0.9901, 0.9901]]]
+        """
         if self.is_diagonal:
             return [sla.cho_solve((g.factor, True), residual[:, g.outputs], check_finite=False) for g in self.groups]
         return [sla.cho_solve((self.factor, True), residual.ravel(), check_finite=False)]
 
     def log_likelihood(self, residual: NDArray[np.float64]) -> float:
-        """``log N(r; 0, K + noise)`` of residuals ``(L, 3)`` (the log marginal likelihood)."""
+        """``log N(r; 0, K + noise)`` of residuals ``(L, 3)`` (the log marginal likelihood).
+
+        Parameters
+        ----------
+        residual : numpy.ndarray
+            ``(L, 3)`` observed displacements minus the prior mean at the landmarks.
+
+        Returns
+        -------
+        float
+            The log density.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from ffd_notebook.gp import GaussianKernel, PosteriorKernel
+        >>> k = PosteriorKernel(GaussianKernel(1.0), [[0.0, 0.0, 0.0]], noise=0.01)
+        >>> round(k.log_likelihood(np.zeros((1, 3))), 4)   # 3 * log N(0; 0, 1.01)
+        -2.7717
+        """
         n = len(self.landmarks)
         if not self.is_diagonal:
             alpha = self.solve(residual)[0]

@@ -66,7 +66,27 @@ class GaussianProcess:
         self._mean = mean
 
     def mean(self, points: ArrayLike) -> NDArray[np.float64]:
-        """Mean displacement at each point, ``(N, 3)``."""
+        """Mean displacement at each point, ``(N, 3)``.
+
+        Parameters
+        ----------
+        points : array_like
+            ``(N, 3)`` points.
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(N, 3)`` float64.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from ffd_notebook.gp import GaussianKernel, GaussianProcess
+        >>> gp = GaussianProcess(GaussianKernel(sigma=1.0, scale=2.0))
+        >>> pts = np.random.default_rng(0).random((4, 3))
+        >>> gp.mean(pts).tolist()[0]
+        [0.0, 0.0, 0.0]
+        """
         pts = as_points(points)
         if self._mean is None:
             return np.zeros_like(pts)
@@ -76,12 +96,54 @@ class GaussianProcess:
         return out
 
     def variance(self, points: ArrayLike) -> NDArray[np.float64]:
-        """Pointwise marginal variance of each displacement component, ``(N, 3)``."""
+        """Pointwise marginal variance of each displacement component, ``(N, 3)``.
+
+        Parameters
+        ----------
+        points : array_like
+            ``(N, 3)`` points.
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(N, 3)`` float64 variances.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from ffd_notebook.gp import GaussianKernel, GaussianProcess
+        >>> gp = GaussianProcess(GaussianKernel(sigma=1.0, scale=2.0))
+        >>> pts = np.random.default_rng(0).random((4, 3))
+        >>> gp.variance(pts).round(6).tolist()[0]
+        [4.0, 4.0, 4.0]
+        """
         diag = self.kernel.diagonal(as_points(points))
         return np.broadcast_to(diag, (3, diag.shape[1])).T.copy()
 
     def covariance(self, x: ArrayLike, y: ArrayLike | None = None) -> NDArray[np.float64]:
-        """The ``(3N, 3M)`` covariance matrix between the displacements at ``x`` and ``y``."""
+        """The ``(3N, 3M)`` covariance matrix between the displacements at ``x`` and ``y``.
+
+        Parameters
+        ----------
+        x : array_like
+            ``(N, 3)`` points.
+        y : array_like, optional
+            ``(M, 3)`` points; ``x`` again by default.
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(3N, 3M)``; row ``3 i + a`` is point ``i``, component ``a``.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from ffd_notebook.gp import GaussianKernel, GaussianProcess
+        >>> gp = GaussianProcess(GaussianKernel(sigma=1.0, scale=2.0))
+        >>> pts = np.random.default_rng(0).random((4, 3))
+        >>> gp.covariance(pts).shape
+        (12, 12)
+        """
         return self.kernel.matrix(x, y)
 
     def sample(
@@ -93,6 +155,29 @@ class GaussianProcess:
         factorise the ``N x N`` kernel matrix, so keep ``N`` to a few thousand and use a
         :class:`~ffd_notebook.gp.LowRankGP` for whole meshes; the B-spline kernel samples a
         random FFD directly at any size.
+
+        Parameters
+        ----------
+        points : array_like
+            ``(N, 3)`` points.
+        n : int
+            How many fields.
+        rng : int or numpy.random.Generator, optional
+            The random source (a seed or a generator).
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(n, N, 3)`` displacement fields.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from ffd_notebook.gp import GaussianKernel, GaussianProcess
+        >>> gp = GaussianProcess(GaussianKernel(sigma=1.0, scale=2.0))
+        >>> pts = np.random.default_rng(0).random((4, 3))
+        >>> gp.sample(pts, n=2, rng=0).shape
+        (2, 4, 3)
         """
         pts = as_points(points)
         out = self.kernel.sample(pts, n, as_generator(rng))
@@ -117,6 +202,16 @@ class GaussianProcess:
         -------
         GaussianProcess
             Mean ``m(x) + k(x, X) (K + noise)^-1 (y - m(X))`` and kernel :class:`PosteriorKernel`.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from ffd_notebook.gp import GaussianKernel, GaussianProcess
+        >>> gp = GaussianProcess(GaussianKernel(sigma=1.0, scale=2.0))
+        >>> pts = np.random.default_rng(0).random((4, 3))
+        >>> post = gp.posterior(pts[:1], [[1.0, 0.0, 0.0]])
+        >>> post.mean(pts[:1]).round(6).tolist()
+        [[1.0, 0.0, 0.0]]
         """
         lms = as_points(landmarks, "landmarks")
         obs = as_points(displacements, "displacements")
@@ -132,6 +227,21 @@ class GaussianProcess:
         :meth:`posterior`. With a kernel isotropic in the output and scalar or per-landmark
         noise this is scikit-learn's ``GaussianProcessRegressor.log_marginal_likelihood`` with the
         three components as independent target columns.
+
+        Parameters
+        ----------
+        points : array_like
+            ``(L, 3)`` observed points.
+        displacements : array_like
+            ``(L, 3)`` observed displacements.
+        noise : array_like
+            Observation noise: a variance, variances per landmark (``(L,)`` or ``(L, 3)``) or ``(L, 3, 3)``
+            covariances.
+
+        Returns
+        -------
+        float
+            The log density.
 
         Examples
         --------

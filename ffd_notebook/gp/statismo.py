@@ -96,16 +96,36 @@ def _modelinfo(f) -> dict[str, object]:
 def load_model(path: str | os.PathLike[str]) -> LowRankGP:
     """Read a Statismo/Scalismo shape model (HDF5) as a :class:`~ffd_notebook.gp.LowRankGP`.
 
-    The model's :attr:`~ffd_notebook.gp.LowRankGP.points` are the representer's points (the
+    The model's ``points`` are the representer's points (the
     reference), its mean the file's mean shape minus them, :attr:`~ffd_notebook.gp.LowRankGP.cells`
     the triangles; ``model.metadata`` keeps the rest (representer attributes, noise variance,
     modelinfo) so :func:`save_model` writes it back unchanged.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        A Statismo/Scalismo ``.h5`` file.
+
+    Returns
+    -------
+    LowRankGP
+        The model, its basis as the file has it.
 
     Raises
     ------
     FileFormatError
         Not HDF5, or a dataset missing, of the wrong shape or type, or holding NaN; the message
         names the dataset.
+
+    Examples
+    --------
+    >>> import numpy as np, tempfile, pathlib
+    >>> from ffd_notebook.gp import LowRankGP
+    >>> ref = np.random.default_rng(0).random((20, 3))
+    >>> path = pathlib.Path(tempfile.mkdtemp()) / "model.h5"
+    >>> save_model(path, LowRankGP.from_examples(ref, [ref, ref + 0.1, ref * 1.1]))
+    >>> load_model(path).rank
+    2
     """
     import h5py
 
@@ -185,6 +205,24 @@ def save_model(path: str | os.PathLike[str], model: LowRankGP) -> None:
     :attr:`~ffd_notebook.gp.LowRankGP.eigenvalues`. A model read by :func:`load_model` keeps its
     representer attributes and modelinfo. The file is written to a temporary name in the same
     folder and renamed, so an existing file is replaced whole or not at all.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The ``.h5`` file to write (atomically).
+    model : LowRankGP
+        The model.
+
+    Examples
+    --------
+    >>> import numpy as np, tempfile, pathlib, h5py
+    >>> from ffd_notebook.gp import LowRankGP
+    >>> ref = np.random.default_rng(0).random((20, 3))
+    >>> path = pathlib.Path(tempfile.mkdtemp()) / "model.h5"
+    >>> save_model(path, LowRankGP.from_examples(ref, [ref, ref + 0.1, ref * 1.1]))
+    >>> with h5py.File(path) as f:
+    ...     f["model/pcaBasis"].shape
+    (60, 2)
     """
     import h5py
 

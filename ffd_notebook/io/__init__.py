@@ -12,6 +12,8 @@ The mesh functions return PyVista meshes, so they are imported on first use (PEP
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 from .._util.lazy import lazy_getattr
 from ._safety import MAX_FILE_BYTES, check_regular_file
 from .deformation_files import load_deformation, save_deformation
@@ -27,6 +29,12 @@ from .itk import load_transform, save_transform
 from .lattice_fitting import fit_lattice
 from .placement import place_at_mesh_minimum
 from .prm import load_prm, save_prm
+
+if TYPE_CHECKING:  # the lazy names below, declared for type checkers and IDEs
+    from .mesh import read_mesh as read_mesh
+    from .mesh import write_mesh as write_mesh
+    from .obj import read_obj as read_obj
+    from .obj import write_obj as write_obj
 
 #: Mesh file extensions :func:`read_mesh` and :func:`write_mesh` handle (here, not in the mesh
 #: module, so that code checking a name loads no VTK).

@@ -66,7 +66,7 @@ def _fsync_path(path: Path, directory: bool = False) -> None:
 def _about_target(exc: BaseException, tmp: Path, target: Path) -> BaseException:
     """The same error, naming the target instead of the hidden temporary file (which is gone)."""
     if isinstance(exc, OSError) and exc.errno is not None and str(tmp) in (str(exc.filename), str(exc.filename2)):
-        renamed = type(exc)(exc.errno, exc.strerror, os.fspath(target))
+        renamed: BaseException = type(exc)(exc.errno, exc.strerror, os.fspath(target))
     elif isinstance(exc, Exception) and len(exc.args) == 1 and isinstance(exc.args[0], str) and tmp.name in exc.args[0]:
         try:
             renamed = type(exc)(exc.args[0].replace(str(tmp), str(target)).replace(tmp.name, target.name))

@@ -44,6 +44,13 @@ def check_regular_file(path: str | os.PathLike[str], max_bytes: int = MAX_FILE_B
 
     Symbolic links are followed (the file they point to is checked).
 
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The file to check.
+    max_bytes : int
+        The largest size accepted (:data:`MAX_FILE_BYTES` by default).
+
     Returns
     -------
     int

@@ -57,6 +57,16 @@ def load_deformation(path: str | os.PathLike[str]) -> FFD | DisplacementField:
     :class:`~ffd_notebook.io.DisplacementField` (:func:`~ffd_notebook.io.fit_lattice` makes a
     lattice of it).
 
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The file; its extension chooses the format.
+
+    Returns
+    -------
+    FFD
+        The deformation the file means.
+
     Raises
     ------
     FileFormatError
@@ -122,6 +132,15 @@ def save_deformation(path: str | os.PathLike[str], ffd: FFD | DisplacementField,
     (:func:`save_transform`). PyGeM and ITK files hold a strength other than 1 and "outside" mode
     as the offsets and affine part they give (:meth:`~ffd_notebook.FFD.baked`); no file holds
     per-point weights (they belong to one mesh).
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The file; its extension chooses the format.
+    ffd : FFD or DisplacementField
+        The deformation to write.
+    format : str, optional
+        One of :data:`FORMATS`, instead of what the extension says.
 
     Raises
     ------

@@ -97,16 +97,71 @@ class DisplacementField:
         return tuple(int(n) for n in self.vectors.shape[:3])  # type: ignore[return-value]
 
     def grid_points(self) -> NDArray[np.float64]:
-        """Every voxel centre, ``(nx * ny * nz, 3)``, in the order of ``vectors.reshape(-1, 3)``."""
+        """Every voxel centre, ``(nx * ny * nz, 3)``, in the order of ``vectors.reshape(-1, 3)``.
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(nx * ny * nz, 3)`` physical positions of the voxel centres, x index slowest.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from ffd_notebook.io import DisplacementField
+        >>> vectors = np.zeros((3, 3, 3, 3)); vectors[..., 0] = 1.0     # every voxel moves +1 in x
+        >>> field = DisplacementField(vectors, spacing=2.0, origin=(0.0, 0.0, 0.0))
+        >>> field.grid_points()[[0, -1]].tolist()
+        [[0.0, 0.0, 0.0], [4.0, 4.0, 4.0]]
+        """
         index = np.stack(np.meshgrid(*[np.arange(n, dtype=np.float64) for n in self.shape], indexing="ij"), -1)
         return index.reshape(-1, 3) @ (self.direction * self.spacing).T + self.origin
 
     def to_index(self, points: ArrayLike) -> NDArray[np.float64]:
-        """Continuous voxel indices of world points, ``(N, 3)``."""
+        """Continuous voxel indices of world points, ``(N, 3)``.
+
+        Parameters
+        ----------
+        points : array_like
+            ``(N, 3)`` points in physical coordinates.
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(N, 3)`` continuous voxel indices ``(i, j, k)``.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from ffd_notebook.io import DisplacementField
+        >>> vectors = np.zeros((3, 3, 3, 3)); vectors[..., 0] = 1.0     # every voxel moves +1 in x
+        >>> field = DisplacementField(vectors, spacing=2.0, origin=(0.0, 0.0, 0.0))
+        >>> field.to_index([[2.0, 3.0, 0.0]]).tolist()
+        [[1.0, 1.5, 0.0]]
+        """
         return (as_points(points) - self.origin) @ self._to_index.T
 
     def displacement(self, points: ArrayLike) -> NDArray[np.float64]:
-        """The interpolated displacement at each point (zero outside the buffer), ``(N, 3)``."""
+        """The interpolated displacement at each point (zero outside the buffer), ``(N, 3)``.
+
+        Parameters
+        ----------
+        points : array_like
+            ``(N, 3)`` points in physical coordinates.
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(N, 3)`` interpolated displacements (zero outside the buffer).
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from ffd_notebook.io import DisplacementField
+        >>> vectors = np.zeros((3, 3, 3, 3)); vectors[..., 0] = 1.0     # every voxel moves +1 in x
+        >>> field = DisplacementField(vectors, spacing=2.0, origin=(0.0, 0.0, 0.0))
+        >>> field.displacement([[1.0, 1.0, 1.0]]).tolist()
+        [[1.0, 0.0, 0.0]]
+        """
         index = self.to_index(points)
         dims = np.array(self.shape, dtype=np.float64)
         inside = np.all((index >= -0.5) & (index < dims - 0.5), axis=1)
@@ -130,7 +185,27 @@ class DisplacementField:
         return out
 
     def deform(self, points: ArrayLike) -> NDArray[np.float64]:
-        """Where the field takes ``(N, 3)`` points: ``x + displacement(x)``."""
+        """Where the field takes ``(N, 3)`` points: ``x + displacement(x)``.
+
+        Parameters
+        ----------
+        points : array_like
+            ``(N, 3)`` points in physical coordinates.
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(N, 3)`` moved points (points outside the buffer stay).
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from ffd_notebook.io import DisplacementField
+        >>> vectors = np.zeros((3, 3, 3, 3)); vectors[..., 0] = 1.0     # every voxel moves +1 in x
+        >>> field = DisplacementField(vectors, spacing=2.0, origin=(0.0, 0.0, 0.0))
+        >>> field.deform([[1.0, 1.0, 1.0], [50.0, 0.0, 0.0]]).tolist()
+        [[2.0, 1.0, 1.0], [50.0, 0.0, 0.0]]
+        """
         pts = as_points(points)
         return pts + self.displacement(pts)
 
@@ -215,6 +290,19 @@ def sample_displacement_field(deformation: Any, reference: Any) -> DisplacementF
     :class:`~ffd_notebook.io.ElastixTransform`, a field) or a callable on ``(N, 3)`` points;
     ``reference`` an image file, a SimpleITK image, a :class:`DisplacementField` or a mapping
     ``{"size": (nx, ny, nz), "spacing": ..., "origin": ..., "direction": ...}``.
+
+    Parameters
+    ----------
+    deformation : FFD, ElastixTransform, DisplacementField or callable
+        What moves points (a callable maps ``(N, 3)`` points to moved points).
+    reference : image, DisplacementField or mapping
+        The grid: a SimpleITK image or image file, a field, or a mapping with ``size`` and optionally
+        ``spacing``, ``origin``, ``direction``.
+
+    Returns
+    -------
+    DisplacementField
+        The deformation's displacements at the grid's voxel centres.
 
     Examples
     --------
@@ -348,11 +436,34 @@ def _same_grid(field: DisplacementField, reference: Any) -> bool:
 def load_displacement_field(path: str | os.PathLike[str]) -> DisplacementField:
     """Read a displacement field file (``.nii``, ``.nii.gz``, ``.nrrd``, ``.mha``) with SimpleITK.
 
+    Parameters
+    ----------
+    path : str or os.PathLike
+        A ``.nii``, ``.nii.gz``, ``.nrrd`` or ``.mha`` file of 3-vectors.
+
+    Returns
+    -------
+    DisplacementField
+        The field, in ITK's convention.
+
     Raises
     ------
     FileFormatError
         Not an image SimpleITK reads, not 3D, not 3 components per voxel, too large, or
         non-finite values; names the file.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from ffd_notebook.io import DisplacementField
+    >>> vectors = np.zeros((3, 3, 3, 3)); vectors[..., 0] = 1.0     # every voxel moves +1 in x
+    >>> field = DisplacementField(vectors, spacing=2.0, origin=(0.0, 0.0, 0.0))
+    >>> import pathlib, tempfile
+    >>> from ffd_notebook.io import save_displacement_field
+    >>> path = pathlib.Path(tempfile.mkdtemp()) / "warp.nii.gz"
+    >>> save_displacement_field(path, field)
+    >>> load_displacement_field(path).deform([[1.0, 1.0, 1.0]]).tolist()
+    [[2.0, 1.0, 1.0]]
     """
     import SimpleITK as sitk
 

@@ -150,7 +150,30 @@ class ElastixTransform:
         self.geometry = dict(geometry or {})
 
     def deform(self, points: ArrayLike) -> NDArray[np.float64]:
-        """Where the chain takes ``(N, 3)`` points (transformix's ``OutputPoint``)."""
+        """Where the chain takes ``(N, 3)`` points (transformix's ``OutputPoint``).
+
+        Parameters
+        ----------
+        points : array_like
+            ``(N, 3)`` points in physical coordinates.
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(N, 3)`` points moved as transformix moves them.
+
+        Examples
+        --------
+        >>> import pathlib, tempfile
+        >>> import numpy as np
+        >>> from ffd_notebook import FFD, Lattice
+        >>> lat = Lattice((4, 4, 4), 1.0); lat.offsets[1, 1, 1] = (0.3, 0.0, 0.0)
+        >>> path = pathlib.Path(tempfile.mkdtemp()) / "TransformParameters.0.txt"
+        >>> save_elastix(path, FFD(lat))
+        >>> chain = load_elastix(path)
+        >>> bool(np.allclose(chain.deform([[1.2, 1.0, 1.1]]), FFD(lat).deform([[1.2, 1.0, 1.1]])))
+        True
+        """
         x = as_points(points)
         y = self.steps[0].apply(x)
         for step, how in zip(self.steps[1:], self.combine, strict=True):
@@ -172,10 +195,24 @@ class ElastixTransform:
         registration) gives a sheared lattice (:attr:`~ffd_notebook.Lattice.sheared`): elastix
         files hold it, .ffd, ITK and PyGeM files refuse it.
 
+        Returns
+        -------
+        FFD
+            The chain as one FFD: its B-spline's lattice (placed by the linear steps before it) and an affine part.
+
         Raises
         ------
         ValueError
             No B-spline or two of them (an FFD is one lattice).
+
+        Examples
+        --------
+        >>> import pathlib, tempfile
+        >>> from ffd_notebook import FFD, Lattice
+        >>> path = pathlib.Path(tempfile.mkdtemp()) / "TransformParameters.0.txt"
+        >>> save_elastix(path, FFD(Lattice((4, 5, 4), 2.0)))
+        >>> load_elastix(path).to_ffd().lattice.shape
+        (4, 5, 4)
         """
         a, b = np.eye(3), np.zeros(3)
         grid: list[NDArray[np.float64]] | None = None  # direction, spacing, origin, offsets
@@ -368,6 +405,11 @@ def _initial(params: ParameterMap, current: Path) -> Path | None:
 def load_elastix(path: str | os.PathLike[str]) -> ElastixTransform:
     """Read an elastix transform parameter file and the chain of files before it.
 
+    Parameters
+    ----------
+    path : str or os.PathLike
+        An elastix transform parameter file (``TransformParameters.N.txt``).
+
     Returns
     -------
     ElastixTransform
@@ -474,6 +516,13 @@ def save_elastix(path: str | os.PathLike[str], ffd: FFD) -> None:
     which the B-spline file names as its initial transform (by its bare name: elastix finds it
     beside the file, wherever the folder goes) with ``HowToCombineTransforms "Add"``. Both files
     are replaced atomically, the affine one first.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The B-spline file to write.
+    ffd : FFD
+        A B-spline FFD with the "zero" border.
 
     Raises
     ------

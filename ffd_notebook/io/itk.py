@@ -37,6 +37,11 @@ def load_transform(path: str | os.PathLike[str]) -> FFD:
     ``TranslationTransform`` parts applied after it (any) or before it (if they keep the grid
     orthogonal: rigid motions, per-axis scaling along the grid).
 
+    Parameters
+    ----------
+    path : str or os.PathLike
+        A ``.tfm`` or ``.txt`` (text) or ``.h5`` or ``.hdf5`` (HDF5) transform file.
+
     Returns
     -------
     FFD
@@ -76,6 +81,13 @@ def save_transform(path: str | os.PathLike[str], ffd: FFD) -> None:
     rounding). A lattice that moves points outside ITK's transform domain (every FFD with the
     default ``only_inside=False``) is written with three more layers of zero control points all
     round; an affine part is written as ``CompositeTransform(AffineTransform, BSplineTransform)``.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        A ``.tfm`` or ``.txt`` (text) or ``.h5`` or ``.hdf5`` (HDF5) transform file.
+    ffd : FFD
+        A B-spline FFD with the "zero" border.
 
     Raises
     ------

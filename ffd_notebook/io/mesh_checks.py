@@ -114,8 +114,8 @@ def check_cells(path: str | os.PathLike[str], mesh: pv.DataSet) -> None:
         if not known.all():
             bad = int(np.argmax(~known))
             raise FileFormatError(path, None, f"cell {bad} has cell type {types[bad]}, not supported")
-        need, least = _NEED[types], _LEAST[types]
-        wrong = np.where(need > 0, sizes != need, sizes < least)
+        need, least_points = _NEED[types], _LEAST[types]
+        wrong = np.where(need > 0, sizes != need, sizes < least_points)
         if wrong.any():
             bad = int(np.argmax(wrong))
             raise FileFormatError(path, None, f"cell {bad} of type {types[bad]} has {sizes[bad]} points")

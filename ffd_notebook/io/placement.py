@@ -99,6 +99,11 @@ def place_at_mesh_minimum(lattice: Lattice, points_or_mesh: Any) -> Lattice:
     points_or_mesh : array_like or mesh
         ``(N, 3)`` points, or anything with a ``points`` attribute (a PyVista mesh).
 
+    Returns
+    -------
+    Lattice
+        The placed copy.
+
     Examples
     --------
     >>> import numpy as np

@@ -20,6 +20,7 @@ from __future__ import annotations
 import os
 import re
 from dataclasses import dataclass
+from typing import Any, Literal
 
 import numpy as np
 import pyvista as pv
@@ -36,7 +37,8 @@ _TYPES = {
     "uint16": "u2", "int": "i4", "int32": "i4", "uint": "u4", "uint32": "u4", "float": "f4", "float32": "f4",
     "double": "f8", "float64": "f8",
 }  # fmt: skip
-_FORMATS = {"ascii": None, "binary_little_endian": "<", "binary_big_endian": ">"}
+_ByteOrder = Literal["<", ">"]
+_FORMATS: dict[str, _ByteOrder | None] = {"ascii": None, "binary_little_endian": "<", "binary_big_endian": ">"}
 _MAX_HEADER = 1 << 16
 _ASCII_NUMBERS = re.compile(r"[^0-9eE+\-. \t]")
 
@@ -56,7 +58,7 @@ class _Element:
     properties: list[_Property]
 
 
-def _header(path, data: bytes) -> tuple[str | None, list[_Element], int, int]:
+def _header(path, data: bytes) -> tuple[_ByteOrder | None, list[_Element], int, int]:
     """(byte order or None for ASCII, elements, offset of the body, line number of ``end_header``)."""
     end = re.search(rb"end_header[ \t]*\r?\n", data[:_MAX_HEADER])
     if not data.startswith((b"ply\n", b"ply\r\n")) or end is None:
@@ -65,13 +67,15 @@ def _header(path, data: bytes) -> tuple[str | None, list[_Element], int, int]:
         lines = data[: end.start()].decode("ascii").split("\n")
     except UnicodeDecodeError:
         raise FileFormatError(path, None, "the PLY header is not ASCII text") from None
-    order, elements = "", []
+    order: _ByteOrder | None = None
+    has_format = False
+    elements: list[_Element] = []
     for number, text in enumerate(lines[1:], start=2):
         fields = split_fields(text.rstrip("\r"))
         if not fields or fields[0] in ("comment", "obj_info"):
             continue
         if fields[0] == "format" and len(fields) == 3 and fields[1] in _FORMATS and fields[2] == "1.0":
-            order = _FORMATS[fields[1]]
+            order, has_format = _FORMATS[fields[1]], True
         elif fields[0] == "element" and len(fields) == 3:
             count = parse_int(path, number, fields[2], f"the number of {fields[1]!r} elements")
             if count < 0:
@@ -82,7 +86,7 @@ def _header(path, data: bytes) -> tuple[str | None, list[_Element], int, int]:
         else:
             raise FileFormatError(path, number, f"expected a PLY header line (format, element, property, comment), "
                                   f"got {text[:40]!r}")  # fmt: skip
-    if order == "":
+    if not has_format:
         raise FileFormatError(path, 2, "missing 'format ascii 1.0' (or binary_little_endian / binary_big_endian)")
     return order, elements, end.end(), len(lines)  # the last header line is 'end_header'
 
@@ -99,7 +103,7 @@ def _property(path, number: int, fields: list[str]) -> _Property:
 
 
 # ---------------------------------------------------------------------------------------- binary
-def _read_binary(path, data: bytes, at: int, element: _Element, order: str) -> tuple[dict[str, np.ndarray], int]:
+def _read_binary(path, data: bytes, at: int, element: _Element, order: _ByteOrder) -> tuple[dict[str, np.ndarray], int]:
     """Columns of one element (a list property gives a list of arrays) and the offset after it."""
     props = element.properties
     least = sum((p.count_dtype or p.dtype).itemsize for p in props)
@@ -113,7 +117,7 @@ def _read_binary(path, data: bytes, at: int, element: _Element, order: str) -> t
     sizes = _uniform_list_sizes(data, at, element, order)
     if sizes is None:
         return _read_binary_rows(path, data, at, element, order)
-    fields = []
+    fields: list[tuple[Any, ...]] = []
     for i, (p, size) in enumerate(zip(props, sizes, strict=True)):
         if p.count_dtype is None:
             fields.append((f"p{i}", p.dtype.newbyteorder(order)))
@@ -131,7 +135,7 @@ def _read_binary(path, data: bytes, at: int, element: _Element, order: str) -> t
     return columns, at + dtype.itemsize * element.count
 
 
-def _uniform_list_sizes(data: bytes, at: int, element: _Element, order: str) -> list[int] | None:
+def _uniform_list_sizes(data: bytes, at: int, element: _Element, order: _ByteOrder) -> list[int] | None:
     """List sizes of the first row (scalars count 0), assuming every row has the same; None if unreadable."""
     sizes = []
     for p in element.properties:
@@ -147,7 +151,7 @@ def _uniform_list_sizes(data: bytes, at: int, element: _Element, order: str) -> 
     return sizes
 
 
-def _read_binary_rows(path, data: bytes, at: int, element: _Element, order: str) -> tuple[dict, int]:
+def _read_binary_rows(path, data: bytes, at: int, element: _Element, order: _ByteOrder) -> tuple[dict, int]:
     """Row by row, for lists of varying sizes (bounded: the size check allows count <= file bytes)."""
     columns: dict[str, list] = {p.name: [] for p in element.properties}
     for row in range(element.count):
@@ -190,9 +194,9 @@ def _read_ascii(path, lines: list[tuple[int, str]], at: int, element: _Element) 
             table = None
         if table is not None and np.isfinite(table).all():
             first = _split_row(path, rows[0][0], table[0], element)
-            columns = None if first is None else _columns_from_table(table, element, first)
-            if columns is not None:
-                return columns, at + element.count
+            found = None if first is None else _columns_from_table(table, element, first)
+            if found is not None:
+                return found, at + element.count
     columns: dict[str, list] = {p.name: [] for p in element.properties}
     for (number, _), values in zip(rows, fields, strict=True):
         row = _split_row(path, number, _floats(path, number, values), element, strict=True)

@@ -144,6 +144,16 @@ def load_prm(path: str | os.PathLike[str]) -> Lattice:
     ``FFD.__call__`` on the same file. The file's box length, angles and weights are kept in
     ``lattice.metadata["prm"]`` so that :func:`save_prm` writes them back unchanged.
 
+    Parameters
+    ----------
+    path : str or os.PathLike
+        A PyGeM parameter file.
+
+    Returns
+    -------
+    Lattice
+        The box as a lattice (spacing = box length / (n - 1), rotation from PyGeM's angles).
+
     Raises
     ------
     FileFormatError
@@ -249,6 +259,13 @@ def save_prm(path: str | os.PathLike[str], lattice: Lattice) -> None:
 
     Every weight line is written (also the zeros, as PyGeM does). ``FFD(lattice, "bernstein",
     only_inside=True)`` is what the file means.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The ``.prm`` file to write.
+    lattice : Lattice
+        The box; its rotation must not be a reflection.
 
     Raises
     ------

@@ -22,6 +22,16 @@ COLOR_ARRAYS = ("RGB", "RGBA", "Colors", "colors", "RGBColors")
 def color_array_name(mesh: pv.DataSet) -> str | None:
     """Name of the mesh's per-vertex colour array (uint8, 3 or 4 components), or ``None``.
 
+    Parameters
+    ----------
+    mesh : pyvista.DataSet
+        The mesh.
+
+    Returns
+    -------
+    str or None
+        The array's name, or None when it has no colours.
+
     Examples
     --------
     >>> import numpy as np, pyvista as pv
@@ -45,6 +55,16 @@ def as_surface(mesh: Any) -> pv.PolyData:
 
     Cells that refer to missing points raise :class:`~ffd_notebook.errors.FileFormatError` (a
     ValueError) before any VTK filter sees them (:func:`ffd_notebook.io.mesh_checks.check_cells`).
+
+    Parameters
+    ----------
+    mesh : pyvista.DataSet
+        Any PyVista mesh (a volume mesh gives its outer surface).
+
+    Returns
+    -------
+    pyvista.PolyData
+        A new surface (the input is not changed).
 
     Examples
     --------
@@ -75,7 +95,7 @@ def decimate_keeping_colors(mesh: pv.PolyData, reduction: float, attribute_error
     floats and rounded back to uint8. With ``attribute_error=True`` the colours also enter the
     error metric (``AttributeErrorMetric`` + ``ScalarsAttribute``) and VTK then solves vertex
     colours from the quadrics instead; measured on the shared face scans (80 % reduction, mean
-    |colour error| of the decimated surface against every original vertex, 0-255 scale):
+    ``|colour error|`` of the decimated surface against every original vertex, 0-255 scale):
     template 0.16 without vs 1.05 with, james 8.9 vs 11.8, so mapping alone is the default.
 
     Parameters
@@ -86,6 +106,11 @@ def decimate_keeping_colors(mesh: pv.PolyData, reduction: float, attribute_error
         Fraction of triangles to remove, in ``[0, 1)``.
     attribute_error : bool
         Let colour differences steer the decimation too (see above).
+
+    Returns
+    -------
+    pyvista.PolyData
+        The decimated surface, with its colours.
 
     Examples
     --------
@@ -122,6 +147,18 @@ def decimate_keeping_colors(mesh: pv.PolyData, reduction: float, attribute_error
 
 def deformed_copy(mesh: pv.PolyData, points: ArrayLike) -> pv.PolyData:
     """A new mesh: ``points`` with the faces and point data of ``mesh``.
+
+    Parameters
+    ----------
+    mesh : pyvista.PolyData
+        The rest mesh.
+    points : array_like
+        ``(N, 3)`` new positions of its points.
+
+    Returns
+    -------
+    pyvista.PolyData
+        The copy.
 
     Examples
     --------

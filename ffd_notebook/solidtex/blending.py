@@ -26,6 +26,11 @@ def axis_ramp(block: int, overlap: int, fade_in: bool, fade_out: bool) -> NDArra
     fade_in, fade_out : bool
         Whether a neighbour shares the first / last ``overlap`` voxels.
 
+    Returns
+    -------
+    numpy.ndarray
+        ``(block,)`` float32 weights in [0, 1].
+
     Examples
     --------
     >>> axis_ramp(6, 2, True, True).tolist()
@@ -54,7 +59,7 @@ def _weights(block: int, overlap: int, flags: tuple[bool, ...]) -> NDArray[np.fl
 
 
 def block_weights(
-    block: int, overlap: int, fade_in: tuple[bool, bool, bool], fade_out: tuple[bool, bool, bool]
+    block: int, overlap: int, fade_in: tuple[bool, ...], fade_out: tuple[bool, ...]
 ) -> NDArray[np.float32]:
     """``(block, block, block)`` feathering weights of a block (read-only, cached).
 
@@ -64,6 +69,11 @@ def block_weights(
         Block edge and overlap in voxels.
     fade_in, fade_out : (bool, bool, bool)
         Per axis (z, y, x): whether there is a neighbour before / after the block.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(block, block, block)`` float32 weights (read-only).
 
     Examples
     --------

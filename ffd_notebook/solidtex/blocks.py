@@ -145,6 +145,24 @@ def feature_inclusiveness(
     statistics); the distance falls as blocks grow. ``rng`` (an int or a Generator) places the
     blocks.
 
+    Parameters
+    ----------
+    exemplar : array_like
+        ``(Z, Y, X, 3)`` uint8 colour volume.
+    size : int
+        The block size.
+    n_blocks : int
+        How many random blocks to compare.
+    bins : int
+        Histogram bins per channel.
+    rng : int or numpy.random.Generator
+        The random source.
+
+    Returns
+    -------
+    float
+        The mean distance (0: every block has the exemplar's colours).
+
     Examples
     --------
     >>> noise = np.random.default_rng(0).integers(0, 256, (32, 32, 32, 3)).astype(np.uint8)
@@ -182,6 +200,11 @@ def choose_block_size(
         channel). If no size reaches it, the largest candidate is used.
     rng : int or numpy.random.Generator
         Places the random blocks measured (an int: the same blocks for every size).
+
+    Returns
+    -------
+    int
+        The block size chosen.
 
     Examples
     --------

@@ -101,7 +101,7 @@ class LazySolidTexture:
         Same int, same colours, whatever is sampled first. Each block's draws are a hash of one
         integer root seed and the block's index, and a Generator's state cannot be hashed
         reproducibly: a Generator gives one 63-bit draw as the root seed
-        (:func:`~ffd_notebook.solidtex.seeding.integer_seed`), kept as :attr:`seed`.
+        (:func:`~ffd_notebook.solidtex.seeding.integer_seed`), kept as ``seed``.
     candidates : int
         Pool blocks compared per block.
     pool : int
@@ -153,7 +153,7 @@ class LazySolidTexture:
         ex = np.ascontiguousarray(exemplar)
         if ex.ndim != 4 or ex.shape[3] != 3 or ex.dtype != np.uint8:
             raise ValueError(f"exemplar must be a (Z, Y, X, 3) uint8 volume, got {ex.dtype} {ex.shape}")
-        target = (int(shape),) * 3 if np.isscalar(shape) else tuple(int(s) for s in shape)
+        target = (int(shape),) * 3 if isinstance(shape, (int, np.integer)) else tuple(int(s) for s in shape)
         seed = integer_seed(rng)
         b = int(block) if block is not None else choose_block_size(ex, rng=seed)
         if len(target) != 3 or min(target) < 1 or not 4 <= b <= min(ex.shape[:3]):
@@ -347,13 +347,53 @@ class LazySolidTexture:
     # -- sampling --------------------------------------------------------------------------------
 
     def voxel_coordinates(self, points: ArrayLike) -> NDArray[np.float64]:
-        """``(N, 3)`` fractional voxel indices ``(k, j, i)`` of world points, clamped to the texture."""
+        """``(N, 3)`` fractional voxel indices ``(k, j, i)`` of world points, clamped to the texture.
+
+        Parameters
+        ----------
+        points : array_like
+            ``(N, 3)`` points in physical coordinates.
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(N, 3)`` float64 indices ``(k, j, i)``.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from ffd_notebook.solidtex import LazySolidTexture
+        >>> exemplar = np.random.default_rng(0).integers(0, 255, (16, 16, 16, 3), dtype=np.uint8)
+        >>> lazy = LazySolidTexture.fit(exemplar, [0, 10, 0, 10, 0, 10], resolution=24, rng=0)
+        >>> bool(np.all(lazy.voxel_coordinates([[-100.0, 5.0, 5.0]]) >= 0))   # clamped
+        True
+        """
         p = np.asarray(points, dtype=np.float64).reshape(-1, 3)
         c = ((p - self.origin) / self.spacing)[:, ::-1]
         return np.clip(c, 0.0, np.array(self.shape, dtype=np.float64) - 1.0)
 
     def voxels(self, indices: ArrayLike) -> NDArray[np.uint8]:
-        """Colours of integer voxels ``(N, 3)`` ``(k, j, i)``, synthesising the tiles they lie in."""
+        """Colours of integer voxels ``(N, 3)`` ``(k, j, i)``, synthesising the tiles they lie in.
+
+        Parameters
+        ----------
+        indices : array_like
+            ``(N, 3)`` integer voxel indices ``(k, j, i)``.
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(N, 3)`` uint8 colours.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from ffd_notebook.solidtex import LazySolidTexture
+        >>> exemplar = np.random.default_rng(0).integers(0, 255, (16, 16, 16, 3), dtype=np.uint8)
+        >>> lazy = LazySolidTexture.fit(exemplar, [0, 10, 0, 10, 0, 10], resolution=24, rng=0)
+        >>> bool((lazy.voxels([[0, 0, 0]]) == lazy.volume()[0, 0, 0]).all())
+        True
+        """
         v = np.asarray(indices, dtype=np.int64).reshape(-1, 3)
         tile = v // self.step
         mark = np.zeros(self.n_blocks, dtype=bool)
@@ -363,7 +403,27 @@ class LazySolidTexture:
         return self._atlas[(self._slot[tuple(tile.T)], *local.T)]
 
     def sample(self, points: ArrayLike) -> NDArray[np.uint8]:
-        """Trilinearly interpolated ``(N, 3)`` uint8 colours at rest-frame points (clamped at the borders)."""
+        """Trilinearly interpolated ``(N, 3)`` uint8 colours at rest-frame points (clamped at the borders).
+
+        Parameters
+        ----------
+        points : array_like
+            ``(N, 3)`` points in the organ's rest frame.
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(N, 3)`` uint8 colours.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from ffd_notebook.solidtex import LazySolidTexture
+        >>> exemplar = np.random.default_rng(0).integers(0, 255, (16, 16, 16, 3), dtype=np.uint8)
+        >>> lazy = LazySolidTexture.fit(exemplar, [0, 10, 0, 10, 0, 10], resolution=24, rng=0)
+        >>> lazy.sample([[5.0, 5.0, 5.0]]).dtype, lazy.sample([[5.0, 5.0, 5.0]]).shape
+        (dtype('uint8'), (1, 3))
+        """
         c = self.voxel_coordinates(points)
         i0 = np.minimum(np.floor(c).astype(np.int64), np.array(self.shape) - 2).clip(0)
         f = (c - i0).astype(np.float32)
@@ -387,7 +447,22 @@ class LazySolidTexture:
         return np.clip(np.rint(acc), 0, 255).astype(np.uint8)
 
     def volume(self) -> NDArray[np.uint8]:
-        """The whole ``shape`` volume (synthesises every tile: for small textures and tests)."""
+        """The whole ``shape`` volume (synthesises every tile: for small textures and tests).
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(Z, Y, X, 3)`` uint8.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from ffd_notebook.solidtex import LazySolidTexture
+        >>> exemplar = np.random.default_rng(0).integers(0, 255, (16, 16, 16, 3), dtype=np.uint8)
+        >>> lazy = LazySolidTexture.fit(exemplar, [0, 10, 0, 10, 0, 10], resolution=24, rng=0)
+        >>> lazy.volume().shape == (*lazy.shape, 3)
+        True
+        """
         self._ensure_tiles(np.argwhere(np.ones(self.n_blocks, dtype=bool)))
         s = self.step
         nz, ny, nx = self.n_blocks

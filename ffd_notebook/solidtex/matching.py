@@ -124,9 +124,9 @@ class BlockMatcher:
         self.positions = [np.stack(np.unravel_index(m, self.grid), axis=1) for m in members]
         self.linear = [q @ self.pstrides for q in self.positions]
         self.starts, self.lead = cell_starts(b, stage.overlap, p)
-        self._offsets: dict[tuple[bool, bool, bool], np.ndarray] = {}
+        self._offsets: dict[tuple[bool, ...], np.ndarray] = {}
 
-    def offsets(self, has_prev: tuple[bool, bool, bool]) -> np.ndarray:
+    def offsets(self, has_prev: tuple[bool, ...]) -> np.ndarray:
         """Linear offsets (into the pooled source) of the overlap cells, slab by slab."""
         if has_prev not in self._offsets:
             parts = []
@@ -138,7 +138,7 @@ class BlockMatcher:
             self._offsets[has_prev] = np.concatenate(parts)
         return self._offsets[has_prev]
 
-    def target(self, acc: np.ndarray, wsum: np.ndarray, has_prev: tuple[bool, bool, bool], overlap: int, pool: int):
+    def target(self, acc: np.ndarray, wsum: np.ndarray, has_prev: tuple[bool, ...], overlap: int, pool: int):
         """Pooled features of what is already synthesised in a block's overlap slabs (``acc / wsum``)."""
         parts = []
         for ax in range(3):
@@ -189,4 +189,5 @@ class BlockMatcher:
     def placed(self, corner) -> None:
         """Count a placed block's colours in the histogram term (if any)."""
         if self.histogram is not None and self.histogram.weight > 0:
-            self.histogram.add(self.source, tuple(int(v) for v in corner), self.block)
+            z, y, x = (int(v) for v in corner)
+            self.histogram.add(self.source, (z, y, x), self.block)

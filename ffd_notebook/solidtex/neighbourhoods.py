@@ -195,6 +195,28 @@ def seam_error(
     minimum-error cut keeps one block or the other, switching where they agree. Lower is better;
     compare with :func:`neighbourhood_distance` of the whole volume (``rng`` as there).
 
+    Parameters
+    ----------
+    volume : array_like
+        ``(Z, Y, X, 3)`` synthesised texture.
+    exemplar : array_like
+        ``(Z, Y, X, 3)`` exemplar.
+    step : int
+        Distance between block origins (block minus overlap).
+    overlap : int
+        Overlap in voxels.
+    size : int
+        Neighbourhood size.
+    n_queries : int
+        How many seam voxels to measure.
+    rng : int or numpy.random.Generator
+        The random source.
+
+    Returns
+    -------
+    float
+        The mean neighbourhood distance in the seam bands.
+
     Examples
     --------
     >>> rng = np.random.default_rng(0)

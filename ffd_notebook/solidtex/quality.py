@@ -28,6 +28,11 @@ def color_histogram(voxels: ArrayLike, *, bins: int = 8) -> NDArray[np.float64]:
     bins : int
         Bins per channel (a power of two up to 256 keeps the bins equal).
 
+    Returns
+    -------
+    numpy.ndarray
+        ``(bins**3,)`` float64, summing to 1.
+
     Examples
     --------
     >>> h = color_histogram(np.array([[0, 0, 0], [255, 255, 255]], dtype=np.uint8), bins=2)
@@ -46,6 +51,9 @@ def color_histogram(voxels: ArrayLike, *, bins: int = 8) -> NDArray[np.float64]:
 
 def colour_histogram(voxels: ArrayLike, bins: int = 8) -> NDArray[np.float64]:
     """Deprecated spelling of :func:`color_histogram` (the package spells ``color``, as PyVista does).
+
+    .. deprecated:: 0.1.0
+       Use :func:`color_histogram`.
 
     Examples
     --------
@@ -66,6 +74,18 @@ def histogram_distance(a: ArrayLike, b: ArrayLike, bins: int = 8) -> float:
 
     The maximum, for two single-colour volumes of different colours, is ``sqrt(2)``.
 
+    Parameters
+    ----------
+    a, b : array_like
+        Colour arrays ``(..., 3)`` uint8.
+    bins : int
+        Histogram bins per channel.
+
+    Returns
+    -------
+    float
+        The L2 distance between the normalised histograms.
+
     Examples
     --------
     >>> red = np.zeros((4, 4, 4, 3), np.uint8); red[..., 0] = 255
@@ -80,6 +100,16 @@ def gradient_energy(volume: ArrayLike) -> float:
     """Mean squared colour difference between face-neighbouring voxels (all three axes).
 
     Blurring lowers it, seams and noise raise it; compare a result with its exemplar.
+
+    Parameters
+    ----------
+    volume : array_like
+        ``(Z, Y, X, 3)`` colours.
+
+    Returns
+    -------
+    float
+        The mean squared difference (0 for a constant volume).
 
     Examples
     --------

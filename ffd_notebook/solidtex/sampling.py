@@ -34,7 +34,27 @@ class TextureSampler(Protocol):
     spacing: float
 
     def sample(self, points: ArrayLike) -> NDArray[np.uint8]:
-        """``(N, 3)`` uint8 colours at ``(N, 3)`` rest-frame points."""
+        """``(N, 3)`` uint8 colours at ``(N, 3)`` rest-frame points.
+
+        Parameters
+        ----------
+        points : array_like
+            ``(N, 3)`` rest-frame points.
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(N, 3)`` uint8 colours.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from ffd_notebook.solidtex import SolidTexture
+        >>> vol = np.zeros((2, 2, 2, 3), np.uint8); vol[:, :, 1] = 200
+        >>> tex = SolidTexture(vol, spacing=1.0, origin=(0, 0, 0))
+        >>> isinstance(tex, TextureSampler), tex.sample([[1.0, 0.0, 0.0]]).tolist()
+        (True, [[200, 200, 200]])
+        """
         ...
 
 
@@ -91,6 +111,11 @@ class SolidTexture:
         margin : float
             Extra room around the box, as a fraction of its size.
 
+        Returns
+        -------
+        SolidTexture
+            The placed texture.
+
         Examples
         --------
         >>> tex = SolidTexture.fit(np.zeros((10, 20, 40, 3), np.uint8), (0, 8, 0, 2, 0, 1), margin=0)
@@ -107,12 +132,52 @@ class SolidTexture:
         return cls(vol, spacing, origin, mode)
 
     def voxel_coordinates(self, points: ArrayLike) -> NDArray[np.float64]:
-        """``(3, N)`` fractional voxel indices ``(k, j, i)`` of world points, as map_coordinates wants."""
+        """``(3, N)`` fractional voxel indices ``(k, j, i)`` of world points, as map_coordinates wants.
+
+        Parameters
+        ----------
+        points : array_like
+            ``(N, 3)`` world points ``(x, y, z)``.
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(3, N)`` float64 indices ``(k, j, i)``.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from ffd_notebook.solidtex import SolidTexture
+        >>> vol = np.zeros((2, 2, 2, 3), np.uint8); vol[:, :, 1] = 200
+        >>> tex = SolidTexture(vol, spacing=1.0, origin=(0, 0, 0))
+        >>> tex.voxel_coordinates([[1.0, 0.0, 0.5]]).tolist()
+        [[0.5], [0.0], [1.0]]
+        """
         p = np.asarray(points, dtype=np.float64).reshape(-1, 3)
         return ((p - self.origin) / self.spacing)[:, ::-1].T
 
     def sample(self, points: ArrayLike) -> NDArray[np.uint8]:
-        """Trilinearly interpolated ``(N, 3)`` uint8 colours at rest-frame points ``(N, 3)``."""
+        """Trilinearly interpolated ``(N, 3)`` uint8 colours at rest-frame points ``(N, 3)``.
+
+        Parameters
+        ----------
+        points : array_like
+            ``(N, 3)`` points in the organ's rest frame.
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(N, 3)`` uint8 colours.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from ffd_notebook.solidtex import SolidTexture
+        >>> vol = np.zeros((2, 2, 2, 3), np.uint8); vol[:, :, 1] = 200
+        >>> tex = SolidTexture(vol, spacing=1.0, origin=(0, 0, 0))
+        >>> tex.sample([[0.5, 0.0, 0.0]]).tolist()
+        [[100, 100, 100]]
+        """
         coords = self.voxel_coordinates(points)
         out = np.empty((coords.shape[1], 3), dtype=np.uint8)
         for c, channel in enumerate(self._channels):

@@ -97,7 +97,7 @@ def graph_cut_side(
     >>> graph_cut_side(old, new, covered, pool=2)[0, :, 0].astype(int).tolist()
     [0, 0, 1, 1, 1, 1]
     """
-    return _cut(seam_errors(old, new, covered), np.asarray(covered, bool), int(pool), int(band))
+    return _cut(seam_errors(old, new, covered), np.asarray(covered, dtype=np.bool_), int(pool), int(band))
 
 
 def _cut(err: NDArray, covered: NDArray[np.bool_], pool: int, band: int) -> NDArray[np.bool_]:
@@ -105,7 +105,7 @@ def _cut(err: NDArray, covered: NDArray[np.bool_], pool: int, band: int) -> NDAr
     if pool < 2 or any(s % 2 for s in covered.shape):
         return _min_cut(err, covered & ~forced, side)
     cells = (covered.shape[0] // 2, 2, covered.shape[1] // 2, 2, covered.shape[2] // 2, 2)
-    whole = covered.reshape(cells).all(axis=(1, 3, 5))
+    whole = np.asarray(covered.reshape(cells).all(axis=(1, 3, 5)))
     coarse = _cut(err.reshape(cells).sum(axis=(1, 3, 5)), whole, pool // 2, band)
     side = np.where(forced, side, coarse.repeat(2, 0).repeat(2, 1).repeat(2, 2))
     if band < 0:
@@ -128,7 +128,7 @@ def _forced(covered: NDArray[np.bool_]) -> tuple[NDArray[np.bool_], NDArray[np.b
     """
     old = np.zeros_like(covered)
     for ax in range(3):
-        first = [slice(None)] * 3
+        first: list[slice | int] = [slice(None)] * 3
         first[ax] = 0
         if covered[tuple(first)].all():
             old[tuple(first)] = True

@@ -28,6 +28,18 @@ def as_rgb8(image: Any, name: str = "image") -> NDArray[np.uint8]:
     Floating-point images are taken to be in [0, 1]; integer images in [0, 255] (uint16 images
     are scaled down by 257). The alpha channel is dropped.
 
+    Parameters
+    ----------
+    image : array_like
+        ``(H, W)``, ``(H, W, 3)`` or ``(H, W, 4)``; floats in [0, 1] or integers in [0, 255].
+    name : str
+        What error messages call it.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(H, W, 3)`` uint8.
+
     Examples
     --------
     >>> as_rgb8(np.zeros((2, 3))).shape
@@ -168,6 +180,11 @@ def sliding_crops(
     start : (int, int)
         Top-left corner of the first crop.
 
+    Returns
+    -------
+    list of numpy.ndarray
+        ``n_slices`` crops ``(h, w, 3)`` uint8.
+
     Examples
     --------
     >>> img = np.arange(100, dtype=np.uint8).reshape(10, 10)
@@ -176,7 +193,7 @@ def sliding_crops(
     [0, 12, 24]
     """
     rgb = as_rgb8(image)
-    h, w = (size, size) if np.isscalar(size) else size
+    h, w = (size, size) if isinstance(size, (int, np.integer)) else size
     last_r = start[0] + step[0] * (n_slices - 1)
     last_c = start[1] + step[1] * (n_slices - 1)
     if n_slices < 1 or min(start) < 0 or min(last_r, last_c) < 0:

@@ -51,7 +51,7 @@ DEFAULT_HISTOGRAM_WEIGHT = {"feather": 0.0, "cut": 0.5}  # and its histogram_wei
 class Stage:
     """One pass of block placement.
 
-    Attributes
+    Parameters
     ----------
     region : tuple of int
         ``(Z, Y, X)`` size synthesised in this stage.
@@ -61,14 +61,20 @@ class Stage:
         Blocks along each axis.
     source_shape : tuple of int
         Shape of the volume blocks are drawn from: the exemplar, or the previous stage's region.
+
+    Examples
+    --------
+    >>> stage = plan_stages((32, 32, 32, 3), (64, 64, 64), 16)[-1]
+    >>> stage.region, stage.step == stage.block - stage.overlap
+    ((64, 64, 64), True)
     """
 
-    region: tuple[int, int, int]
+    region: tuple[int, ...]
     block: int
     overlap: int
     pool: int
-    n_blocks: tuple[int, int, int]
-    source_shape: tuple[int, int, int]
+    n_blocks: tuple[int, ...]
+    source_shape: tuple[int, ...]
 
     @property
     def step(self) -> int:
@@ -109,13 +115,31 @@ def _stage(region, block, overlap, pool_wanted, source_shape) -> Stage:
 
 
 def plan_stages(
-    exemplar_shape: tuple[int, ...], shape: tuple[int, int, int], block: int, overlap: float = 1 / 6, reuse: bool = True
+    exemplar_shape: tuple[int, ...], shape: tuple[int, ...], block: int, overlap: float = 1 / 6, reuse: bool = True
 ) -> list[Stage]:
     """The synthesis stages for a target ``shape``.
 
     Without reuse: one stage with fixed blocks. With reuse: an initial region no larger than the
     exemplar (the target halved until it fits), then one stage per doubling, each with twice the
     previous block (and pooling), drawing from the previous region.
+
+    Parameters
+    ----------
+    exemplar_shape : tuple of int
+        ``(Z, Y, X, 3)`` of the exemplar.
+    shape : tuple of int
+        ``(Z, Y, X)`` of the texture to make.
+    block : int
+        Block size in voxels.
+    overlap : float
+        Overlap as a fraction of the block.
+    reuse : bool
+        Grow by region doubling (each stage draws from the previous stage's result).
+
+    Returns
+    -------
+    list of Stage
+        The passes, the last one making ``shape``.
 
     Examples
     --------
@@ -196,6 +220,7 @@ def _run_stage(
                     acc[region] += weights[..., None] * new
                     wsum[region] += weights
                 if measure:
+                    assert mismatch is not None  # measure implies it
                     mismatch[0] += _transition_energy(w, np.square(new - old).sum(-1), covered > 0, has_prev)
                     mismatch[1] += b * b * sum(has_prev)
                 bar.update()
@@ -348,7 +373,7 @@ def synthesize(
         raise ValueError(f"seams must be 'feather' or 'cut', got {seams!r}")
     if ex.ndim != 4 or ex.shape[3] != 3:
         raise ValueError(f"exemplar must be a (Z, Y, X, 3) colour volume, got shape {ex.shape}")
-    target = (int(shape),) * 3 if np.isscalar(shape) else tuple(int(s) for s in shape)
+    target = (int(shape),) * 3 if isinstance(shape, (int, np.integer)) else tuple(int(s) for s in shape)
     if block is None:
         block = choose_block_size(ex, rng=rng)
     if overlap is None:

@@ -6,8 +6,22 @@ where they help (see :func:`~ffd_notebook.view.rendering.new_plotter`).
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 from .._util.lazy import lazy_getattr
 from .rendering import is_headless, new_plotter
+
+if TYPE_CHECKING:  # the lazy names below, declared for type checkers and IDEs
+    from .camera import frame_camera as frame_camera
+    from .camera import view_direction as view_direction
+    from .editor import EditingSession as EditingSession
+    from .editor import Editor as Editor
+    from .editor import edit as edit
+    from .editor.notebook import ControlPanel as ControlPanel
+    from .gp import GPExplorer as GPExplorer
+    from .solidtex import CutViewer as CutViewer
+    from .solidtex import TexturedOrgan as TexturedOrgan
+    from .solidtex import add_cut as add_cut
 
 _LAZY = {
     "Editor": "ffd_notebook.view.editor",

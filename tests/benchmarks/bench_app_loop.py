@@ -72,7 +72,9 @@ async def run(resolution: int, steps: list[str]) -> None:
             rows = []
             if "rebuild-face" in steps:
                 rows.append(("rebuild 20^3 on the sample face", *await rebuild_20(app)))
-            total, stall = await longest_stall(lambda: app.files.load_mesh("big.ply"), lambda: not app.state.busy)
+            total, stall = await longest_stall(
+                lambda: app.files.load_mesh_in_background("big.ply"), lambda: not app.state.busy
+            )
             assert editor.mesh.n_points == big.n_points, editor.messages[-1]
             rows.append((f"load big.ply ({big.n_points} points)", total, stall))
             if "rebuild-big" in steps:

@@ -15,12 +15,28 @@ Names are imported on first use: ``from ffd_notebook.view.editor import EditingS
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 from ..._util.lazy import lazy_getattr
+
+if TYPE_CHECKING:  # the lazy names below, declared for type checkers and IDEs
+    from .app import EditorApp as EditorApp
+    from .app import run_app as run_app
+    from .editor import Editor as Editor
+    from .editor import edit as edit
+    from .notebook import ControlPanel as ControlPanel
+    from .session import Change as Change
+    from .session import EditingSession as EditingSession
+    from .session import Field as Field
+    from .session import MeshIO as MeshIO
+    from .session import PointsShown as PointsShown
 
 _LAZY = {
     "Change": "ffd_notebook.view.editor.session",
     "EditingSession": "ffd_notebook.view.editor.session",
     "MeshIO": "ffd_notebook.view.editor.session",
+    "Field": "ffd_notebook.view.editor.session",
+    "PointsShown": "ffd_notebook.view.editor.session",
     "Editor": "ffd_notebook.view.editor.editor",
     "edit": "ffd_notebook.view.editor.editor",
     "ControlPanel": "ffd_notebook.view.editor.notebook",

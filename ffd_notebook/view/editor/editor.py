@@ -1,7 +1,7 @@
 """The FFD editor: an editing session shown in a PyVista plotter, with a mesh inside a lattice of draggable spheres.
 
 :class:`Editor` is what a notebook user holds: three parts, and the handful of calls the README and the
-tutorials make (``lattice``, ``update``, ``deformed_mesh``, ``undo``, ``save_ffd``...). Every other command is
+tutorials make (``lattice``, ``update``, ``deformed_mesh``, ``undo``, ``save_deformation``...). Every other command is
 the session's (``editor.session.set_shape(...)``, ``editor.session.surface.pin(...)``): the panels call
 session commands too, so the editor does not repeat them.
 
@@ -30,6 +30,9 @@ import numpy as np
 import pyvista as pv
 from numpy.typing import ArrayLike, NDArray
 
+from ..._util.deprecation import renamed, warn_renamed
+from ...ffd.basis import BasisName
+from ...ffd.deform import FFD
 from ...ffd.lattice import Lattice
 from ...io import write_mesh
 from ...meshing import as_surface, color_array_name, decimate_keeping_colors, deformed_copy
@@ -37,7 +40,7 @@ from ..lifetime import Lifetime, weak_method
 from .scene.proxy import INTERACTIVE_CELLS
 from .scene.scene import EditorScene
 from .session.message_log import MessageLog
-from .session.session import EditingSession, MeshIO
+from .session.session import EditingSession, Field, MeshIO, PointsShown
 
 __all__ = ["PYVISTA_MESH_IO", "Editor", "edit", "face_surface"]
 
@@ -161,8 +164,8 @@ class Editor:
         mesh_or_path: Any = None,
         *,
         lattice: Lattice | None = None,
-        shape: tuple[int, int, int] = (5, 5, 5),
-        basis: str = "bspline",
+        shape: tuple[int, ...] = (5, 5, 5),
+        basis: BasisName = "bspline",
         window_size: tuple[int, int] = (800, 600),
         off_screen: bool | None = None,
         interactive_cells: int | None = INTERACTIVE_CELLS,
@@ -281,24 +284,35 @@ class Editor:
         """Zero the offset of control point ``ijk``, or of all of them (one undo step)."""
         self.session.reset(ijk)
 
-    def set_field(self, field: str | None) -> None:
+    def set_field(self, field: Field | None) -> None:
         """Color the mesh by ``"displacement"``, by folding (``"jacobian"``), or not (None)."""
         self.session.set_field(field)
 
-    def show_points(self, which: str) -> None:
+    def show_points(self, which: PointsShown) -> None:
         """Draw all control points (``"all"``), those near the selection (``"near"``), the hull or ``"auto"``."""
         self.session.show_points(which)
 
-    def load_ffd(self, path: Path) -> Lattice:
-        """Load a lattice file (.ffd, ITK .tfm/.txt/.h5/.hdf5, PyGeM .prm; one undo step) and return its lattice.
+    def load_deformation(self, path: Path) -> FFD:
+        """Load a deformation file (.ffd, ITK .tfm/.txt/.h5/.hdf5, PyGeM .prm; one undo step) and return the FFD.
 
-        A bad file raises and changes nothing (:meth:`.session.files.SessionFiles.load_lattice`).
+        A bad file raises and changes nothing (:meth:`.session.files.SessionFiles.load_deformation`).
         """
-        return self.session.files.load_lattice(path)
+        return self.session.files.load_deformation(path)
 
-    def save_ffd(self, path: Path) -> None:
-        """Save the FFD to a lattice file (format by extension), atomically."""
-        self.session.files.save_lattice(path)
+    def save_deformation(self, path: Path) -> None:
+        """Save the FFD to a deformation file (format by extension), atomically."""
+        self.session.files.save_deformation(path)
+
+    def load_ffd(self, path: Path) -> Lattice:
+        """Deprecated: :meth:`load_deformation` (which returns the FFD); this returns its lattice.
+
+        .. deprecated:: 0.2.0
+           Removed in 0.3.0.
+        """
+        warn_renamed("Editor.load_ffd", "Editor.load_deformation")
+        return self.load_deformation(path).lattice
+
+    save_ffd = renamed(save_deformation, "save_ffd")
 
     def load_mesh(self, path: Path) -> pv.PolyData:
         """Load a mesh (OBJ with colours, or anything PyVista reads; a new undo history). A bad file changes nothing."""
@@ -375,7 +389,7 @@ def edit(mesh_or_path: Any = None, **kw: Any) -> Editor:
     -------
     Editor
         Keep it to work with the result: ``editor.deformed_mesh``, ``editor.lattice``,
-        ``editor.save_ffd(...)``. Showing the returned editor again in the same cell does not
+        ``editor.save_deformation(...)``. Showing the returned editor again in the same cell does not
         draw a second copy.
 
     Examples

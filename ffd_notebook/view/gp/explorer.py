@@ -68,7 +68,7 @@ class GPExplorer(ModelModes):
         Size of the Nystrom low-rank model rebuilt when ``sigma`` changes.
     noise : float, (3,) or (3, 3) array_like, optional
         Default observation noise of a landmark: variance, per-axis variances or covariance;
-        default ``(0.01 * scale)^2``. Kept as :attr:`noise`, a 3x3 covariance.
+        default ``(0.01 * scale)^2``. Kept as ``noise``, a 3x3 covariance.
     rng : int or numpy.random.Generator
         Random source of the inducing points and of :meth:`sample` without an argument (the
         button): the same ``rng`` gives the same sequence of samples. ``seed=`` is a deprecated alias.
@@ -236,7 +236,7 @@ class GPExplorer(ModelModes):
         Without ``displacement`` the landmark pins the point where it is currently shown. The
         displacement is from the rest (reference) point, not from the mean shape. ``noise`` is
         the observation's variance, three variances or a 3x3 covariance (default
-        :attr:`noise`). The view switches to the posterior mean.
+        ``noise``). The view switches to the posterior mean.
         """
         where = np.asarray(point, dtype=np.float64).reshape(3)
         if displacement is None:

@@ -96,21 +96,21 @@ def test_selection_typed_in_the_panel(app):
 
 def test_ffd_and_mesh_files_by_path(app, tmp_path):
     app.run("apply", [1, 1, 2, 0.0, 0.5, 0.0])
-    app.files.save_ffd(str(tmp_path / "a.ffd"))
+    app.files.save_deformation_in_background(str(tmp_path / "a.ffd"))
     saved = load_ffd(tmp_path / "a.ffd")
     assert saved.offsets[1, 1, 2].tolist() == [0.0, 0.5, 0.0]
     app.run("reset_all")
-    app.files.load_ffd(str(tmp_path / "a.ffd"))
+    app.files.load_deformation_in_background(str(tmp_path / "a.ffd"))
     assert app.editor.lattice.offsets[1, 1, 2, 1] == 0.5
-    app.files.load_ffd(str(tmp_path / "missing.ffd"))
+    app.files.load_deformation_in_background(str(tmp_path / "missing.ffd"))
     assert app.state.messages[0]["error"] and "missing.ffd" in app.state.messages[0]["text"]
     assert app.editor.lattice.offsets[1, 1, 2, 1] == 0.5  # a failed load changes nothing
 
-    app.files.save_mesh(str(tmp_path / "deformed.ply"))
+    app.files.save_mesh_in_background(str(tmp_path / "deformed.ply"))
     deformed = pv.read(tmp_path / "deformed.ply")
     assert np.allclose(deformed.points, app.editor.deformed_mesh.points)
     pv.Cube().triangulate().save(tmp_path / "cube.vtp")
-    app.files.load_mesh(str(tmp_path / "cube.vtp"))
+    app.files.load_mesh_in_background(str(tmp_path / "cube.vtp"))
     assert app.editor.mesh.n_points == 8 and app.state.mesh_info.startswith("8 vertices")
 
 
@@ -162,27 +162,27 @@ def test_itk_and_pygem_files_by_path_inside_the_root_only(app, tmp_path):
     lattice.offsets[1, 2, 1] = (0.0, 0.2, 0.0)
     affine = np.diag([1.2, 1.0, 0.9, 1.0])
     save_transform(tmp_path / "in.tfm", FFD(lattice, affine=affine))
-    app.files.load_ffd("in.tfm")
+    app.files.load_deformation_in_background("in.tfm")
     assert np.allclose(app.editor.session.ffd.affine, affine)
     expected = load_transform(tmp_path / "in.tfm").deform(app.editor.mesh.points)
     assert np.allclose(app.editor.deformed_mesh.points, expected, atol=1e-5)
-    app.files.save_ffd("sub/../out.h5")  # inside the root: written, affine part included
+    app.files.save_deformation_in_background("sub/../out.h5")  # inside the root: written, affine part included
     assert np.allclose(load_transform(tmp_path / "out.h5").affine, affine)
     assert "saved the lattice to out.h5" in app.state.messages[0]["text"]
 
     outside = tmp_path.parent / f"outside_{uuid.uuid4().hex}.tfm"
-    app.files.save_ffd(str(outside))
+    app.files.save_deformation_in_background(str(outside))
     assert app.state.messages[0]["error"] and "outside the app's folder" in app.state.messages[0]["text"]
     assert not outside.exists()
     save_transform(outside, FFD(lattice))
     try:
-        app.files.load_ffd(str(outside))
+        app.files.load_deformation_in_background(str(outside))
         assert app.state.messages[0]["error"] and "outside the app's folder" in app.state.messages[0]["text"]
         assert np.allclose(app.editor.session.ffd.affine, affine)  # a refused load changes nothing
     finally:
         outside.unlink()
 
-    app.files.save_ffd("out.prm")  # a B-spline FFD with an affine part: PyGeM cannot hold it
+    app.files.save_deformation_in_background("out.prm")  # a B-spline FFD with an affine part: PyGeM cannot hold it
     text = app.state.messages[0]["text"]
     assert app.state.messages[0]["error"] and "out.prm" in text and "cannot hold this FFD" in text
     assert str(tmp_path) not in text and not (tmp_path / "out.prm").exists()

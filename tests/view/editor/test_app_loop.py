@@ -31,7 +31,9 @@ def test_the_loop_answers_while_a_big_mesh_loads_and_a_big_lattice_is_rebuilt(tm
     editor.screenshot()
 
     async def scenario():
-        load = await longest_stall(lambda: app.files.load_mesh("big.ply"), lambda: not app.state.busy, timeout=240)
+        load = await longest_stall(
+            lambda: app.files.load_mesh_in_background("big.ply"), lambda: not app.state.busy, timeout=240
+        )
         rebuilt = lambda: editor.lattice.shape == (20, 20, 20) and not app.state.busy  # noqa: E731
         rebuild = await longest_stall(lambda: app.run("rebuild", [20, 20, 20]), rebuilt, timeout=240)
         return load, rebuild

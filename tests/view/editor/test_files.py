@@ -31,11 +31,11 @@ def test_ffd_round_trip_and_undo(editor, tmp_path):
     editor.session.move_control_point((1, 2, 3), (0.1, -0.2, 0.3))
     editor.session.move_control_point((3, 3, 1), (0.0, 0.05, 0.0))
     path = tmp_path / "edited.ffd"
-    editor.save_ffd(path)
+    editor.save_deformation(path)
     saved = editor.lattice.copy()
     assert load_ffd(path) == saved
     editor.session.set_shape((6, 6, 6))
-    editor.load_ffd(path)
+    editor.load_deformation(path)
     assert editor.lattice == saved  # its quaternion placement is used as is
     assert editor.messages[-1].startswith("loaded a 5x5x5 lattice") and "quaternion" in editor.messages[-1]
     assert_view_matches_model(editor)
@@ -48,7 +48,7 @@ def test_real_registration_ffd_keeps_its_placement(shared_data):
     face = read_mesh(shared_data / "face" / "james_colored.obj")
     editor = Editor(face, shape=(4, 4, 4), window_size=(160, 120))
     try:
-        editor.load_ffd(shared_data / "seed-lineage" / "registration_11x12x11.FFD")
+        editor.load_deformation(shared_data / "seed-lineage" / "registration_11x12x11.FFD")
         lat = editor.lattice
         assert lat.shape == (11, 12, 11)
         np.testing.assert_allclose(lat.origin, (90, -126, -72))
@@ -66,7 +66,7 @@ def test_real_registration_ffd_keeps_its_placement(shared_data):
 def test_ffd_without_placement_goes_to_the_mesh_minimum(editor, tmp_path):
     path = tmp_path / "platform.ffd"
     path.write_text(unplaced_ffd_text())
-    editor.load_ffd(path)
+    editor.load_deformation(path)
     np.testing.assert_allclose(editor.lattice.origin, editor.mesh.points.min(axis=0))
     np.testing.assert_allclose(editor.lattice.spacing, 0.8)
     np.testing.assert_allclose(editor.lattice.offsets[1, 2, 1], (0, 0, 0.25))
@@ -100,12 +100,12 @@ def test_failed_ffd_load_changes_nothing(editor, tmp_path, content, where):
     path = tmp_path / "bad.ffd"
     path.write_text(content)
     with pytest.raises(ValueError) as info:
-        editor.load_ffd(path)
+        editor.load_deformation(path)
     assert where in str(info.value)
     assert_unchanged(editor, snap)
     assert editor.messages[-1].startswith("Error: could not load the lattice") and "bad.ffd" in editor.messages[-1]
     with pytest.raises(FileNotFoundError):
-        editor.load_ffd(tmp_path / "missing.ffd")
+        editor.load_deformation(tmp_path / "missing.ffd")
     assert_unchanged(editor, snap)
 
 
@@ -163,7 +163,7 @@ def test_failed_mesh_load_changes_nothing(editor, tmp_path, name, content):
 
 def test_save_failures_are_reported(editor, tmp_path):
     with pytest.raises(OSError):
-        editor.save_ffd(tmp_path / "no-such-dir" / "x.ffd")
+        editor.save_deformation(tmp_path / "no-such-dir" / "x.ffd")
     assert editor.messages[-1].startswith("Error: could not save the lattice")
     with pytest.raises(ValueError):
         editor.save_mesh(tmp_path / "mesh.unknown-format")
@@ -224,15 +224,15 @@ def test_undo_and_assignment_keep_how_the_lattice_follows_a_new_mesh(editor, tmp
     write_mesh(other, moved)
     path = tmp_path / "placed.ffd"
     editor.session.move_control_point((1, 2, 1), (0.0, 0.0, 0.2))
-    editor.save_ffd(path)  # with its quaternion placement
-    editor.load_ffd(path)
+    editor.save_deformation(path)  # with its quaternion placement
+    editor.load_deformation(path)
     editor.session.set_shape((6, 6, 6))
     editor.undo()  # back to the placed .ffd lattice: it must stay where it is
     placed = editor.lattice.copy()
     editor.load_mesh(other)
     assert editor.lattice == placed
     editor.session.set_shape((5, 5, 5))  # fitted around the moved sphere
-    editor.load_ffd(path)
+    editor.load_deformation(path)
     editor.undo()  # back to the fitted lattice: refitted around the next mesh
     home = tmp_path / "home.vtp"
     write_mesh(home, colored_sphere(16))

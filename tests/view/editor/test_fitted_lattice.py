@@ -88,8 +88,8 @@ def test_a_fitted_lattice_saves_to_ffd_with_its_border(tmp_path):
     session = EditingSession(sample_mesh(), mesh_io=PYVISTA_MESH_IO)
     session.move_control_point((0, 2, 4), (3.0, -2.0, 1.0))
     shown = session.deformed_points.copy()
-    session.files.save_lattice(tmp_path / "fitted.ffd")
+    session.files.save_deformation(tmp_path / "fitted.ffd")
     session.set_shape((4, 4, 4))
-    session.files.load_lattice(tmp_path / "fitted.ffd")
+    session.files.load_deformation(tmp_path / "fitted.ffd")
     assert session.ffd.border == "clamp" and session.lattice_source == "ffd-placed"
     np.testing.assert_allclose(session.deformed_points, shown, atol=1e-4)

@@ -91,7 +91,7 @@ def test_controls_window_slices_and_a_failed_load(ct, tmp_path):
     np.testing.assert_allclose(saved, sitk.GetArrayFromImage(warp_image(ct, session.ffd)))
     # saving the lattice writes the image warped by it beside it
     session.move_control_point((2, 2, 2), (0.2, 0.0, 0.0))
-    session.files.save_lattice(tmp_path / "lattice.ffd")
+    session.files.save_deformation(tmp_path / "lattice.ffd")
     beside = tmp_path / "lattice.warped.nii.gz"
     np.testing.assert_allclose(sitk.GetArrayFromImage(read_image(beside)),
                                sitk.GetArrayFromImage(warp_image(ct, session.ffd)), atol=1e-4)  # fmt: skip

@@ -49,7 +49,7 @@ def test_an_elastix_chain_loads_edits_and_saves_back(tmp_path):
     path = _compose_chain(tmp_path, _random_ffd(session, SHEAR))
     chain = load_elastix(path)
     before = len(session.history)
-    session.files.load_lattice(path)
+    session.files.load_deformation(path)
     assert session.lattice.sheared
     np.testing.assert_allclose(session.deformed_points, chain.deform(session.rest_points), atol=1e-5)
     assert "TransformParameters.1.txt" in session.messages[-1] and len(session.history) == before + 1
@@ -58,11 +58,11 @@ def test_an_elastix_chain_loads_edits_and_saves_back(tmp_path):
     np.testing.assert_allclose(session.deformed_points, edited.deform(session.rest_points), atol=1e-5)
     saved = tmp_path / "edited" / "TransformParameters.1.txt"
     saved.parent.mkdir()
-    session.files.save_lattice(saved)  # .txt, read from elastix: written as elastix (ITK refuses a sheared grid)
+    session.files.save_deformation(saved)  # .txt, read from elastix: written as elastix (ITK refuses a sheared grid)
     assert saved.read_text().startswith('(Transform "BSplineTransform")')
     np.testing.assert_allclose(load_elastix(saved).deform(session.rest_points), session.deformed_points, atol=1e-5)
     with pytest.raises(ValueError, match="sheared"):
-        session.files.save_lattice(tmp_path / "edited.tfm")
+        session.files.save_deformation(tmp_path / "edited.tfm")
     assert not (tmp_path / "edited.tfm").exists() and "sheared" in session.messages[-1]
     session.undo()
     session.undo()  # back to the sphere's own lattice
@@ -74,7 +74,7 @@ def test_a_displacement_field_becomes_a_fitted_lattice(tmp_path):
     truth = _random_ffd(session)
     path = tmp_path / "warp.nii.gz"
     save_displacement_field(path, truth, {"size": (24, 24, 24), "spacing": 0.2, "origin": (-2.3, -2.3, -2.3)})
-    session.files.load_lattice(path)
+    session.files.load_deformation(path)
     assert session.lattice.shape == (5, 5, 5)
     fit = session.lattice.metadata["fit"]
     assert f"{fit['rms']:.3g}" in session.messages[-1] and "fitted" in session.messages[-1]
@@ -89,7 +89,7 @@ def test_a_bad_chain_changes_nothing(tmp_path):
     (tmp_path / "a.txt").write_text('(Transform "TranslationTransform")\n(TransformParameters 1 2 3)\n'
                                      '(InitialTransformParameterFileName "a.txt")\n')  # fmt: skip
     with pytest.raises(ValueError, match="loops back"):
-        session.files.load_lattice(tmp_path / "a.txt")
+        session.files.load_deformation(tmp_path / "a.txt")
     assert session.lattice == lattice and len(session.history) == history
     assert "loops back" in session.messages[-1]
 
@@ -112,7 +112,7 @@ def test_the_app_takes_elastix_and_field_uploads(tmp_path):
         app.files.receive_ffd_upload({"name": "TransformParameters.0.txt",
                                       "content": (tmp_path / "TransformParameters.0.txt").read_bytes()})  # fmt: skip
         assert app.state.messages[0]["error"] and "the initial transform" in app.state.messages[0]["text"]
-        app.files.load_ffd("TransformParameters.0.txt")
+        app.files.load_deformation_in_background("TransformParameters.0.txt")
         assert not app.state.messages[0]["error"], app.state.messages[0]["text"]
         np.testing.assert_allclose(app.editor.deformed_mesh.points, truth.deform(mesh.points), atol=1e-4)
         app.files.receive_ffd_upload({"name": "warp.nii.gz", "content": (tmp_path / "warp.nii.gz").read_bytes()})

@@ -114,25 +114,25 @@ def test_lattice_shape_basis_and_files(shared_data, tmp_path):
     session.set_basis("bernstein")
     session.move_control_point((2, 1, 1), (0.0, 0.0, 0.3))
     assert_follows_the_model(session)
-    lattice = session.files.load_lattice(shared_data / "seed-lineage" / "registration_11x12x11.FFD")
+    lattice = session.files.load_deformation(shared_data / "seed-lineage" / "registration_11x12x11.FFD").lattice
     assert session.lattice is lattice and lattice.shape == (11, 12, 11)
     assert_follows_the_model(session)
     state = (session.lattice, len(session.history), len(session.messages))
     bad = tmp_path / "bad.ffd"
     bad.write_text("#dimension#\nthree\n")
     with pytest.raises(ValueError):
-        session.files.load_lattice(bad)
+        session.files.load_deformation(bad)
     assert (session.lattice, len(session.history)) == state[:2] and len(session.messages) == state[2] + 1
     assert session.messages[-1].startswith(f"Error: could not load the lattice {str(bad)!r}")
     session.undo()  # back to the Bernstein lattice with its moved point
     assert session.basis == "bernstein" and session.lattice.offsets[2, 1, 1, 2] == pytest.approx(0.3)
     saved = tmp_path / "saved.ffd"
     with pytest.raises(ValueError, match="cannot hold this FFD exactly"):  # .ffd lattices are B-splines
-        session.files.save_lattice(saved)
+        session.files.save_deformation(saved)
     assert not saved.exists()
     assert session.messages[-1].startswith(f"Error: could not save the lattice to {str(saved)!r}")
     session.redo()  # the loaded B-spline .ffd lattice
-    session.files.save_lattice(saved)
+    session.files.save_deformation(saved)
     assert session.messages[-1] == f"saved the lattice to {saved}"
 
 

@@ -24,6 +24,7 @@ import socket
 from collections.abc import Callable
 from typing import Any
 
+from ....ffd.basis import BasisName
 from ...file_root import DEFAULT_MAX_FILE_BYTES, FileRoot
 from ...web_security import AccessPolicy, new_token, protect, url_with_token
 from ..editor import Editor
@@ -103,11 +104,11 @@ class EditorApp:
             busy_text="",
         )
         for name_, method in (
-            ("ffd_load_ffd", self.files.load_ffd),
-            ("ffd_save_ffd", self.files.save_ffd),
-            ("ffd_load_mesh", self.files.load_mesh),
-            ("ffd_load_face", self.files.load_face),
-            ("ffd_save_mesh", self.files.save_mesh),
+            ("ffd_load_ffd", self.files.load_deformation_in_background),
+            ("ffd_save_ffd", self.files.save_deformation_in_background),
+            ("ffd_load_mesh", self.files.load_mesh_in_background),
+            ("ffd_load_face", self.files.load_face_in_background),
+            ("ffd_save_mesh", self.files.save_mesh_in_background),
             ("ffd_download_ffd", self.files.download_ffd),
             ("ffd_download_mesh", self.files.download_mesh),
             ("ffd_rebuild", self.files.rebuild),
@@ -115,8 +116,8 @@ class EditorApp:
             ("ffd_redo", self.files.redo),
             ("ffd_basis", self.files.set_basis),
             ("ffd_decimate", self.files.decimate),
-            ("ffd_load_image", self.files.load_image),
-            ("ffd_save_image", self.files.save_image),
+            ("ffd_load_image", self.files.load_image_in_background),
+            ("ffd_save_image", self.files.save_image_in_background),
         ):
             self.server.controller.trigger(name_)(method)
         self.layout, self.view = build_layout(self)
@@ -199,8 +200,8 @@ def run_app(
     ffd: str | os.PathLike[str] | None = None,
     port: int = 8080,
     host: str = "127.0.0.1",
-    shape: tuple[int, int, int] = (5, 5, 5),
-    basis: str = "bspline",
+    shape: tuple[int, ...] = (5, 5, 5),
+    basis: BasisName = "bspline",
     root: str | os.PathLike[str] | None = None,
     max_file_bytes: int = DEFAULT_MAX_FILE_BYTES,
     setup: Callable[[EditorApp], None] | None = None,
@@ -214,7 +215,7 @@ def run_app(
     """
     editor = Editor(mesh, shape=tuple(shape), basis=basis, image=image)
     if ffd is not None:
-        editor.load_ffd(ffd)
+        editor.load_deformation(ffd)
     app = EditorApp(editor, root=root, max_file_bytes=max_file_bytes)
     if setup is not None:
         setup(app)

@@ -25,6 +25,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+from ...._util.deprecation import renamed
 from ....face.photo import PHOTO_SUFFIXES
 from ....io.mesh import MESH_SUFFIXES
 from ...file_root import (
@@ -166,8 +167,9 @@ class AppFiles:
 
     # ------------------------------------------------------------------ reading
     def _read_ffd(self, path: Path, shown: str) -> None:
-        self.in_background(f"reading {shown}", lambda: self.session.files.read_lattice(path),
-                            lambda result: self.session.files.use_lattice(*result, shown), shown, "load")  # fmt: skip
+        files = self.session.files
+        self.in_background(f"reading {shown}", lambda: files.read_deformation(path),
+                            lambda result: files.use_deformation(*result, shown), shown, "load")  # fmt: skip
 
     def _read_mesh(self, path: Path, shown: str) -> None:
         def work() -> tuple[Any, Any, Any]:
@@ -274,14 +276,17 @@ class AppFiles:
 
         self.in_background("decimating the mesh", work, done, "the mesh", "decimate")
 
-    def load_ffd(self, path: str) -> None:
-        """Load a lattice file (.ffd, ITK, PyGeM .prm) from a path in the app's folder."""
+    def load_deformation_in_background(self, path: str) -> None:
+        """Start loading a deformation file (.ffd, ITK, PyGeM .prm) from a path in the app's folder.
+
+        The file is read in a worker thread and installed on the event loop; what happened is told
+        in the app's messages (nothing is returned)."""
         target = self._typed(path, self.root.for_reading, "load")
         if target is not None:
             self._read_ffd(target, self.root.shown(target))
 
-    def load_image(self, path: str) -> None:
-        """Show an image (NIfTI, NRRD, MetaImage, PNG...) from a path in the app's folder, read in a worker thread.
+    def load_image_in_background(self, path: str) -> None:
+        """Start showing an image (NIfTI, NRRD, MetaImage, PNG...) from a path in the app's folder (a worker thread).
 
         A header that names a data file (MetaImage, NRRD) is refused unless that file is in the folder too.
         """
@@ -301,8 +306,8 @@ class AppFiles:
             self.root.for_reading(data_file)  # PathRefused if it is outside the root
         return target
 
-    def save_image(self, path: str) -> None:
-        """Write the warped image in the app's folder (format from the extension, atomically)."""
+    def save_image_in_background(self, path: str) -> None:
+        """Start writing the warped image in the app's folder (format from the extension, atomically)."""
         from ....images.files import IMAGE_WRITE_SUFFIXES
 
         target = self._typed(path, lambda p: self.root.for_writing(p, IMAGE_WRITE_SUFFIXES), "save")
@@ -313,21 +318,21 @@ class AppFiles:
                                 lambda _: self.session.messages.append(f"saved the warped image to {shown}"),
                                 shown, "save")  # fmt: skip
 
-    def load_mesh(self, path: str) -> None:
-        """Load a mesh (OBJ, PLY, VTP, STL, ...) from a path in the app's folder."""
+    def load_mesh_in_background(self, path: str) -> None:
+        """Start loading a mesh (OBJ, PLY, VTP, STL, ...) from a path in the app's folder (a worker thread)."""
         target = self._typed(path, self.root.for_reading, "load")
         if target is not None:
             self._read_mesh(target, self.root.shown(target))
 
-    def load_face(self, path: str) -> None:
+    def load_face_in_background(self, path: str) -> None:
         """Replace the mesh with the coloured face of a photo (JPEG, PNG...) at a path in the app's folder."""
         target = self._typed(path, self.root.for_reading, "make a face")
         if target is not None:
             self._read_face(target, self.root.shown(target))
 
     # ------------------------------------------------------------------ writing
-    def save_ffd(self, path: str) -> None:
-        """Save the FFD to a lattice file in the app's folder (format by extension, atomically).
+    def save_deformation_in_background(self, path: str) -> None:
+        """Start saving the FFD to a deformation file in the app's folder (format by extension, atomically).
 
         A format that cannot hold the FFD exactly is refused with the reason, and writes nothing.
         """
@@ -338,8 +343,8 @@ class AppFiles:
                                 lambda _: self.session.messages.append(f"saved the lattice to {shown}"), shown,
                                 "save")  # fmt: skip
 
-    def save_mesh(self, path: str) -> None:
-        """Save the deformed mesh in the app's folder (format from the extension, atomically)."""
+    def save_mesh_in_background(self, path: str) -> None:
+        """Start saving the deformed mesh in the app's folder (format from the extension, atomically)."""
         from ....io import write_mesh
 
         target = self._typed(path, lambda p: self.root.for_writing(p, MESH_SUFFIXES), "save")
@@ -348,6 +353,12 @@ class AppFiles:
             self.in_background(f"writing {shown}", lambda: write_mesh(target, mesh),
                                 lambda _: self.session.messages.append(f"saved the deformed mesh to {shown}"),
                                 shown, "save")  # fmt: skip
+
+    # the names of 0.1, which did not say that they return before the work is done; kept until 0.3
+    load_ffd = renamed(load_deformation_in_background, "load_ffd")
+    save_ffd = renamed(save_deformation_in_background, "save_ffd")
+    load_mesh = renamed(load_mesh_in_background, "load_mesh")
+    save_mesh = renamed(save_mesh_in_background, "save_mesh")
 
     # ------------------------------------------------------------------ the browser's files
     def _scratch_file(self, name: str) -> Path:

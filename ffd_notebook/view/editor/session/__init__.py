@@ -9,6 +9,6 @@ NumPy and the model only: importing this package loads no VTK, PyVista, trame or
 from __future__ import annotations
 
 from .changes import Change
-from .session import FIELDS, POINTS_SHOWN, EditingSession, MeshIO
+from .session import FIELDS, POINTS_SHOWN, EditingSession, Field, MeshIO, PointsShown
 
-__all__ = ["FIELDS", "POINTS_SHOWN", "Change", "EditingSession", "MeshIO"]
+__all__ = ["FIELDS", "POINTS_SHOWN", "Change", "EditingSession", "Field", "MeshIO", "PointsShown"]

@@ -5,7 +5,7 @@ if that is new): the notebook panel (:mod:`ffd_notebook.view.editor.notebook.pan
 page (:mod:`ffd_notebook.view.editor.app.layout`) build their widgets from it, :func:`session_state` is
 the one mapping from the session to what the controls show, and :func:`run` the one way a control
 acts: it calls an :class:`~.session.EditingSession` command by name (``"undo"``, ``"surface.set_mode"``,
-``"files.load_lattice"``: attributes of the session).
+``"files.load_deformation"``: attributes of the session).
 
 Values typed in a panel arrive as they are (text fields send strings): each control's ``parse``
 turns them into the command's arguments and names the field in its error (``"displacement x must
@@ -110,7 +110,7 @@ class Control:
         Keys of :func:`session_state` (or panel values) the control shows or edits.
     command : str, optional
         The :class:`~.session.EditingSession` command it calls (an attribute path such as
-        ``"files.load_lattice"``): on click for buttons, on change for inputs.
+        ``"files.load_deformation"``): on click for buttons, on change for inputs.
     args : tuple of str
         State keys whose values a button passes to ``command`` (through ``parse``).
     parse : callable
@@ -373,7 +373,7 @@ CONTROLS: tuple[Control, ...] = (
         "button",
         "Load lattice",
         "Files",
-        command="files.load_lattice",
+        command="files.load_deformation",
         args=("ffd_path",),
         element_id="ffd-load",
         app_trigger="ffd_load_ffd",
@@ -384,7 +384,7 @@ CONTROLS: tuple[Control, ...] = (
         "button",
         "Save lattice",
         "Files",
-        command="files.save_lattice",
+        command="files.save_deformation",
         args=("ffd_path",),
         element_id="ffd-save",
         app_trigger="ffd_save_ffd",

@@ -33,10 +33,13 @@ import os
 from pathlib import Path as _PathType
 from typing import TYPE_CHECKING, Any
 
+from ...._util.deprecation import renamed, warn_renamed
 from ....ffd.deform import FFD
 from ....ffd.deformer import Deformer
 from ....ffd.lattice import Lattice
-from ....io import DisplacementField, fit_lattice, load_deformation, place_at_mesh_minimum, save_deformation
+from ....io import DisplacementField, fit_lattice, place_at_mesh_minimum
+from ....io import load_deformation as _load_deformation
+from ....io import save_deformation as _save_deformation
 from .lattices import copy_ffd, fitted_lattice
 
 if TYPE_CHECKING:
@@ -88,14 +91,14 @@ class SessionFiles:
     def __init__(self, session: EditingSession) -> None:
         self.session = session
 
-    def read_lattice(self, path: Path) -> tuple[FFD, str]:
-        """Read and check a lattice file for ``session`` without changing anything: ``(ffd, source)``.
+    def read_deformation(self, path: Path) -> tuple[FFD, str]:
+        """Read and check a deformation file for ``session`` without changing anything: ``(ffd, source)``.
 
         ``source`` is how the lattice is placed: ``"ffd-placed"`` (a .ffd with its own placement),
         ``"ffd-min"`` (a .ffd without one, put at the current mesh's minimum corner) or ``"file"``
         (ITK, PyGeM: by the file's own numbers). Safe to run in a worker thread.
         """
-        loaded = load_deformation(path)
+        loaded = _load_deformation(path)
         if isinstance(loaded, DisplacementField):  # a lattice of the session's shape, fitted over the field's voxels
             return fit_lattice(loaded, tuple(max(4, n) for n in self.session.lattice.shape)), "file"
         ffd = loaded
@@ -105,8 +108,8 @@ class SessionFiles:
             return ffd, "ffd-placed"
         return copy_ffd(ffd, place_at_mesh_minimum(ffd.lattice, self.session.mesh)), "ffd-min"
 
-    def use_lattice(self, ffd: FFD, source: str, name: str) -> None:
-        """Install an FFD from :meth:`read_lattice` (one undo step); ``name`` is what messages call the file."""
+    def use_deformation(self, ffd: FFD, source: str, name: str) -> None:
+        """Install an FFD from :meth:`read_deformation` (one undo step); ``name`` is what messages call the file."""
         self.session.swap_ffd(ffd, label="load lattice", source=source)
         shape = "x".join(map(str, ffd.lattice.shape))
         fit = ffd.lattice.metadata.get("fit")
@@ -116,26 +119,27 @@ class SessionFiles:
             return
         self.session.info(f"loaded a {shape} lattice from {name} ({ffd.basis}, at {_PLACES[source]})")
 
-    def load_lattice(self, path: Path) -> Lattice:
-        """Load a lattice file (.ffd, ITK, PyGeM .prm; undoable) and return its lattice (the session's
-        :attr:`~.self.session.EditingSession.ffd` holds the rest). A bad file raises and changes nothing."""
+    def load_deformation(self, path: Path) -> FFD:
+        """Load a deformation file (.ffd, ITK, PyGeM .prm; undoable) and return the FFD now in use.
+
+        A bad file raises and changes nothing."""
         try:
-            ffd, source = self.read_lattice(path)
+            ffd, source = self.read_deformation(path)
         except (OSError, ValueError) as exc:
             self.session.error(f"could not load the lattice {os.fspath(path)!r}: {exc}")
             raise
-        self.use_lattice(ffd, source, os.fspath(path))
-        return ffd.lattice
+        self.use_deformation(ffd, source, os.fspath(path))
+        return self.session.ffd
 
-    def save_lattice(self, path: Path) -> None:
-        """Save the session's FFD to a lattice file (format by extension), atomically; with an image shown,
+    def save_deformation(self, path: Path) -> None:
+        """Save the session's FFD to a deformation file (format by extension), atomically; with an image shown,
         the image warped by it too, beside it (:meth:`~.image.SessionImage.beside`).
 
         A format that cannot hold the FFD exactly (e.g. a Bernstein lattice in an ITK file) raises,
         with a message, and writes nothing.
         """
         try:
-            save_deformation(path, self.session.ffd)
+            _save_deformation(path, self.session.ffd)
         except (OSError, ValueError) as exc:
             self.session.error(f"could not save the lattice to {os.fspath(path)!r}: {exc}")
             raise
@@ -235,3 +239,17 @@ class SessionFiles:
             self.session.error(f"could not save the mesh to {os.fspath(path)!r}: {exc}")
             raise
         self.session.info(f"saved the deformed mesh to {os.fspath(path)}")
+
+    # the names of 0.1 (a lattice file is a deformation file of any format), kept until 0.3
+    read_lattice = renamed(read_deformation, "read_lattice")
+    use_lattice = renamed(use_deformation, "use_lattice")
+    save_lattice = renamed(save_deformation, "save_lattice")
+
+    def load_lattice(self, path: Path) -> Lattice:
+        """Deprecated: :meth:`load_deformation` (which returns the FFD); this returns its lattice.
+
+        .. deprecated:: 0.2.0
+           Removed in 0.3.0.
+        """
+        warn_renamed("load_lattice", "load_deformation")
+        return self.load_deformation(path).lattice

@@ -6,6 +6,7 @@ from typing import Any
 
 import numpy as np
 
+from ....ffd.basis import BasisName
 from ....ffd.deform import FFD
 from ....ffd.interpolation import check_basis
 from ....ffd.lattice import Lattice
@@ -13,7 +14,7 @@ from ....ffd.lattice import Lattice
 __all__ = ["copy_ffd", "fitted_lattice"]
 
 
-def fitted_lattice(mesh: Any, shape: tuple[int, int, int], basis: str) -> Lattice:
+def fitted_lattice(mesh: Any, shape: tuple[int, ...], basis: BasisName) -> Lattice:
     """The lattice the editor fits around ``mesh`` (initial fit, new size, new basis, new mesh).
 
     For the B-spline basis (and Blender's per-axis interpolations, on the same support) it uses the

@@ -23,11 +23,12 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from ....ffd.basis import BasisName
 from ....ffd.deform import FFD
 from ....ffd.deformer import Deformer
 from ....ffd.interpolation import check_basis
@@ -41,13 +42,17 @@ from .message_log import MessageLog
 from .surface_drag import SurfaceDrag
 from .weights import WeightPaint
 
-__all__ = ["FIELDS", "POINTS_SHOWN", "Decimation", "EditingSession", "MeshIO", "PreparedStep"]
+__all__ = ["FIELDS", "POINTS_SHOWN", "Decimation", "EditingSession", "Field", "MeshIO", "PointsShown", "PreparedStep"]
 
 #: what the mesh can be colored by: nothing (its own colors), |displacement|, folding (det J <= 0), the
 #: vertices' weights (how much of the deformation each follows, see :mod:`.weights`)
 FIELDS = (None, "displacement", "jacobian", "weights")
+#: The type of a coloured field: one of :data:`FIELDS` other than None.
+Field = Literal["displacement", "jacobian", "weights"]
 #: which control points the view draws: all, those near the selection, the lattice's hull (dense lattices)
 POINTS_SHOWN = ("auto", "all", "near", "hull")
+#: The type of a choice of control points shown: one of :data:`POINTS_SHOWN`.
+PointsShown = Literal["auto", "all", "near", "hull"]
 
 
 @dataclass(frozen=True)
@@ -129,8 +134,8 @@ class EditingSession:
         *,
         mesh_io: MeshIO,
         lattice: Lattice | None = None,
-        shape: tuple[int, int, int] = (5, 5, 5),
-        basis: str = "bspline",
+        shape: tuple[int, ...] = (5, 5, 5),
+        basis: BasisName = "bspline",
     ) -> None:
         self.mesh_io = mesh_io
         self.messages = MessageLog()  # bounded: the newest MAX_MESSAGES, newest last
@@ -138,9 +143,11 @@ class EditingSession:
         self.field: str | None = None
         self.colors_shown = True
         self.points_shown = "auto"
-        self.selected: tuple[int, int, int] | None = None
+        self.selected: tuple[int, ...] | None = None
         self._subscribers = Subscribers(self.messages.append)
         self._dragged: int | None = None
+        self._rest_control: NDArray[np.float64]  # control points at rest, flat (set with the mesh)
+        self._committed: NDArray[np.float64]  # the offsets as last recorded in the history
         self.surface = SurfaceDrag(self)  # pins, interaction mode, surface drags
         self.files = SessionFiles(self)  # lattice files and meshes
         self.image = SessionImage(self)  # an image shown as warped slices, if any
@@ -237,7 +244,7 @@ class EditingSession:
         """Unsubscribe everybody."""
         self._subscribers.clear()
 
-    def notify(self, kind: str, points: Any = None, label: str = "", started: float | None = None) -> None:
+    def notify(self, kind: Any, points: Any = None, label: str = "", started: float | None = None) -> None:
         """Tell every subscriber about one :class:`~.changes.Change` (from the session's commands and parts)."""
         change = Change(kind, points, label) if started is None else Change(kind, points, label, started)
         self.image.follow(change)  # the warped slices first: every view then sees them up to date
@@ -370,7 +377,7 @@ class EditingSession:
         """Select control point ``(i, j, k)`` (highlighted; the panels edit it), or None."""
         self._select(None if ijk is None else self.check_ijk(ijk), "select")
 
-    def _select(self, ijk: tuple[int, int, int] | None, label: str) -> None:
+    def _select(self, ijk: tuple[int, ...] | None, label: str) -> None:
         self.selected = ijk
         self.notify("select", None, label)
 
@@ -422,14 +429,14 @@ class EditingSession:
         return True
 
     # ------------------------------------------------------------------ lattice and basis
-    def set_lattice(self, lattice: Lattice, basis: str | None = None, *, label: str = "lattice") -> None:
+    def set_lattice(self, lattice: Lattice, basis: BasisName | None = None, *, label: str = "lattice") -> None:
         """Replace the lattice (and optionally the basis); one undo step. Invalid input changes nothing.
 
         A lattice given this way stays where it is when another mesh is loaded.
         """
         self.swap_lattice(lattice, basis, label=label, source="given")
 
-    def swap_lattice(self, lattice: Lattice, basis: str | None, *, label: str, source: str) -> None:
+    def swap_lattice(self, lattice: Lattice, basis: BasisName | None, *, label: str, source: str) -> None:
         """Install ``FFD(lattice, basis)`` as one undo step (see :meth:`swap_ffd`)."""
         if not isinstance(lattice, Lattice):
             raise TypeError(f"lattice must be a Lattice, got {type(lattice).__name__}")
@@ -478,7 +485,7 @@ class EditingSession:
         self.swap_ffd(deformer.ffd, label="shape", source="fit", deformer=deformer)
         self.info(f"new {'x'.join(map(str, deformer.ffd.lattice.shape))} lattice around the mesh")
 
-    def basis_ffd(self, basis: str) -> FFD:
+    def basis_ffd(self, basis: BasisName) -> FFD:
         """The FFD :meth:`set_basis` installs for ``basis`` (the lattice refitted for it); changes nothing (a
         message and a ValueError if it cannot be built). Binding it to the mesh is the slow part."""
         try:
