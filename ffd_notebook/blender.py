@@ -141,6 +141,18 @@ def lattice_record(lattice_object: Any, modifier: Any = None) -> dict[str, Any]:
 def vertex_group_weights(mesh_object: Any, name: str) -> NDArray[np.float64]:
     """Weights of the vertex group ``name`` of a mesh object, one per vertex (0 where a vertex is not in it).
 
+    Parameters
+    ----------
+    mesh_object : bpy.types.Object
+        A mesh object.
+    name : str
+        The name of one of its vertex groups.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(N,)`` float64, one weight in [0, 1] per vertex of the mesh.
+
     Raises
     ------
     KeyError
@@ -168,6 +180,11 @@ def evaluated_points(mesh_object: Any, *, world: bool = True) -> NDArray[np.floa
         A mesh object.
     world : bool
         World coordinates (through the object's ``matrix_world``) rather than the object's own.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(N, 3)`` float64, one row per vertex of the evaluated mesh.
     """
     bpy = _bpy()
     depsgraph = bpy.context.evaluated_depsgraph_get()
@@ -190,6 +207,20 @@ def lattice_from_record(record: dict[str, Any], name: str = "Lattice", *, collec
     The object is linked into ``collection`` (the scene's own by default) and placed by its
     ``matrix_world`` so that its rest points are the record's; its points' ``co_deform`` carry
     the displacements, and its interpolations and "outside" flag are the record's.
+
+    Parameters
+    ----------
+    record : dict
+        A record as :func:`lattice_record` or :func:`record_from_ffd` makes.
+    name : str
+        Name of the new lattice data and object.
+    collection : bpy.types.Collection, optional
+        Where to link the new object (the scene's collection by default).
+
+    Returns
+    -------
+    bpy.types.Object
+        The new lattice object.
     """
     bpy = _bpy()
     from mathutils import Matrix  # Blender's, present wherever bpy is
@@ -296,12 +327,41 @@ def lattice_from_ffd(ffd: Any, name: str = "Lattice", *, target: Any = None, col
 def ffd_from_record(record: dict[str, Any]) -> Any:
     """The :class:`~ffd_notebook.FFD` a record describes (see :func:`lattice_record`), in world coordinates.
 
+    Parameters
+    ----------
+    record : dict
+        ``shape``, ``rest``, ``deformed``, ``matrix_world`` and ``interpolation``, and optionally
+        ``outside``, ``strength`` and ``weights`` (see :func:`lattice_record`).
+
+    Returns
+    -------
+    FFD
+        A lattice FFD with the ``"clamp"`` border, in world coordinates, deforming as Blender's modifier.
+
     Raises
     ------
     ValueError
         If the lattice cannot be an FFD lattice: an axis with one point, or rest points that are
         not a regular grid. (A lattice under a non-uniformly scaled, rotated parent is sheared: a
         sheared :class:`~ffd_notebook.Lattice`.)
+
+    Examples
+    --------
+    A 2x2x2 Blender lattice (the default unit box, scaled by 2 and moved), its corner (1, 1, 1) raised by 0.5
+    in the lattice's space (1 in the world's), linear along every axis:
+
+    >>> rest = np.stack(np.meshgrid(*[[-0.5, 0.5]] * 3, indexing="ij"), axis=-1)
+    >>> deformed = rest.copy()
+    >>> deformed[1, 1, 1, 2] += 0.5
+    >>> matrix = np.diag([2.0, 2.0, 2.0, 1.0])
+    >>> matrix[:3, 3] = (10.0, 0.0, 0.0)
+    >>> record = {"shape": (2, 2, 2), "rest": rest, "deformed": deformed, "matrix_world": matrix,
+    ...           "interpolation": ("linear", "linear", "linear")}
+    >>> ffd = ffd_from_record(record)
+    >>> ffd.lattice.origin.tolist(), ffd.lattice.spacing.tolist(), ffd.lattice.offsets[1, 1, 1].tolist()
+    ([9.0, -1.0, -1.0], [2.0, 2.0, 2.0], [0.0, 0.0, 1.0])
+    >>> ffd.deform(np.array([[11.0, 1.0, 1.0], [10.0, 0.0, 0.0]])).round(3).tolist()
+    [[11.0, 1.0, 2.0], [10.0, 0.0, 0.125]]
     """
     from . import FFD, Lattice
 
@@ -354,11 +414,34 @@ def record_from_ffd(ffd: Any) -> dict[str, Any]:
     ``[-0.5, 0.5]`` per axis) and its ``matrix_world`` scales, rotates and moves them onto
     the FFD's control points.
 
+    Parameters
+    ----------
+    ffd : FFD
+        A lattice FFD Blender can hold (see Raises).
+
+    Returns
+    -------
+    dict
+        The record, keys as :func:`lattice_record`'s.
+
     Raises
     ------
     ValueError
         If Blender's lattice cannot hold the FFD: an affine part, the ``"zero"`` border, the
         Bernstein basis, ``only_inside``, weights given as a mesh array name, or a sheared lattice.
+
+    Examples
+    --------
+    >>> from ffd_notebook import FFD, Lattice
+    >>> lat = Lattice((2, 3, 2), spacing=(1.0, 0.5, 2.0), border="clamp")
+    >>> lat.offsets[1, 2, 1] = (0.0, 0.0, 0.4)  # the lattice is 2 long in z: 0.2 of the unit box
+    >>> rec = record_from_ffd(FFD(lat, basis="linear", border="clamp"))
+    >>> rec["shape"], rec["interpolation"], rec["rest"][0, 0, 0].tolist(), rec["deformed"][1, 2, 1].tolist()
+    ((2, 3, 2), ('linear', 'linear', 'linear'), [-0.5, -0.5, -0.5], [0.5, 0.5, 0.7])
+    >>> record_from_ffd(FFD(lat, basis="bernstein", border="clamp"))
+    Traceback (most recent call last):
+    ...
+    ValueError: a Blender lattice cannot hold this FFD: its basis 'bernstein' is none of Blender's interpolations (...)
     """
     reasons = []
     if not np.array_equal(ffd.affine, np.eye(4)):

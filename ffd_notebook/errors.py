@@ -46,6 +46,13 @@ class FileFormatError(ValueError):
 class NoFaceError(ValueError):
     """A photo has no face the face models can use: names the photo and says what was (not) found.
 
+    Parameters
+    ----------
+    photo : str
+        The photo's name (its path, or a description of the array).
+    problem : str
+        What was (not) found.
+
     Examples
     --------
     >>> str(NoFaceError("coins.png", "no face found in the photo"))

@@ -334,11 +334,13 @@ def replay(out: str | os.PathLike[str], index: int, *, part: str = "mesh"):
         The output folder of a :func:`generate` run.
     index : int
         The sample's id.
+    part : str
+        ``"mesh"``, or the name of one of the run's images (``"image"``, ``"label"``).
 
     Returns
     -------
-    pyvista.PolyData
-        The deformed mesh, as the run made it.
+    pyvista.PolyData or SimpleITK.Image
+        The deformed mesh, or the warped image, as the run made it.
 
     Examples
     --------

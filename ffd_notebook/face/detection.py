@@ -46,7 +46,7 @@ MIN_SUPPRESSION_IOU = 0.3
 class FaceDetection:
     """One face found by the detector, in the photo's pixels (x right, y down).
 
-    Attributes
+    Parameters
     ----------
     box : numpy.ndarray
         ``(xmin, ymin, xmax, ymax)``.
@@ -54,6 +54,12 @@ class FaceDetection:
         ``(6, 2)``: the subject's right eye, left eye, nose tip, mouth centre, right ear, left ear.
     score : float
         The detector's confidence in [0, 1].
+
+    Examples
+    --------
+    >>> face = FaceDetection(np.array([10.0, 20.0, 50.0, 80.0]), np.zeros((6, 2)), 0.9)
+    >>> face.area, face.score
+    (2400.0, 0.9)
     """
 
     box: np.ndarray
@@ -62,6 +68,7 @@ class FaceDetection:
 
     @property
     def area(self) -> float:
+        """The box's area in square pixels."""
         return float((self.box[2] - self.box[0]) * (self.box[3] - self.box[1]))
 
 

@@ -30,7 +30,20 @@ LANDMARK_FILE = DATA / "face_landmark.tflite"
 
 
 class LiteRTMissingError(ImportError):
-    """The TensorFlow Lite runtime is not installed: says what to install."""
+    """The TensorFlow Lite runtime is not installed: says what to install.
+
+    Raised when a face model is first loaded, not on import, so that code without faces never needs LiteRT.
+
+    Examples
+    --------
+    >>> try:
+    ...     model = detector()
+    ... except LiteRTMissingError as exc:  # no LiteRT wheel for this platform: say so, go on without faces
+    ...     model = None
+    ...     print(exc)
+    >>> model.input_shape
+    (1, 128, 128, 3)
+    """
 
 
 def _interpreter_class() -> Any:

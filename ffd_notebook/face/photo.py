@@ -19,6 +19,15 @@ PHOTO_SUFFIXES = (".jpg", ".jpeg", ".png", ".bmp", ".tif", ".tiff", ".webp")
 class Photo:
     """An RGB photo and the name errors use for it (the path, or a description of the array).
 
+    Parameters
+    ----------
+    rgb : numpy.ndarray
+        The ``(H, W, 3)`` uint8 RGB pixels.
+    name : str
+        What error messages call the photo.
+    path : str, optional
+        The file it was read from, if any.
+
     Examples
     --------
     >>> photo = Photo.of(np.zeros((4, 6), np.uint8))
@@ -33,15 +42,44 @@ class Photo:
 
     @property
     def height(self) -> int:
+        """Rows of pixels."""
         return int(self.rgb.shape[0])
 
     @property
     def width(self) -> int:
+        """Columns of pixels."""
         return int(self.rgb.shape[1])
 
     @classmethod
     def of(cls, photo: str | os.PathLike[str] | np.ndarray | Photo) -> Photo:
-        """A path is read with :func:`read_photo`; an array is checked and made RGB; a Photo is itself."""
+        """A path is read with :func:`read_photo`; an array is checked and made RGB; a Photo is itself.
+
+        Parameters
+        ----------
+        photo : str, os.PathLike, numpy.ndarray or Photo
+            A photo file, an ``(H, W)``, ``(H, W, 1)``, ``(H, W, 3)`` or ``(H, W, 4)`` uint8 array, or a photo.
+
+        Returns
+        -------
+        Photo
+            The photo, RGB.
+
+        Raises
+        ------
+        ValueError
+            An array of another shape or dtype.
+
+        Examples
+        --------
+        >>> rgba = np.full((2, 3, 4), 200, np.uint8)
+        >>> photo = Photo.of(rgba)
+        >>> photo.height, photo.width, photo.rgb.shape, Photo.of(photo) is photo
+        (2, 3, (2, 3, 3), True)
+        >>> Photo.of(np.zeros((2, 3), np.float32))
+        Traceback (most recent call last):
+        ...
+        ValueError: a photo array must be uint8 (0-255), got float32: convert it, e.g. skimage.util.img_as_ubyte
+        """
         if isinstance(photo, Photo):
             return photo
         if isinstance(photo, (str, os.PathLike)):
@@ -59,6 +97,16 @@ class Photo:
 def is_photo(source: object) -> bool:
     """Whether ``source`` is a photo to make a face from: a path ending as :data:`PHOTO_SUFFIXES`, an
     ``(H, W, 3)`` or ``(H, W, 4)`` uint8 array, or a :class:`Photo` (a mesh, a point array or a mesh file is not).
+
+    Parameters
+    ----------
+    source : object
+        Anything offered as the source of a face.
+
+    Returns
+    -------
+    bool
+        True for a photo.
 
     Examples
     --------
@@ -88,6 +136,16 @@ def read_photo(path: str | os.PathLike[str]) -> np.ndarray:
     A JPEG's EXIF orientation (how a phone held sideways marks its pictures) is applied; grey-scale,
     palette and RGBA images become RGB (the alpha channel is dropped, not blended).
 
+    Parameters
+    ----------
+    path : str or os.PathLike
+        A photo file.
+
+    Returns
+    -------
+    numpy.ndarray
+        Its ``(H, W, 3)`` uint8 RGB pixels.
+
     Raises
     ------
     FileNotFoundError
@@ -113,6 +171,23 @@ def read_photo(path: str | os.PathLike[str]) -> np.ndarray:
 
 def decode_photo(content: bytes, name: str) -> Photo:
     """A photo from the bytes of an image file (an upload), called ``name`` in errors: as :func:`read_photo`.
+
+    Parameters
+    ----------
+    content : bytes
+        The bytes of an image file.
+    name : str
+        The name errors use for it (the uploaded file's name).
+
+    Returns
+    -------
+    Photo
+        The photo, RGB and upright.
+
+    Raises
+    ------
+    FileFormatError
+        If the bytes are not an image Pillow can read, or are damaged.
 
     Examples
     --------

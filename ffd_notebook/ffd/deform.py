@@ -147,6 +147,11 @@ class FFD:
     def offsets_in_use(self) -> NDArray[np.float64]:
         """The offsets the deformation uses: the lattice's, or with ``outside`` the inner ones derived.
 
+        Returns
+        -------
+        numpy.ndarray
+            ``(nx, ny, nz, 3)``: ``lattice.offsets`` itself without ``outside``, else a new array.
+
         Examples
         --------
         >>> from ffd_notebook import Lattice, FFD
@@ -164,6 +169,11 @@ class FFD:
         ``x + s (A x + b + T_local(x) - x)`` is an FFD with affine ``I + s (A - I)``, ``s b`` and offsets
         ``s * offsets_in_use()``; file formats without those options hold this. Per-point weights
         belong to one point set and are not part of it.
+
+        Returns
+        -------
+        FFD
+            A new FFD with a copied lattice; this one is unchanged.
 
         Examples
         --------
@@ -314,6 +324,10 @@ class FFD:
         ----------
         points : array_like
             ``(N, 3)`` points in world coordinates.
+        strength : float, optional
+            Overrides :attr:`strength` for this call.
+        weights : array_like or str, optional
+            Per-point weights as in :meth:`deform`; by default :attr:`weights`.
 
         Returns
         -------
@@ -358,6 +372,10 @@ class FFD:
         ----------
         points : array_like
             ``(N, 3)`` points in world coordinates.
+        strength : float, optional
+            Overrides :attr:`strength` for this call.
+        weights : array_like or str, optional
+            Per-point weights as in :meth:`deform`; by default :attr:`weights`.
 
         Returns
         -------
@@ -381,6 +399,36 @@ class FFD:
         """Bind to one point set: a :class:`~ffd_notebook.Deformer` that caches what does not change.
 
         ``strength`` and ``weights`` as in :meth:`deform` (the FFD's own by default).
+
+        Parameters
+        ----------
+        points : array_like
+            ``(N, 3)`` rest points in world coordinates.
+        dtype : numpy dtype
+            Of the deformed points the deformer returns (float32 for rendering by default).
+        strength : float, optional
+            Overrides :attr:`strength` for this point set.
+        weights : array_like or str, optional
+            Per-point weights as in :meth:`deform`; by default :attr:`weights`.
+
+        Returns
+        -------
+        Deformer
+            Its ``current()`` is ``deform(points)``; ``update(changed)`` recomputes only the points
+            the changed control points reach.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from ffd_notebook import Lattice, FFD
+        >>> lat = Lattice((6, 6, 6), 1.0, border="clamp")
+        >>> ffd = FFD(lat)
+        >>> pts = np.random.default_rng(0).random((1000, 3)) * 5
+        >>> deformer = ffd.bind(pts, dtype=np.float64)
+        >>> lat.offsets[1, 1, 1] = (0.0, 0.0, 0.5)
+        >>> moved = deformer.update([(1, 1, 1)])
+        >>> bool(np.allclose(moved, ffd.deform(pts))), moved.dtype
+        (True, dtype('float64'))
         """
         return Deformer(self, points, dtype=dtype, strength=strength, weights=weights)
 
@@ -408,6 +456,9 @@ class FFD:
             ``(P, 3)`` rest positions whose deformed positions must not change.
         weights : array_like, optional
             ``(K,)`` relative weights of the targets when they cannot all be met.
+        point_weights : array_like, optional
+            ``(K + P,)`` weights in [0, 1] of the rows (``points`` then ``pinned``) in the deformation
+            itself, as the FFD's per-point weights; 1 by default.
 
         Returns
         -------

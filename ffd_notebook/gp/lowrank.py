@@ -59,6 +59,20 @@ class LowRankGP:
     factor ``F`` (see :mod:`~ffd_notebook.gp.space`); a posterior only changes ``F`` and the mean
     (cheap), and is put back in eigen form only when eigenvalues or coefficients are asked for.
 
+    Made by the class methods (:meth:`nystrom`, :meth:`pivoted_cholesky`, :meth:`from_examples`,
+    :meth:`from_basis_matrix`) or read from a file, rarely directly.
+
+    Parameters
+    ----------
+    space : Space
+        The scalar vectors ``U`` over the points, their Gram matrix, extension and base mean.
+    factor : (3, q, rank) ndarray
+        The factor ``F``: component ``d`` of the displacement is ``mean + U @ factor[d] @ alpha``.
+    mean_shift : (q, 3) ndarray, optional
+        ``M``: the mean is the space's base mean plus ``U M`` (zero by default).
+    variances : (rank,) ndarray, optional
+        The eigenvalues, when ``factor`` is already in eigen form (kept as given).
+
     Attributes
     ----------
     points : (N, 3) ndarray
@@ -68,6 +82,15 @@ class LowRankGP:
         kernel's ``trace(K)``; for a data model its own total variance).
     metadata : dict
         What a Statismo file held besides the model (kept so it saves back unchanged).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from ffd_notebook.gp import GaussianKernel, GaussianProcess
+    >>> pts = np.random.default_rng(0).random((200, 3))
+    >>> model = LowRankGP.pivoted_cholesky(GaussianProcess(GaussianKernel(0.5)), pts, rank=20)
+    >>> model.rank, model.points.shape, model.total_variance, model.sample(3, rng=0).shape
+    (20, (200, 3), 600.0, (3, 200, 3))
     """
 
     def __init__(

@@ -41,6 +41,16 @@ IMAGE_WRITE_SUFFIXES = (".nii", ".gz", ".nrrd", ".nhdr", ".mha", ".mhd", ".png",
 def image_suffix(path: str | os.PathLike[str]) -> str:
     """The extension SimpleITK chooses the format by: ``".nii.gz"`` for ``a.nii.gz``, else the last suffix.
 
+    Parameters
+    ----------
+    path : str or os.PathLike
+        An image file name (the file need not exist).
+
+    Returns
+    -------
+    str
+        The lower-case suffix, with its dot.
+
     Examples
     --------
     >>> image_suffix("scan.nii.gz"), image_suffix("labels.nrrd"), image_suffix("a.b.mha")
@@ -144,6 +154,16 @@ def image_data_files(path: str | os.PathLike[str]) -> list[Path]:
     for its data; a server confining its users to a folder checks these too. Only the header's
     first 64 KiB are read.
 
+    Parameters
+    ----------
+    path : str or os.PathLike
+        An image file (its header is read if it is a MetaImage or NRRD file).
+
+    Returns
+    -------
+    list of pathlib.Path
+        The resolved data files the header names; empty for a format that keeps its pixels inline.
+
     Examples
     --------
     >>> import pathlib, tempfile
@@ -187,6 +207,16 @@ def _itk_message(exc: RuntimeError) -> str:
 def read_image_information(path: str | os.PathLike[str]) -> ImageGrid:
     """The :class:`~ffd_notebook.images.ImageGrid` of an image file, from its header (pixels not read).
 
+    Parameters
+    ----------
+    path : str or os.PathLike
+        An image file SimpleITK reads (NIfTI, NRRD, MetaImage, PNG, TIFF...).
+
+    Returns
+    -------
+    ImageGrid
+        Its size, spacing, origin and direction.
+
     Raises
     ------
     FileNotFoundError
@@ -209,6 +239,16 @@ def read_image_information(path: str | os.PathLike[str]) -> ImageGrid:
 
 def read_image(path: str | os.PathLike[str]) -> Any:
     """Read a 2D or 3D image file as a ``SimpleITK.Image``.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        An image file SimpleITK reads (NIfTI, NRRD, MetaImage, PNG, TIFF...).
+
+    Returns
+    -------
+    SimpleITK.Image
+        The image, pixels and geometry.
 
     Raises
     ------
@@ -248,6 +288,15 @@ def write_image(path: str | os.PathLike[str], image: Any, *, compress: bool = Fa
     The file (and the data file of a ``.mhd`` / ``.nhdr`` header) is written in a temporary
     folder beside ``path`` and renamed into place: a failed write leaves the previous file as it
     was.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The file to write; its extension names the format.
+    image : SimpleITK.Image
+        The image to write.
+    compress : bool, optional
+        Ask SimpleITK to compress the pixel data where the format allows (default False).
 
     Examples
     --------

@@ -107,6 +107,21 @@ class ImageGrid:
     def of(cls, image: Any) -> ImageGrid:
         """The grid of a ``SimpleITK.Image`` (or an ``ImageGrid`` itself); for files see ``read_image_information``.
 
+        Parameters
+        ----------
+        image : SimpleITK.Image or ImageGrid
+            An image, 2D or 3D.
+
+        Returns
+        -------
+        ImageGrid
+            Its size, spacing, origin and direction.
+
+        Raises
+        ------
+        TypeError
+            For anything else.
+
         Examples
         --------
         >>> import SimpleITK as sitk
@@ -131,7 +146,21 @@ class ImageGrid:
         return self.size[::-1]
 
     def index_to_physical(self) -> NDArray[np.float64]:
-        """``4 x 4`` matrix taking ``(i, j, k, 1)`` to ``(x, y, z, 1)`` (a 2D grid in the plane ``z = 0``)."""
+        """``4 x 4`` matrix taking ``(i, j, k, 1)`` to ``(x, y, z, 1)`` (a 2D grid in the plane ``z = 0``).
+
+        Returns
+        -------
+        numpy.ndarray
+            The affine matrix ``[direction * spacing, origin; 0, 1]``.
+
+        Examples
+        --------
+        >>> grid = ImageGrid((4, 3), spacing=(0.5, 2.0), origin=(10, 20))
+        >>> grid.index_to_physical().tolist()
+        [[0.5, 0.0, 0.0, 10.0], [0.0, 2.0, 0.0, 20.0], [0.0, 0.0, 1.0, 0.0], [0.0, 0.0, 0.0, 1.0]]
+        >>> (grid.index_to_physical() @ (3, 2, 0, 1)).tolist()   # voxel (3, 2)
+        [11.5, 24.0, 0.0, 1.0]
+        """
         m = np.eye(4)
         d = self.dim
         m[:d, :d] = self.direction * self.spacing
@@ -139,25 +168,87 @@ class ImageGrid:
         return m
 
     def physical_to_index(self) -> NDArray[np.float64]:
-        """``4 x 4`` matrix taking ``(x, y, z, 1)`` to continuous indices ``(i, j, k, 1)``."""
+        """``4 x 4`` matrix taking ``(x, y, z, 1)`` to continuous indices ``(i, j, k, 1)``.
+
+        Returns
+        -------
+        numpy.ndarray
+            The inverse of :meth:`index_to_physical`.
+
+        Examples
+        --------
+        >>> grid = ImageGrid((4, 3, 2), spacing=2.0, origin=(10, 0, 0), direction=[[0, -1, 0], [1, 0, 0], [0, 0, 1]])
+        >>> (grid.physical_to_index() @ (6, 4, 2, 1)).round(6).tolist()    # the centre of voxel (2, 2, 1)
+        [2.0, 2.0, 1.0, 1.0]
+        >>> (grid.physical_to_index() @ (5, 4, 2, 1)).round(6).tolist()    # between voxels: continuous indices
+        [2.0, 2.5, 1.0, 1.0]
+        """
         return np.linalg.inv(self.index_to_physical())
 
     def physical_points(self) -> NDArray[np.float64]:
-        """``(N, 3)`` physical positions of every voxel centre, ``i`` fastest (the array's C order)."""
+        """``(N, 3)`` physical positions of every voxel centre, ``i`` fastest (the array's C order).
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(N, 3)`` float64, ``N = prod(size)``; ``z = 0`` for a 2D grid.
+
+        Examples
+        --------
+        >>> ImageGrid((3, 2), spacing=(1.0, 0.5), origin=(0, 10)).physical_points().tolist()
+        [[0.0, 10.0, 0.0], [1.0, 10.0, 0.0], [2.0, 10.0, 0.0], [0.0, 10.5, 0.0], [1.0, 10.5, 0.0], [2.0, 10.5, 0.0]]
+        """
         axes = [np.arange(n, dtype=np.float64) for n in self.size] + [np.zeros(1)] * (3 - self.dim)
         k, j, i = np.meshgrid(axes[2], axes[1], axes[0], indexing="ij")
         index = np.stack([i.ravel(), j.ravel(), k.ravel(), np.ones(i.size)])
         return np.ascontiguousarray((self.index_to_physical() @ index)[:3].T)
 
     def bounds(self) -> NDArray[np.float64]:
-        """``(2, 3)`` lower and upper physical corners of the box through the corner voxel centres."""
+        """``(2, 3)`` lower and upper physical corners of the box through the corner voxel centres.
+
+        Returns
+        -------
+        numpy.ndarray
+            ``[[xmin, ymin, zmin], [xmax, ymax, zmax]]`` (``z`` 0 for a 2D grid).
+
+        Examples
+        --------
+        >>> ImageGrid((5, 3, 2), spacing=(1.0, 2.0, 3.0), origin=(10, 0, 0)).bounds().tolist()
+        [[10.0, 0.0, 0.0], [14.0, 4.0, 3.0]]
+        >>> ImageGrid((5, 3), direction=[[0, -1], [1, 0]]).bounds().tolist()   # rotated a quarter turn
+        [[-2.0, 0.0, 0.0], [0.0, 4.0, 0.0]]
+        """
         corners = np.array(np.meshgrid(*[[0.0, n - 1.0] for n in self.size], indexing="ij")).reshape(self.dim, -1)
         corners = np.vstack([corners, np.zeros((3 - self.dim, corners.shape[1])), np.ones(corners.shape[1])])
         pts = (self.index_to_physical() @ corners)[:3]
         return np.stack([pts.min(axis=1), pts.max(axis=1)])
 
     def to_sitk(self, image: Any) -> Any:
-        """Put this grid's spacing, origin and direction on a ``SimpleITK.Image`` of the same size (in place)."""
+        """Put this grid's spacing, origin and direction on a ``SimpleITK.Image`` of the same size (in place).
+
+        Parameters
+        ----------
+        image : SimpleITK.Image
+            An image of this grid's size.
+
+        Returns
+        -------
+        SimpleITK.Image
+            ``image`` itself, its geometry now this grid's.
+
+        Raises
+        ------
+        ValueError
+            If the image's size is not the grid's.
+
+        Examples
+        --------
+        >>> import SimpleITK as sitk
+        >>> grid = ImageGrid((4, 3), spacing=(0.5, 2.0), origin=(10, 20))
+        >>> image = grid.to_sitk(sitk.Image(4, 3, sitk.sitkFloat32))
+        >>> image.GetSpacing(), image.GetOrigin(), ImageGrid.of(image) == grid
+        ((0.5, 2.0), (10.0, 20.0), True)
+        """
         if tuple(image.GetSize()) != self.size:
             raise ValueError(f"image size {image.GetSize()} is not the grid's {self.size}")
         image.SetSpacing(tuple(self.spacing.tolist()))

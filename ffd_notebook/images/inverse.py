@@ -42,6 +42,23 @@ def invert_points(
     deformation (``det J > 0`` everywhere) has one inverse; the steps are halved while they do
     not reduce the residual.
 
+    Parameters
+    ----------
+    deformation : object
+        Anything with ``deform((N, 3)) -> (N, 3)``: an :class:`~ffd_notebook.FFD`, a batch sample, a
+        loaded transform.
+    points : array_like
+        ``(N, 3)`` finite deformed points.
+    tolerance : float
+        Largest residual ``|T(q) - p|`` accepted, as a fraction of the points' extent.
+    max_iterations : int
+        Newton steps at most.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(N, 3)`` float64 points ``q``, one per point.
+
     Raises
     ------
     ValueError

@@ -52,8 +52,11 @@ class WarpedSlices:
     positions : sequence of int, optional
         Index of the slice across each index axis ``(i, j, k)``; the middle by default.
     interpolation : {"linear", "nearest", "bspline"}
+        How the image is read between voxel centres.
     default_value : float
         Value where ``T(x)`` falls outside the image.
+    spacing, origin, direction : array_like, optional
+        The geometry of an array ``image`` (see :class:`~ffd_notebook.images.ImageGrid`); only for an array.
 
     Attributes
     ----------
@@ -108,13 +111,54 @@ class WarpedSlices:
 
     # ------------------------------------------------------------------ slices
     def slice_shape(self, axis: int) -> tuple[int, int]:
-        """Array shape of the slice across index axis ``axis``."""
+        """Array shape of the slice across index axis ``axis``.
+
+        Parameters
+        ----------
+        axis : int
+            0, 1 or 2 (``i``, ``j``, ``k``); 2 for a 2D image's one slice.
+
+        Returns
+        -------
+        tuple of int
+            The slice array's two dimensions, in the image array's order without ``axis``.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from ffd_notebook import FFD, Lattice
+        >>> volume = np.zeros((12, 14, 16), np.float32)            # [k, j, i]: 16 x 14 x 12 voxels
+        >>> slices = WarpedSlices(volume, FFD(Lattice.around(np.array([[0, 0, 0], [15, 13, 11]]), shape=4)))
+        >>> slices.slice_shape(0), slices.slice_shape(1), slices.slice_shape(2)
+        ((12, 14), (12, 16), (14, 16))
+        """
         shape = list(self.grid.shape) if self.grid.dim == 3 else [1, *self.grid.shape]
         del shape[2 - axis]  # array axes are (k, j, i)
         return tuple(shape)  # type: ignore[return-value]
 
     def slice_points(self, axis: int) -> NDArray[np.float64]:
-        """``(N, 3)`` physical rest positions of the slice's voxel centres, in the slice array's C order."""
+        """``(N, 3)`` physical rest positions of the slice's voxel centres, in the slice array's C order.
+
+        Parameters
+        ----------
+        axis : int
+            0, 1 or 2 (``i``, ``j``, ``k``); 2 for a 2D image's one slice.
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(N, 3)`` float64, ``N`` the slice's pixel count.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from ffd_notebook import FFD, Lattice
+        >>> volume = np.zeros((2, 3, 4), np.float32)
+        >>> slices = WarpedSlices(volume, FFD(Lattice.around(np.array([[0, 0, 0], [3, 2, 1]]), shape=4)), spacing=2.0)
+        >>> points = slices.slice_points(2)                      # across k, at k = 1 (the middle)
+        >>> points.shape, points[:2].tolist(), points[-1].tolist()
+        ((12, 3), [[0.0, 0.0, 2.0], [2.0, 0.0, 2.0]], [6.0, 4.0, 2.0])
+        """
         size = list(self.grid.size) + [1] * (3 - self.grid.dim)
         ranges = [np.arange(n, dtype=np.float64) for n in size]
         if self.grid.dim == 3:
@@ -124,13 +168,54 @@ class WarpedSlices:
         return np.ascontiguousarray((self.grid.index_to_physical() @ index)[:3].T)
 
     def set_ffd(self, ffd: FFD) -> None:
-        """Follow another FFD (a new lattice, basis or loaded file): every slice is bound and read again."""
+        """Follow another FFD (a new lattice, basis or loaded file): every slice is bound and read again.
+
+        Parameters
+        ----------
+        ffd : FFD
+            The new deformation.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from ffd_notebook import FFD, Lattice, warp_image
+        >>> volume = np.random.default_rng(0).random((6, 7, 8)).astype(np.float32)
+        >>> slices = WarpedSlices(volume, FFD(Lattice.around(np.array([[0, 0, 0], [7, 6, 5]]), shape=4)))
+        >>> lat = Lattice.around(np.array([[0, 0, 0], [7, 6, 5]]), shape=5)
+        >>> lat.offsets[2, 2, 2] = (1.0, 0.5, 0.0)
+        >>> slices.set_ffd(FFD(lat))
+        >>> bool(np.allclose(slices.values[2], warp_image(volume, FFD(lat))[3], atol=1e-5))
+        True
+        """
         self.ffd = ffd
         for axis in self.axes:
             self._bind(axis)
 
     def set_position(self, axis: int, index: int) -> None:
-        """Move the slice across index axis ``axis`` to voxel ``index`` (clipped to the image)."""
+        """Move the slice across index axis ``axis`` to voxel ``index`` (clipped to the image).
+
+        Parameters
+        ----------
+        axis : int
+            0, 1 or 2 (``i``, ``j``, ``k``).
+        index : int
+            The voxel index along that axis.
+
+        Raises
+        ------
+        ValueError
+            If there is no slice across ``axis`` (a 2D image has only the one across 2).
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from ffd_notebook import FFD, Lattice
+        >>> volume = np.arange(6 * 7 * 8, dtype=np.float32).reshape(6, 7, 8)
+        >>> slices = WarpedSlices(volume, FFD(Lattice.around(np.array([[0, 0, 0], [7, 6, 5]]), shape=4)))
+        >>> slices.set_position(2, 99)                    # clipped to the last slice
+        >>> slices.positions, bool(np.allclose(slices.values[2], volume[5]))
+        ([4, 3, 5], True)
+        """
         if axis not in self.axes:
             raise ValueError(f"no slice across axis {axis} (slices across {self.axes})")
         self.positions[axis] = int(np.clip(index, 0, self.grid.size[axis] - 1))
@@ -166,6 +251,23 @@ class WarpedSlices:
             the slice pixels whose ``T(x)`` they changed are read again. ``None``: every pixel.
             A change of the lattice's placement or of the affine part is noticed by the
             deformers and recomputes everything.
+
+        Returns
+        -------
+        dict of int to numpy.ndarray
+            Per index axis, a boolean mask of the slice's pixels that were read again.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from ffd_notebook import FFD, Lattice
+        >>> volume = np.random.default_rng(0).random((10, 10, 10)).astype(np.float32)
+        >>> lat = Lattice.around(np.array([[0, 0, 0], [9, 9, 9]]), shape=8)
+        >>> slices = WarpedSlices(volume, FFD(lat))
+        >>> lat.offsets[1, 1, 5] = (0.0, 0.0, 0.8)       # a corner control point, near the k = 5 slice
+        >>> read = slices.update([(1, 1, 5)])
+        >>> {axis: int(mask.sum()) for axis, mask in read.items()}, read[2].size
+        ({0: 0, 1: 0, 2: 16}, 100)
         """
         regions = {}
         for axis in self.axes:

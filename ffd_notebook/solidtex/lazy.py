@@ -206,6 +206,24 @@ class LazySolidTexture:
         ``kwargs`` go to the constructor (``block``, ``rng``, ...); ``seed=`` is a deprecated alias
         of ``rng`` (a :class:`DeprecationWarning`).
 
+        Parameters
+        ----------
+        exemplar : array_like
+            ``(Z, Y, X, 3)`` uint8 exemplar.
+        bounds : array_like
+            ``(xmin, xmax, ymin, ymax, zmin, zmax)``, e.g. ``mesh.bounds`` of the rest mesh.
+        resolution : int
+            Voxels along the box's longest side (with its margin).
+        margin : float
+            Extra room around the box, as a fraction of its size.
+        **kwargs
+            The constructor's options.
+
+        Returns
+        -------
+        LazySolidTexture
+            The texture, centred on the box, with cubic voxels.
+
         Examples
         --------
         >>> ex = np.zeros((16, 16, 16, 3), np.uint8)

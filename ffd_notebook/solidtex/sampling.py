@@ -25,6 +25,12 @@ class TextureSampler(Protocol):
     :class:`SolidTexture` (a whole volume) and :class:`~ffd_notebook.solidtex.LazySolidTexture`
     (blocks synthesised on demand) both are one.
 
+    Parameters
+    ----------
+    *args, **kwargs
+        None: a protocol is never instantiated; a class is a ``TextureSampler`` by having a
+        ``sample`` method and a ``spacing``.
+
     Examples
     --------
     >>> isinstance(SolidTexture(np.zeros((2, 2, 2, 3), np.uint8)), TextureSampler)
@@ -110,6 +116,8 @@ class SolidTexture:
             ``(xmin, xmax, ymin, ymax, zmin, zmax)``, e.g. ``mesh.bounds`` of the rest mesh.
         margin : float
             Extra room around the box, as a fraction of its size.
+        mode : str
+            What lies outside the volume (see :class:`SolidTexture`).
 
         Returns
         -------

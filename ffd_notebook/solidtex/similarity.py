@@ -81,6 +81,25 @@ def volume_slices(volume: ArrayLike, axis: int, count: int = 4) -> list[NDArray]
     columns x); perpendicular to axis 1, ``volume[:, k]`` (rows z, columns x); to axis 2,
     ``volume[:, :, k]`` (rows z, columns y).
 
+    Parameters
+    ----------
+    volume : array_like
+        A ``(Z, Y, X, 3)`` colour volume.
+    axis : int
+        0, 1 or 2: the axis the slices are perpendicular to.
+    count : int
+        Slices wanted (fewer if the volume is thinner than that along ``axis``).
+
+    Returns
+    -------
+    list of numpy.ndarray
+        The slices (copies), in increasing position along ``axis``.
+
+    Raises
+    ------
+    ValueError
+        If ``volume`` is not ``(Z, Y, X, 3)``.
+
     Examples
     --------
     >>> v = np.zeros((8, 6, 4, 3), np.uint8)
@@ -126,6 +145,19 @@ def self_similarity_figure(image: ArrayLike, *, window: int = 8, step: int = 2, 
 
     The unnormalised figure behind :func:`self_similarity`: RMS colour difference per value
     (0-255 units), so windows as far apart as the image's contrast score tens.
+
+    Parameters
+    ----------
+    image : array_like
+        An ``(H, W, 3)`` (or grey, or RGBA) image.
+    window, step, gap : int
+        Window edge, window spacing, and the least distance (px, between corners, along rows or
+        columns) at which another window counts (see :func:`self_similarity`).
+
+    Returns
+    -------
+    float
+        The median nearest-window distance, RMS per colour value.
 
     Examples
     --------
@@ -232,6 +264,21 @@ def likeness(
     figure: how far a window of the texture is from the source's windows ``gap`` px or more away,
     what a window of a new sample is from them. Options and volumes as in :func:`self_similarity`
     (here the whole source is searched; ``crop`` only sets the source figure's crops).
+
+    Parameters
+    ----------
+    sample : array_like
+        An ``(H, W, 3)`` (or grey) image, or a ``(Z, Y, X, 3)`` volume: then ``slices`` slices per
+        orientation are measured and one ratio per orientation returned.
+    source : array_like
+        The texture's image (or a volume, all of whose orientations count).
+    window, step, gap : int
+        Window edge, window spacing, and the least distance (px) at which another window counts
+        in the source's own figure.
+    crop : int, optional
+        Crop edge of the source figure; default the smallest side of the source.
+    slices : int
+        Slices per orientation of a volume.
 
     Returns
     -------
