@@ -121,7 +121,11 @@ def test_surface_drag_then_the_registration_lattice_in_jupyterlab(tmp_path: Path
             wait_for(lambda: trigger(frame, "ffd_state")["selected"] == [5, 6, 5], 20, "point (5, 6, 5) selected")
             choose(page, "points-shown", "near the selected")
             wait_for(lambda: len(trigger(frame, "ffd_widget_px")["widgets"]) < HULL, 30, "the points near (5, 6, 5)")
-            # they are a small block in the middle of the view: zoom in with the mouse wheel, as a user would
+            # they are a small block in the middle of the view: zoom in with the mouse wheel, as a user would.
+            # The panel is taller than the view, so typing into it scrolled the view out of the page: scroll its
+            # iframe back from the page (an iframe out of sight gets no animation frames, which Playwright's
+            # own scrolling of an element inside it waits for)
+            page.locator("iframe.pyvista").first.scroll_into_view_if_needed()
             view.scroll_into_view_if_needed()
             box = view.bounding_box()
             before = spread(trigger(frame, "ffd_widget_px"))

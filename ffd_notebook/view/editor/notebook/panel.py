@@ -43,7 +43,8 @@ def _stretch() -> widgets.Layout:
 
 
 def _label(text: str) -> widgets.Label:
-    return widgets.Label(text, layout=widgets.Layout(width="104px", flex="0 0 auto"))
+    # at least the common width, so rows line up; a longer label ("interpolation x, y, z") grows, never cut off
+    return widgets.Label(text, layout=widgets.Layout(width="auto", min_width="104px", flex="0 0 auto"))
 
 
 class ControlPanel(widgets.VBox):

@@ -246,8 +246,10 @@ class EditorScene:
 
     def ray_to_surface(self, x: float, y: float) -> tuple[NDArray[np.float64], NDArray[np.float64], float]:
         """The view ray through display position ``(x, y)`` and how far along it the plotted mesh is:
-        :meth:`.surface_picking.SurfacePicking.ray_to_surface` (what a press can grab is in front of it)."""
-        return self.surface_picking.ray_to_surface(x, y)
+        :meth:`.surface_picking.SurfacePicking.ray_to_surface` (what a press can grab is in front of it).
+        The see-through box of an image edited alone hides nothing: every sphere in it stays grabbable."""
+        near, direction, distance = self.surface_picking.ray_to_surface(x, y)
+        return near, direction, float("inf") if self._mesh_is_image_box() else distance
 
     def _build_image(self) -> None:
         """Slice planes for the session's image (none if it has none); replaces any previous ones."""
@@ -261,9 +263,12 @@ class EditorScene:
     def _mesh_opacity(self) -> None:
         """The image's box (the mesh of a lattice over an image alone) is see-through: the slices are inside it.
         A real mesh stays opaque (a see-through mesh of 100k triangles costs a render much more)."""
+        self.mesh_actor.prop.opacity = IMAGE_BOX_OPACITY if self._mesh_is_image_box() else 1.0
+
+    def _mesh_is_image_box(self) -> bool:
+        """Whether the mesh is the box of an image edited alone (a lattice over the image, no mesh given)."""
         image = self.session.image
-        box = image.loaded and image.box is not None and self.session.mesh is image.box
-        self.mesh_actor.prop.opacity = IMAGE_BOX_OPACITY if box else 1.0
+        return bool(image.loaded and image.box is not None and self.session.mesh is image.box)
 
     def _write_mesh_points(self, only_if_changed: bool = False) -> None:
         """The session's deformed points into the plotted mesh (and its normals, at the next render)."""
