@@ -223,7 +223,7 @@ class EditingSession:
             return np.ones(len(self.rest_points), np.float32) if weights is None else weights.astype(np.float32)
         return None
 
-    def flat_index(self, ijk: tuple[int, int, int]) -> int:
+    def flat_index(self, ijk: tuple[int, ...]) -> int:
         """Flat C-order index of control point ``(i, j, k)`` (its sphere widget's index)."""
         return int(np.ravel_multi_index(ijk, self.lattice.shape))
 
