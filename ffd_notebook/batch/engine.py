@@ -281,15 +281,15 @@ def generate(
     if image_interpolation not in INTERPOLATIONS:
         raise ValueError(f"image_interpolation must be one of {tuple(INTERPOLATIONS)}, got {image_interpolation!r}")
     mesh_path = Path(mesh).resolve()
-    images = [None if path is None else str(Path(path).resolve()) for path in (image, label_image)]
-    job = Job(str(mesh_path), model.to_spec(), int(seed), rule, str(Path(out).resolve()), format, *images,
-              image_interpolation)  # fmt: skip
+    image_path, label_path = (None if path is None else str(Path(path).resolve()) for path in (image, label_image))
+    job = Job(str(mesh_path), model.to_spec(), int(seed), rule, str(Path(out).resolve()), format, image_path,
+              label_path, image_interpolation)  # fmt: skip
     with one_blas_thread():
         context(job)  # an unreadable mesh or image, a model that does not fit: fails here, before any work
     layout = job_layout(job)
     layout.claim(job.settings(mesh_sha256(mesh_path)))
     result = BatchResult(layout.root)
-    todo = []
+    todo: list[int] = []
     for i in range(n):
         (result.skipped if layout.done(i) else todo).append(i)
     tic = time.perf_counter()

@@ -45,7 +45,9 @@ class _BsplineJacobian:
         # in sorted order, like the cell sums; None when every point may move
         outside = ~in_domain(ffd.basis, ffd.lattice.shape, uvw) if ffd.only_inside else None
         self.outside = None if outside is None else outside[self.cells.order]
-        self.factors = bspline_jacobian_factors(self.cells.t)
+        t = self.cells.t
+        assert t is not None  # a fresh grouping keeps its t
+        self.factors = bspline_jacobian_factors(t)
         self.cells.t = None
         self.inverse = np.empty_like(self.cells.order)
         self.inverse[self.cells.order] = np.arange(len(points), dtype=self.cells.order.dtype)

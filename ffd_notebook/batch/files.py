@@ -14,7 +14,7 @@ import os
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -111,7 +111,8 @@ class LatticeFiles:
         >>> len(bound.deformations)
         1
         """
-        return BoundFiles(self, tuple(load_deformation(f) for f in self.files))
+        # every file was checked to hold an FFD in __post_init__
+        return BoundFiles(self, tuple(cast(FFD, load_deformation(f)) for f in self.files))
 
 
 @dataclass(frozen=True)

@@ -107,10 +107,10 @@ class Job:
     def from_settings(cls, out: str | os.PathLike[str], settings: dict[str, Any]) -> Job:
         rule = None if settings["fold_free"] is None else FoldFree(**settings["fold_free"])
         images = settings.get("images", {})
-        paths = [images[kind]["path"] if kind in images else None for kind in ("image", "label")]
+        image, label = (images[kind]["path"] if kind in images else None for kind in ("image", "label"))
         interpolation = settings.get("image_interpolation", "linear")
-        return cls(settings["mesh"], settings["model"], settings["seed"], rule, str(out), settings["format"], *paths,
-                   interpolation)  # fmt: skip
+        return cls(settings["mesh"], settings["model"], settings["seed"], rule, str(out), settings["format"], image,
+                   label, interpolation)  # fmt: skip
 
 
 def job_layout(job: Job) -> Layout:

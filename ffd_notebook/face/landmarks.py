@@ -102,7 +102,8 @@ def _square(center: np.ndarray, width: float, height: float, start: np.ndarray, 
 def crop_from_detection(face: FaceDetection) -> Square:
     """The crop MediaPipe gives the landmark model for a detected face."""
     lo, hi = face.box[:2], face.box[2:]
-    return _square((lo + hi) / 2, *(hi - lo), face.keypoints[0], face.keypoints[1])
+    width, height = hi - lo
+    return _square((lo + hi) / 2, width, height, face.keypoints[0], face.keypoints[1])
 
 
 def crop_from_landmarks(points: np.ndarray) -> Square:

@@ -116,7 +116,7 @@ class FFD:
         if basis != "bernstein" and self.border == "zero" and min(lattice.shape) < 4:
             what = "the cubic B-spline basis" if basis == "bspline" else f"the {basis!r} basis"
             raise ValueError(f"{what} with border 'zero' needs at least 4 control points per axis, got {lattice.shape}")
-        self.basis: str | tuple[str, str, str] = basis
+        self.basis: BasisName | tuple[str, str, str] = basis
         self.affine = _check_affine(affine)
         self.only_inside = bool(only_inside)
         self.outside = bool(outside)
@@ -353,6 +353,7 @@ class FFD:
         else:
             cells = CellGroups(uvw, lat.shape, self.border)
             bases = axis_bases(self.basis)
+            assert cells.t is not None  # a fresh grouping keeps its t
             d_uvw = cells.unsort(bspline_lattice_jacobian(cells, offsets, cells.t, bases=bases))
         if self.only_inside:
             d_uvw[~in_domain(self.basis, lat.shape, uvw)] = 0.0

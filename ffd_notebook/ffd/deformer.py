@@ -139,6 +139,7 @@ class Deformer:
     def _reweight(self) -> None:
         """New per-point factors on the same grouping: the w-axis weights and the affine image, then evaluate."""
         cells = self._cells
+        assert cells is not None  # reweighting keeps the B-spline grouping
         uvw = self.ffd.lattice.to_lattice(self.points)
         self._bw = self._last_axis_weights(uvw, cells.order).astype(self.dtype)
         factor = influence(self.strength, self._weights, len(self.points))
@@ -163,7 +164,7 @@ class Deformer:
         self._key = self._geometry_key()
         self._affine = self.ffd.affine.copy()
         uvw = lat.to_lattice(self.points)
-        self._cells = None
+        self._cells: CellGroups | None = None
         # points the lattice may displace (all unless only_inside): the others get zero weights
         movable = in_domain(self.ffd.basis, lat.shape, uvw) if self.ffd.only_inside else None
         # strength * weight per point: the displacement is linear in one weight factor, scale that
@@ -171,7 +172,9 @@ class Deformer:
         if self.ffd.basis != "bernstein":
             cells = CellGroups(uvw, lat.shape, self.ffd.border)
             bases = axis_bases(self.ffd.basis)
-            bu, bv, bw = (bases[a].weights(cells.t[:, a]) for a in range(3))
+            t = cells.t
+            assert t is not None  # a fresh grouping keeps its t
+            bu, bv, bw = (bases[a].weights(t[:, a]) for a in range(3))
             self._buv = outer_uv(bu, bv).astype(self.dtype)
             if movable is not None:
                 bw[~movable[cells.order]] = 0.0
@@ -352,7 +355,9 @@ class Deformer:
             local = np.einsum("pkd,pk->pd", x.reshape(-1, nz, 3), self._bz)
             np.add(self._base, local, out=self._out)
             return
-        local = self._cells.sum(self._cells.pad(offsets, self.dtype), self._buv, self._bw)
+        cells = self._cells
+        assert cells is not None  # the B-spline basis groups its points
+        local = cells.sum(cells.pad(offsets, self.dtype), self._buv, self._bw)
         np.add(self._base, local, out=self._sorted)
         self._refresh_all()
 
@@ -369,6 +374,7 @@ class Deformer:
     ) -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.int64]]:
         """The runs (cells) a control point moves, and the support slots ``lo..hi`` it fills in each."""
         cells = self._cells
+        assert cells is not None  # the B-spline basis groups its points
         lo, hi = support_slots(np.array(ijk), cells.run_first, self.ffd.lattice.shape, cells.border)
         hit = np.flatnonzero(np.all(lo <= hi, axis=1))
         return hit, lo[hit], hi[hit]
@@ -378,12 +384,14 @@ class Deformer:
         from scipy.linalg.blas import dger  # here: the engine imports without SciPy (in Blender's Python)
 
         hit, lo, hi = plan
-        for (s, e), l, h in zip(self._cells.runs[hit], lo, hi, strict=True):
+        cells = self._cells
+        assert cells is not None  # the B-spline basis groups its points
+        for (s, e), l, h in zip(cells.runs[hit], lo, hi, strict=True):
             w = self._weight(s, e, l, h)
             # rank-one update sorted += w delta^T in place (BLAS dger on the F-ordered transpose)
             dger(1.0, delta, w, a=self._sorted[s:e].T, overwrite_a=1)
             if not sorted_only:
-                self._out[self._cells.order[s:e]] += w[:, None] * delta
+                self._out[cells.order[s:e]] += w[:, None] * delta
 
     def _weight(self, s: int, e: int, lo: NDArray[np.int64], hi: NDArray[np.int64]) -> NDArray[np.float64]:
         """Weight of one control point on sorted points ``s:e`` that fills support slots ``lo..hi``."""

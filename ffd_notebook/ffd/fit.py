@@ -13,7 +13,7 @@ solves it at every mouse event.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -144,7 +144,8 @@ def fit_points(
         raise ValueError(f"targets must be finite and shaped like points {pts.shape}, got {goal.shape}")
     rows = pts if pinned is None else np.vstack([pts, as_points(pinned)])
     # per-row weights of the deformation (not the FFD's own, which belong to the point set it deforms)
-    row_influence = np.ones(len(rows)) if point_weights is None else _point_weights(point_weights, len(rows))
+    given = None if point_weights is None else _point_weights(point_weights, len(rows))
+    row_influence = np.ones(len(rows)) if given is None else given
     now = ffd.deform(rows, weights=row_influence)
     residual = np.vstack([goal, now[len(pts) :]]) - now  # pinned rows: exactly zero
     index, weight = control_weights(ffd, rows)
@@ -182,4 +183,4 @@ def _least_norm(
     if len(matrix) == 1:  # one point: closed form w r^T / |w|^2
         w = matrix[0]
         return np.outer(w / (w @ w), residual[0]), used
-    return np.linalg.lstsq(matrix, residual, rcond=None)[0], used
+    return cast("NDArray[np.float64]", np.linalg.lstsq(matrix, residual, rcond=None)[0]), used

@@ -28,12 +28,12 @@ Examples
 from __future__ import annotations
 
 from functools import partial
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .basis import BASES, BSPLINE, AxisBasis, bspline_cells
+from .basis import BASES, BSPLINE, AxisBasis, BasisName, bspline_cells
 
 __all__ = [
     "AXIS_BASES",
@@ -178,7 +178,7 @@ AXIS_BASES: dict[str, AxisBasis] = {
 }
 
 
-def check_basis(basis: Any) -> str | tuple[str, str, str]:
+def check_basis(basis: Any) -> BasisName | tuple[str, str, str]:
     """An FFD's ``basis`` argument checked and in its one form.
 
     ``"bspline"`` and ``"bernstein"`` stay; one of Blender's interpolations alone means it on every
@@ -197,13 +197,13 @@ def check_basis(basis: Any) -> str | tuple[str, str, str]:
     """
     if isinstance(basis, str):
         if basis in BASES:
-            return basis
+            return cast(BasisName, basis)
         if basis in INTERPOLATIONS:
             basis = (basis,) * 3
     if not isinstance(basis, str) and isinstance(basis, (tuple, list)):
         kinds = tuple(basis)
         if len(kinds) == 3 and all(isinstance(k, str) and k in INTERPOLATIONS for k in kinds):
-            return "bspline" if kinds == ("bspline",) * 3 else kinds  # type: ignore[return-value]
+            return "bspline" if kinds == ("bspline",) * 3 else kinds
         basis = kinds
     raise ValueError(
         "basis must be 'bspline', 'bernstein' or one interpolation per axis (three of "

@@ -11,7 +11,7 @@ writable ``offsets`` array.
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -43,7 +43,7 @@ def _check_rotation(rotation: ArrayLike | None) -> tuple[NDArray[np.float64], ND
                          "(the axes' directions); scaling belongs in spacing")  # fmt: skip
     if np.linalg.cond(r) > 1e12:
         raise ValueError("a sheared lattice's axes must be independent (rotation is singular)")
-    return r, np.linalg.inv(r)
+    return r, cast("NDArray[np.float64]", np.linalg.inv(r))
 
 
 class Lattice:
@@ -113,7 +113,7 @@ class Lattice:
         if origin_arr.shape != (3,) or not np.all(np.isfinite(origin_arr)):
             raise ValueError(f"origin must be three finite numbers, got {origin!r}")
         self.origin: NDArray[np.float64] = origin_arr
-        self.rotation = rotation  # type: ignore[assignment]
+        self.rotation = rotation
         self.offsets: NDArray[np.float64] = np.zeros(self.shape + (3,))
         if offsets is not None:
             self.set_offsets(offsets)
@@ -164,7 +164,7 @@ class Lattice:
     def around(
         cls,
         points_or_mesh: Any,
-        shape: tuple[int, int, int] | int = (5, 5, 5),
+        shape: tuple[int, ...] | int = (5, 5, 5),
         margin: float | None = None,
         basis: BasisName = "bspline",
         border: Border = "zero",
@@ -210,7 +210,11 @@ class Lattice:
         ([0.5, 0.5, 0.5], [0.0, 0.0, 0.0], 'clamp')
         """
         pts = as_points(points_or_mesh)
-        shape_t = (int(shape),) * 3 if np.isscalar(shape) else tuple(int(s) for s in shape)  # type: ignore[arg-type]
+        shape_t = (
+            (int(cast(int, shape)),) * 3
+            if np.isscalar(shape)
+            else tuple(int(s) for s in cast("tuple[int, ...]", shape))
+        )
         if len(shape_t) != 3:
             raise ValueError(f"shape must be an int or three ints, got {shape!r}")
         if basis not in BASES:

@@ -34,7 +34,7 @@ Examples
 from __future__ import annotations
 
 from math import comb
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -201,7 +201,7 @@ def bspline_displacement(
     clip_starts(first, dims[:, None], _WIDTH, out=first)
     grid = dims + _WIDTH + 1  # possible support starts per axis
     stride = np.array([grid[1] * grid[2], grid[2], 1], dtype=np.float64)
-    cell = stride @ first  # exact: small integers in float64
+    cell: NDArray[Any] = stride @ first  # exact: small integers in float64
     cell += _WIDTH * stride.sum()
     small = np.uint16 if grid.prod() < 2**16 else np.uint32 if grid.prod() < 2**32 else np.uint64
     cell = cell.astype(small)

@@ -149,7 +149,7 @@ def pad_offsets(
     >>> float(pad_offsets(np.ones((2, 2, 2, 3)))[0, 0, 0, 0])
     0.0
     """
-    mode = "constant" if check_border(border) == "zero" else "edge"
+    mode: Literal["constant", "edge"] = "constant" if check_border(border) == "zero" else "edge"
     padded = np.pad(offsets, [(width, width)] * 3 + [(0, 0)], mode=mode)
     return padded if dtype is None else padded.astype(dtype, copy=False)
 
@@ -181,7 +181,7 @@ def support_slots(
     return np.maximum(lo, 0), np.minimum(hi, width - 1)
 
 
-def in_domain(basis: str, shape: tuple[int, int, int], uvw: NDArray[np.float64]) -> NDArray[np.bool_]:
+def in_domain(basis: str | tuple[str, ...], shape: tuple[int, int, int], uvw: NDArray[np.float64]) -> NDArray[np.bool_]:
     """Which points lie in the lattice's domain (see ``FFD(only_inside=True)``).
 
     Bernstein: the box ``0 <= u <= n - 1`` (PyGeM's unit cube). B-spline: ``1 <= u <= n - 2``,
@@ -232,7 +232,7 @@ class CellGroups:
         order = np.argsort(cell, kind="stable")
         cells, starts = np.unique(cell[order], return_index=True)
         self.order = order.astype(np.int32 if n < 2**31 else np.int64)
-        self.t = t[order]
+        self.t: NDArray[np.float64] | None = t[order]  # None once the weights are computed
         self.runs = np.column_stack([starts, np.r_[starts[1:], n]])
         self.run_first = np.column_stack(np.unravel_index(cells, grid)) - width
 

@@ -27,6 +27,7 @@ True
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import cast
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -110,7 +111,8 @@ def generalization(reference: ArrayLike | object, meshes: Sequence[ArrayLike | o
         raise ValueError(f"generalization needs at least 3 meshes, got {n}")
     errors = np.zeros((n, n - 2))
     for i in range(n):
-        model = LowRankGP.from_examples(ref, np.delete(shapes, i, axis=0))
+        others = cast("Sequence[NDArray[np.float64]]", np.delete(shapes, i, axis=0))  # an array is a sequence of shapes
+        model = LowRankGP.from_examples(ref, others)
         coef = model.coefficients(shapes[i] - ref)  # orthonormal basis: truncating c is projecting
         for m in range(n - 2):
             c = np.where(np.arange(model.rank) <= m, coef, 0.0)

@@ -11,7 +11,7 @@ on one more, last axis. A 2D image lies in the plane ``z = 0`` of 3D space.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -30,7 +30,7 @@ def is_sitk_image(obj: Any) -> bool:
     return type(obj).__name__ == "Image" and type(obj).__module__.split(".")[0] == "SimpleITK"
 
 
-def _vector(value: ArrayLike, dim: int, name: str, default: float) -> NDArray[np.float64]:
+def _vector(value: ArrayLike | None, dim: int, name: str, default: float) -> NDArray[np.float64]:
     out = np.full(dim, default, dtype=np.float64) if value is None else np.array(value, dtype=np.float64).reshape(-1)
     if out.size == 1 and dim > 1:
         out = np.full(dim, out[0])
@@ -73,9 +73,9 @@ class ImageGrid:
     def __init__(
         self,
         size: ArrayLike,
-        spacing: ArrayLike = None,
-        origin: ArrayLike = None,
-        direction: ArrayLike = None,
+        spacing: ArrayLike | None = None,
+        origin: ArrayLike | None = None,
+        direction: ArrayLike | None = None,
     ) -> None:
         size_t = tuple(int(n) for n in np.asarray(size).reshape(-1))
         dim = len(size_t)
@@ -183,7 +183,7 @@ class ImageGrid:
         >>> (grid.physical_to_index() @ (5, 4, 2, 1)).round(6).tolist()    # between voxels: continuous indices
         [2.0, 2.5, 1.0, 1.0]
         """
-        return np.linalg.inv(self.index_to_physical())
+        return cast("NDArray[np.float64]", np.linalg.inv(self.index_to_physical()))
 
     def physical_points(self) -> NDArray[np.float64]:
         """``(N, 3)`` physical positions of every voxel centre, ``i`` fastest (the array's C order).

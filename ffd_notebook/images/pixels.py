@@ -45,7 +45,7 @@ def check_interpolation(interpolation: str, default_value: float) -> None:
 
 
 def as_pixels(
-    image: Any, *, spacing: ArrayLike = None, origin: ArrayLike = None, direction: ArrayLike = None
+    image: Any, *, spacing: ArrayLike | None = None, origin: ArrayLike | None = None, direction: ArrayLike | None = None
 ) -> tuple[NDArray, ImageGrid, Any]:
     """Pixels (array order, components last), grid, and the SimpleITK image (None for an array) of ``image``.
 

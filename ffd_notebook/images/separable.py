@@ -17,6 +17,8 @@ given per axis) is left to :class:`~.sample.IndexSampler`, which calls ``deform`
 
 from __future__ import annotations
 
+from typing import cast
+
 import numpy as np
 from numpy.typing import NDArray
 
@@ -24,7 +26,7 @@ from ..ffd import FFD
 from ..ffd.basis import bernstein
 from ..ffd.support import axis_support
 from .geometry import ImageGrid
-from .sample import IndexSampler
+from .sample import Deformation, IndexSampler
 
 __all__ = ["GridFFDSampler", "index_sampler"]
 
@@ -132,7 +134,7 @@ def index_sampler(deformation: object, reference: ImageGrid, source: ImageGrid) 
         to_physical = reference.index_to_physical()[:3, :3]
         along = (lat.rotation / lat.spacing).T @ to_physical
         size = reference.size + (1,) * (3 - reference.dim)
-        pairs = _axis_pairs(along, size)
+        pairs = _axis_pairs(along, cast("tuple[int, int, int]", size))
         if pairs is not None:
             return GridFFDSampler(deformation, reference, source, pairs)
-    return IndexSampler(deformation, reference, source)
+    return IndexSampler(cast(Deformation, deformation), reference, source)  # it checks for deform(points)

@@ -10,7 +10,8 @@ reach, not to the image. Values are those of :func:`~ffd_notebook.warp_image` on
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from collections.abc import Iterable
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -89,9 +90,9 @@ class WarpedSlices:
         positions: ArrayLike | None = None,
         interpolation: str = "linear",
         default_value: float = 0,
-        spacing: ArrayLike = None,
-        origin: ArrayLike = None,
-        direction: ArrayLike = None,
+        spacing: ArrayLike | None = None,
+        origin: ArrayLike | None = None,
+        direction: ArrayLike | None = None,
     ) -> None:
         pixels, self.grid, self._sitk = as_pixels(image, spacing=spacing, origin=origin, direction=direction)
         self.pixels = pixels
@@ -99,7 +100,7 @@ class WarpedSlices:
         self.ffd = ffd
         self._to_index = self.grid.physical_to_index()
         middle = [n // 2 for n in self.grid.size]
-        self.positions = list(middle if positions is None else (int(p) for p in positions))
+        self.positions = list(middle if positions is None else (int(p) for p in cast("Iterable[Any]", positions)))
         if len(self.positions) != self.grid.dim:
             raise ValueError(f"positions must give {self.grid.dim} indices, got {positions!r}")
         self.axes = (0, 1, 2) if self.grid.dim == 3 else (2,)  # a 2D image: its one plane

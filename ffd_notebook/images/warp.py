@@ -39,9 +39,9 @@ def warp_image(
     reference: Any = None,
     interpolation: str = "linear",
     default_value: float = 0,
-    spacing: ArrayLike = None,
-    origin: ArrayLike = None,
-    direction: ArrayLike = None,
+    spacing: ArrayLike | None = None,
+    origin: ArrayLike | None = None,
+    direction: ArrayLike | None = None,
 ) -> Any:
     """Resample ``image`` through ``deformation``: the output at ``x`` is the input at ``T(x)`` (ITK's convention).
 

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
+from typing import cast
 
 import numpy as np
 
@@ -167,7 +168,7 @@ def save_deformation(path: str | os.PathLike[str], ffd: FFD | DisplacementField,
         raise _refuse(path, "deformation", "it has per-point weights, which belong to one mesh (save them with it)")
     from_elastix = isinstance(ffd, FFD) and "elastix" in ffd.lattice.metadata
     if format == "elastix" or (format is None and from_elastix and Path(path).suffix.lower() == ".txt"):
-        save_elastix(path, ffd)
+        save_elastix(path, cast(FFD, ffd))  # a displacement field: save_elastix refuses it (TypeError)
         return
     suffix = _suffix(path)
     kind = "field" if suffix in FIELD_SUFFIXES else {".ffd": "ffd", ".prm": "prm"}.get(suffix, "itk")

@@ -14,7 +14,7 @@ from __future__ import annotations
 import os
 from collections.abc import Callable, Mapping
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -233,12 +233,12 @@ def _grid_of(reference: Any) -> tuple[tuple[int, int, int], NDArray, NDArray, ND
             raise FileFormatError(reference, None, f"not an image SimpleITK can read: {_first_line(exc)}") from None
         if reader.GetDimension() != 3:
             raise FileFormatError(reference, None, f"expected a 3D image, got {reader.GetDimension()}D")
-        return (tuple(reader.GetSize()), np.array(reader.GetSpacing()), np.array(reader.GetOrigin()),  # type: ignore[return-value]
+        return (tuple(reader.GetSize()), np.array(reader.GetSpacing()), np.array(reader.GetOrigin()),
                 np.array(reader.GetDirection()).reshape(3, 3))  # fmt: skip
     if isinstance(reference, sitk.Image):
         if reference.GetDimension() != 3:
             raise ValueError(f"expected a 3D reference image, got {reference.GetDimension()}D")
-        return (tuple(reference.GetSize()), np.array(reference.GetSpacing()), np.array(reference.GetOrigin()),  # type: ignore[return-value]
+        return (tuple(reference.GetSize()), np.array(reference.GetSpacing()), np.array(reference.GetOrigin()),
                 np.array(reference.GetDirection()).reshape(3, 3))  # fmt: skip
     if isinstance(reference, Mapping):
         unknown = set(reference) - {"size", "spacing", "origin", "direction"}
@@ -318,7 +318,7 @@ def sample_displacement_field(deformation: Any, reference: Any) -> DisplacementF
     grid = DisplacementField(np.zeros((1, 1, 1, 3)), spacing, origin, direction)
     nx, ny, nz = size
     placement = direction * spacing
-    fast = _aligned_ffd(deformation, tuple(size), grid)
+    fast = _aligned_ffd(deformation, cast("tuple[int, int, int]", tuple(size)), grid)
     if fast is not None:
         return DisplacementField(fast, grid.spacing, grid.origin, grid.direction)
     deform = _deformer(deformation)

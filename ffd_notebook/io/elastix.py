@@ -36,7 +36,7 @@ import os
 from collections.abc import Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -93,7 +93,7 @@ class BSplineStep:
     _to_index: NDArray[np.float64] = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
-        self._to_index = np.linalg.inv(self.placement)
+        self._to_index = cast("NDArray[np.float64]", np.linalg.inv(self.placement))
 
     @property
     def placement(self) -> NDArray[np.float64]:

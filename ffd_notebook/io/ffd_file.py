@@ -40,14 +40,14 @@ from __future__ import annotations
 import os
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
 from ..errors import FileFormatError
 from ..ffd.interpolation import INTERPOLATIONS
 from ..ffd.lattice import Lattice
-from ..ffd.support import BORDERS
+from ..ffd.support import BORDERS, Border
 from ._atomic import atomic_open
 from ._text import end_line, parse_float, parse_int, read_lines, split_fields
 from .placement import quaternion_to_rotation, rotation_to_quaternion
@@ -259,7 +259,7 @@ def load_ffd(path: str | os.PathLike[str]) -> Lattice:
     spacing = _numbers(path, spacing_sec, ("sx", "sy", "sz"), parse_float)
     if min(spacing) <= 0:
         raise FileFormatError(path, _last_line(spacing_sec), f"expected positive spacings, got {spacing}")
-    offsets = _parse_offsets(path, known["offsets"], shape)  # type: ignore[arg-type]
+    offsets = _parse_offsets(path, known["offsets"], shape)
     placement = None
     origin, rotation = np.zeros(3), np.eye(3)
     if "quaternion" in known:
@@ -334,12 +334,12 @@ def _check_finite(path, lattice: Lattice, spacing_sec: _Section, offsets_sec: _S
                               "of floating-point numbers")  # fmt: skip
 
 
-def _parse_border(path, section: _Section) -> str:
+def _parse_border(path, section: _Section) -> Border:
     words = [tok.lower() for _, tok in _tokens(section)]
     if len(words) != 1 or words[0] not in BORDERS:
         raise FileFormatError(path, _last_line(section), f"section #{section.header}# must hold one word, "
                               f"'zero' or 'clamp', got {' '.join(words)[:40]!r}")  # fmt: skip
-    return words[0]
+    return cast(Border, words[0])  # checked: one of BORDERS
 
 
 def _placement_pose(placement: dict[str, float]) -> tuple[np.ndarray, np.ndarray]:

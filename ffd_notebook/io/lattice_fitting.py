@@ -15,7 +15,7 @@ other region (a mesh's vertices, a mask, weights) goes through the sparse normal
 from __future__ import annotations
 
 from collections.abc import Mapping
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -33,12 +33,12 @@ _MAX_SPARSE_ENTRIES = 64 * 2_000_000  # the general path's matrix: 2M points (ab
 
 
 def _as_shape(shape: Any) -> tuple[int, int, int]:
-    values = (int(shape),) * 3 if np.isscalar(shape) else tuple(int(s) for s in shape)
+    values = (int(cast(int, shape)),) * 3 if np.isscalar(shape) else tuple(int(s) for s in shape)
     if len(values) != 3 or min(values) < 4:
         raise ValueError(
             f"shape must be an int or three ints, each at least 4 (a cubic B-spline lattice), got {shape!r}"
         )
-    return values  # type: ignore[return-value]
+    return values
 
 
 def _orthonormal(direction: NDArray[np.float64]) -> NDArray[np.float64] | None:
@@ -258,6 +258,7 @@ def fit_lattice(
                 w = None if w is None else w[keep]
             offsets, (a, b), residual = _sparse_fit(points, moved, lattice, w, affine)
     else:
+        assert mask_or_points is not None and targets is not None  # scattered points come with their targets
         points, moved = mask_or_points, targets
         if lattice is None:
             lattice = Lattice.around(points, counts, margin=0.0)

@@ -52,7 +52,7 @@ on NumPy/SciPy because no maintained library implements the method.
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 from numpy.typing import NDArray
@@ -177,7 +177,7 @@ def _optimise(
                 denv[sub] = np.where(better, score, denv[sub])
                 numv[sub] = np.where(better[..., None], colour.reshape(*grid, 3), numv[sub])
     if vote == "mean":
-        return num / np.maximum(den, 1e-12)[..., None]
+        return cast("NDArray[np.float32]", num / np.maximum(den, 1e-12)[..., None])  # float32 / float32
     return np.where(np.isfinite(den)[..., None], num, volume)
 
 
@@ -356,6 +356,7 @@ def exemplar_from_image(
                     volume = _transfer_colours(volume, level_img, 5, seed + it)
                 volume = _optimise(volume.astype(np.float32), index, target_hist, 2, it, vote)
                 bar.update()
+    assert volume is not None  # levels >= 1 (checked above)
     volume = _transfer_colours(volume, img, 20, seed)
     if discrete_sweeps:  # ``index`` is the finest level's: the full image
         for sweep in range(discrete_sweeps):  # the sparse grid moves between sweeps, as in the optimisation

@@ -27,7 +27,7 @@ faster than a tree).
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
@@ -62,6 +62,7 @@ def _nearest(
         q = queries[start : start + _CHUNK] - centre
         d2 = ref_sq[None, :] - 2.0 * (q @ ref.T) + np.einsum("ij,ij->i", q, q)[:, None]
         if gap:
+            assert q_corners is not None and r_corners is not None  # a gap needs the corners
             near = np.abs(q_corners[start : start + _CHUNK, None, :] - r_corners[None, :, :]).max(axis=2) < gap
             d2[near] = np.inf
         out[start : start + _CHUNK] = np.sqrt(np.maximum(d2.min(axis=1), 0.0))
@@ -238,7 +239,7 @@ def self_similarity(
     sources = [] if np.isscalar(source) else _images(source, "source", slices)
     crop = _crop_size(samples, sources, crop)
     _check(window, step, gap, crop)
-    ref = float(source) if np.isscalar(source) else _figure(sources, crop, window, step, gap)
+    ref = float(cast(float, source)) if np.isscalar(source) else _figure(sources, crop, window, step, gap)
     if ref <= 0:
         raise ValueError("the source has no variation between its windows (figure 0): nothing to compare with")
     if np.asarray(sample).ndim != 4:

@@ -177,7 +177,7 @@ def _retire_page(server: Any, page: str, widget: weakref.ref[Any]) -> None:
 def _view_widget_class() -> type:
     import ipywidgets as widgets
 
-    class ViewWidget(widgets.HTML):  # type: ignore[misc]
+    class ViewWidget(widgets.HTML):
         """The iframe of a served view (like :class:`trame_pyvista.jupyter.Widget`, whose ``viewer`` is
         ``RemoteView``). ipywidgets keeps every widget until it is closed, so this one refers to its view
         weakly: ``viewer`` is None once the view is released."""
@@ -498,7 +498,9 @@ def _forget_replaced_outputs() -> None:
         return
 
     def cell_runs(info: Any) -> None:  # its old output is replaced: what only that output kept may go
-        _shown_by_cell.pop(getattr(info, "cell_id", None), None)
+        cell_id = getattr(info, "cell_id", None)
+        if cell_id is not None:  # no id: nothing was kept under one
+            _shown_by_cell.pop(cell_id, None)
 
     shell.events.register("pre_run_cell", cell_runs)
     _hooked.append(shell)

@@ -63,7 +63,7 @@ def weak_method(method: Callable[..., Any]) -> Callable[..., Any]:
     >>> del a; f(3) is None
     True
     """
-    ref = weakref.WeakMethod(method)  # type: ignore[arg-type]
+    ref = weakref.WeakMethod(method)
 
     def call(*args: Any, **kwargs: Any) -> Any:
         bound = ref()

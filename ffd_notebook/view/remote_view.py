@@ -388,7 +388,9 @@ class RemoteView:
             interactive_quality=interactive_quality,
             still_quality=still_quality,
         )
-        self.handler = InteractiveSizeAdapter(window, self.area.name, scheduler=scheduler, ratio=interactive_ratio)
+        self.handler: InteractiveSizeAdapter | None = InteractiveSizeAdapter(
+            window, self.area.name, scheduler=scheduler, ratio=interactive_ratio
+        )
         self.area.add_view_handler(self.handler)
         self.server = self.area.server
 

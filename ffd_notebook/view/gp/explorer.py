@@ -174,6 +174,7 @@ class GPExplorer(ModelModes):
         """The current kernel (a new object for every width); None for a shape model."""
         if self.model_name is not None:
             return None
+        assert self.sigma is not None  # a kernel model has a width
         return KERNELS[self.kernel_name](sigma=self.sigma, scale=self.scale)
 
     @property
@@ -188,7 +189,9 @@ class GPExplorer(ModelModes):
 
     def _build_model(self) -> LowRankGP:
         points = np.vstack([self.rest_points, self.grid])
-        gp = GaussianProcess(self.kernel)
+        kernel = self.kernel
+        assert kernel is not None  # only kernel models are built
+        gp = GaussianProcess(kernel)
         return LowRankGP.nystrom(gp, points, n_inducing=self.n_inducing, rank=self.rank, rng=self._seed)
 
     def _condition(self) -> None:
@@ -298,6 +301,7 @@ class GPExplorer(ModelModes):
 
     # ------------------------------------------------------------------ drawing
     def _shown_at(self, point: NDArray[np.float64]) -> NDArray[np.float64]:
+        assert self._coefficients is not None  # the mean is shown without coefficients
         return self.process.instance(self._coefficients, point[None])[0]
 
     def _add_actors(self) -> None:

@@ -13,7 +13,7 @@ from __future__ import annotations
 import logging
 import os
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pyvista as pv
@@ -149,6 +149,23 @@ class ModelModes:
     kernel_name: str
     sigma: float | None
     log_density: float
+    # set or defined by the class that mixes these in (GPExplorer)
+    model_name: str | None
+    landmarks: list[tuple[NDArray[np.float64], NDArray[np.float64]]]
+    landmark_noise: list[NDArray[np.float64]]
+    scale: float
+    mesh_actor: Any
+    arrow_actor: Any
+    slider: Any
+
+    if TYPE_CHECKING:
+
+        @property
+        def process(self) -> LowRankGP: ...
+
+        def refresh(self) -> None: ...
+
+        def set_rest_points(self, points: ArrayLike, model_scale: float | None) -> None: ...
 
     @staticmethod
     def guarded(fn: Any, *args: Any) -> None:

@@ -150,8 +150,10 @@ class EditorScene:
             if self.session.lattice is not self._shown_lattice:
                 return  # a "lattice" change follows (a lattice fitted to the new mesh): render once, then
         elif kind == "select":
+            assert self.lattice_actor is not None  # built with the scene
             self.lattice_actor.highlight(self._selected_index())
         elif kind == "display" and change.label == "points":
+            assert self.lattice_actor is not None  # built with the scene
             self.lattice_actor.show_points(self.session.points_shown, self._selected_index())
         elif kind == "display":
             self._write_field()
@@ -175,6 +177,7 @@ class EditorScene:
         """Session -> view: deformed mesh points, lattice lines, (the handle), field colors."""
         self._write_mesh_points(only_if_changed)
         positions = self.session.control_points()
+        assert self.lattice_actor is not None  # built with the scene
         self.lattice_actor.set_line_points(positions)
         if widgets:
             self.lattice_actor.set_widget_centers(positions, points)

@@ -176,6 +176,7 @@ class SurfacePicking:
     # ------------------------------------------------------------------ mouse events
     def _take(self, event: str) -> None:
         """This event is ours: lower-priority observers (spheres, lattice actor, camera style) skip it."""
+        assert self._iren is not None  # events only come through the interactor
         self._iren.GetCommand(self._tags[event]).SetAbortFlag(1)
 
     def _on_press(self, iren: Any, event: str) -> None:

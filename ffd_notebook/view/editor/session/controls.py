@@ -602,6 +602,7 @@ def _image_state(session: EditingSession) -> dict[str, Any]:
         none = {"has_image": False, "grey_image": False, "img_level": 0.0, "img_width": 1.0, "image_info": "no image"}
         return {**none, **dict.fromkeys(_SLICE, 0), **dict.fromkeys(("img_max_i", "img_max_j", "img_max_k"), 0)}
     slices = image.slices
+    assert slices is not None  # loaded
     size = list(slices.grid.size) + [1] * (3 - slices.grid.dim)
     positions = list(slices.positions) + [0] * (3 - slices.grid.dim)
     level, width = image.window if image.window is not None else (0.0, 1.0)

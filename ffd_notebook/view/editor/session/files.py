@@ -31,7 +31,7 @@ from __future__ import annotations
 
 import os
 from pathlib import Path as _PathType
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, cast
 
 from ...._util.deprecation import renamed, warn_renamed
 from ....ffd.deform import FFD
@@ -100,7 +100,8 @@ class SessionFiles:
         """
         loaded = _load_deformation(path)
         if isinstance(loaded, DisplacementField):  # a lattice of the session's shape, fitted over the field's voxels
-            return fit_lattice(loaded, tuple(max(4, n) for n in self.session.lattice.shape)), "file"
+            shape = cast("tuple[int, int, int]", tuple(max(4, n) for n in self.session.lattice.shape))
+            return fit_lattice(loaded, shape), "file"
         ffd = loaded
         if _PathType(path).suffix.lower() != ".ffd":
             return ffd, "file"

@@ -96,6 +96,7 @@ class SessionImage:
 
     def _everything(self) -> None:
         """Every pixel was read again (a load, a new lattice, moved slices)."""
+        assert self._slices is not None  # only called with an image loaded
         self._last = {axis: np.ones(v.shape[:2], dtype=bool) for axis, v in self._slices.values.items()}
         self._remember(self._last)
 
@@ -137,7 +138,7 @@ class SessionImage:
                 self._pending = None
             else:
                 ijk = np.column_stack(np.unravel_index(change.points, self.session.lattice.shape))
-                self._pending.update(tuple(int(v) for v in row) for row in ijk)
+                self._pending.update((int(i), int(j), int(k)) for i, j, k in ijk)
         elif change.kind == "lattice":
             self._slices.set_ffd(self.session.ffd)
             self._pending = set()

@@ -14,7 +14,7 @@ from ....ffd.lattice import Lattice
 __all__ = ["copy_ffd", "fitted_lattice"]
 
 
-def fitted_lattice(mesh: Any, shape: tuple[int, ...], basis: BasisName) -> Lattice:
+def fitted_lattice(mesh: Any, shape: tuple[int, ...], basis: BasisName | tuple[str, str, str]) -> Lattice:
     """The lattice the editor fits around ``mesh`` (initial fit, new size, new basis, new mesh).
 
     For the B-spline basis (and Blender's per-axis interpolations, on the same support) it uses the
@@ -23,7 +23,7 @@ def fitted_lattice(mesh: Any, shape: tuple[int, ...], basis: BasisName) -> Latti
     outside the mesh). Bernstein lattices span their box.
     """
     local = check_basis(basis) != "bernstein"
-    return Lattice.around(mesh, shape, basis="bspline" if local else basis, border="clamp" if local else "zero")
+    return Lattice.around(mesh, shape, basis="bspline" if local else "bernstein", border="clamp" if local else "zero")
 
 
 def copy_ffd(ffd: FFD, lattice: Lattice | None = None, **changes: Any) -> FFD:
@@ -32,8 +32,9 @@ def copy_ffd(ffd: FFD, lattice: Lattice | None = None, **changes: Any) -> FFD:
     (``basis=...``, ``strength=...``, ``weights=...``)."""
     lattice = ffd.lattice.copy() if lattice is None else lattice
     weights = ffd.weights.copy() if isinstance(ffd.weights, np.ndarray) else ffd.weights
-    options = {"basis": ffd.basis, "border": ffd.border, "affine": ffd.affine.copy(), "only_inside": ffd.only_inside,
-               "outside": ffd.outside, "strength": ffd.strength, "weights": weights}  # fmt: skip
+    options: dict[str, Any] = {"basis": ffd.basis, "border": ffd.border, "affine": ffd.affine.copy(),
+                               "only_inside": ffd.only_inside, "outside": ffd.outside, "strength": ffd.strength,
+                               "weights": weights}  # fmt: skip
     options.update(changes)
     basis = options.pop("basis")
     return FFD(lattice, basis, **options)

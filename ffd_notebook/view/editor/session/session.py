@@ -171,7 +171,7 @@ class EditingSession:
         return self.deformer.ffd
 
     @property
-    def basis(self) -> str | tuple[str, str, str]:
+    def basis(self) -> BasisName | tuple[str, str, str]:
         """The FFD basis, ``"bspline"``, ``"bernstein"`` or Blender's interpolations per axis (a tuple)."""
         return self.ffd.basis
 
@@ -179,7 +179,7 @@ class EditingSession:
     def interpolation(self) -> tuple[str, str, str] | None:
         """Blender's interpolation of each axis (``("bspline",) * 3`` for the B-spline), None for Bernstein."""
         basis = self.ffd.basis
-        return None if basis == "bernstein" else ("bspline",) * 3 if basis == "bspline" else basis  # type: ignore[return-value]
+        return None if basis == "bernstein" else ("bspline",) * 3 if basis == "bspline" else basis
 
     @property
     def weights(self) -> NDArray[np.float64] | None:
@@ -223,7 +223,7 @@ class EditingSession:
             return np.ones(len(self.rest_points), np.float32) if weights is None else weights.astype(np.float32)
         return None
 
-    def flat_index(self, ijk: tuple[int, int, int]) -> int:
+    def flat_index(self, ijk: tuple[int, ...]) -> int:
         """Flat C-order index of control point ``(i, j, k)`` (its sphere widget's index)."""
         return int(np.ravel_multi_index(ijk, self.lattice.shape))
 
@@ -494,7 +494,7 @@ class EditingSession:
             self.error(f"cannot switch to the {basis!r} basis: {exc}")
             raise
 
-    def set_basis(self, basis: str, deformer: Deformer | None = None) -> None:
+    def set_basis(self, basis: BasisName, deformer: Deformer | None = None) -> None:
         """Switch the basis; refits the lattice around the mesh for it (offsets start at zero; undoable).
 
         ``deformer``: :meth:`basis_ffd` of ``basis``, already bound to the current mesh's points.
@@ -527,7 +527,9 @@ class EditingSession:
         if ffd.basis == self.basis:
             return
         self.swap_ffd(ffd, label="interpolation", source=self.lattice_source)
-        self.info(f"interpolation: {' / '.join(self.interpolation)}")
+        interpolation = self.interpolation
+        assert interpolation is not None  # per-axis interpolations are installed
+        self.info(f"interpolation: {' / '.join(interpolation)}")
 
     def set_strength(self, strength: float) -> None:
         """Scale the whole deformation: 1 full, 0 none, negative the other way (Blender's strength); one undo step."""
@@ -595,7 +597,9 @@ class EditingSession:
         self.field = field
         self.notify("display", None, "field")
         if field == "jacobian":
-            n = int(self.field_values().sum())
+            values = self.field_values()
+            assert values is not None  # the jacobian field is set
+            n = int(values.sum())
             self.info(f"folding (det J <= 0) at {n} of {self.mesh.n_points} vertices")
 
     def show_points(self, which: str) -> None:

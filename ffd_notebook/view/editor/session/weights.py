@@ -126,6 +126,7 @@ class WeightPaint:
             raise ValueError(f"a brush stroke needs a finite point, a positive radius and a finite amount, got "
                              f"{point!r}, {radius!r}, {amount!r}")  # fmt: skip
         distance = np.linalg.norm(session.rest_points - centre, axis=1)
+        assert stroke is not None  # begin() above started one
         w = stroke["weights"]
         np.clip(w + a * brush_falloff(distance, r), 0.0, 1.0, out=w)
         session.deformer.weights = w  # rebinds with the new factors and evaluates
