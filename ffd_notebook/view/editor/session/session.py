@@ -57,7 +57,31 @@ PointsShown = Literal["auto", "all", "near", "hull"]
 
 @dataclass(frozen=True)
 class MeshIO:
-    """The mesh operations a session needs but must not import (the editor passes PyVista's)."""
+    """The mesh operations a session needs but must not import (the editor passes PyVista's).
+
+    Parameters
+    ----------
+    read : callable
+        ``read(path)``: the surface mesh in a file.
+    write : callable
+        ``write(path, mesh)``: save a mesh, atomically.
+    decimate : callable
+        ``decimate(mesh, reduction)``: a new mesh with that fraction of its faces removed.
+    with_points : callable
+        ``with_points(mesh, points)``: a new mesh with those points and the mesh's faces and point data.
+    color_array : callable
+        ``color_array(mesh)``: the name of its per-vertex color array, or None.
+    face : callable
+        ``face(photo)``: a coloured face mesh from a photo (path, array or ``face.Photo``).
+
+    Examples
+    --------
+    >>> import pyvista as pv
+    >>> from ffd_notebook.view.editor.editor import PYVISTA_MESH_IO
+    >>> sphere = pv.Sphere(theta_resolution=8, phi_resolution=8)
+    >>> PYVISTA_MESH_IO.color_array(sphere), sphere.n_cells, PYVISTA_MESH_IO.decimate(sphere, 0.5).n_cells
+    (None, 96, 48)
+    """
 
     read: Callable[[Any], Any]  # path -> surface mesh
     write: Callable[[Any, Any], None]  # (path, mesh) -> None, atomically
@@ -805,10 +829,36 @@ class EditingSession:
         return self._apply(self.history.redo, prepared, forward=True)
 
     def prepare_step(self, forward: bool = False) -> PreparedStep | None:
-        """The next undo (``forward``: redo) step if it replaces the lattice, with a copy of the FFD it installs;
+        """The next undo (``forward``: redo) step if it replaces the lattice, with a copy of the FFD it installs.
+
         None for any other step. Binding that FFD to the mesh (``prepared.bind()``, about a second on a
         500k-point mesh) is the slow part of undoing it: a worker thread may do it and pass the result to
-        :meth:`undo` / :meth:`redo`, which check that the history and the mesh have not changed meanwhile."""
+        :meth:`undo` / :meth:`redo`, which check that the history and the mesh have not changed meanwhile.
+
+        Parameters
+        ----------
+        forward : bool, default False
+            The next redo step instead of the next undo step.
+
+        Returns
+        -------
+        PreparedStep or None
+            The step and its FFD (bound by ``prepared.bind()``), or None if the step only moves control points.
+
+        Examples
+        --------
+        >>> import pyvista as pv
+        >>> from ffd_notebook.view.editor.editor import PYVISTA_MESH_IO
+        >>> sphere = pv.Sphere(theta_resolution=8, phi_resolution=8)
+        >>> session = EditingSession(sphere, mesh_io=PYVISTA_MESH_IO, shape=(4, 4, 4))
+        >>> session.set_strength(0.5)
+        >>> prepared = session.prepare_step()
+        >>> session.undo(prepared.bind()), session.ffd.strength
+        (True, 1.0)
+        >>> session.move_control_point((0, 0, 0), (0.1, 0.0, 0.0))
+        >>> print(session.prepare_step())
+        None
+        """
         step = self.history.peek(forward)
         if not isinstance(step, LatticeSwap):
             return None
@@ -846,11 +896,56 @@ class EditingSession:
         """Replace the lattice (and optionally the basis); one undo step. Invalid input changes nothing.
 
         A lattice given this way stays where it is when another mesh is loaded.
+
+        Parameters
+        ----------
+        lattice : Lattice
+            The new lattice (used as is).
+        basis : {"bspline", "bernstein"}, optional
+            The FFD basis; the current one if omitted.
+        label : str, default "lattice"
+            The command's name in the history.
+
+        Examples
+        --------
+        >>> import pyvista as pv
+        >>> from ffd_notebook.view.editor.editor import PYVISTA_MESH_IO
+        >>> sphere = pv.Sphere(theta_resolution=8, phi_resolution=8)
+        >>> session = EditingSession(sphere, mesh_io=PYVISTA_MESH_IO, shape=(4, 4, 4))
+        >>> from ffd_notebook import Lattice
+        >>> lattice = Lattice.around(session.mesh.points, (6, 4, 4))
+        >>> session.set_lattice(lattice)
+        >>> session.lattice is lattice, session.lattice_source, session.can_undo
+        (True, 'given', True)
         """
         self.swap_lattice(lattice, basis, label=label, source="given")
 
     def swap_lattice(self, lattice: Lattice, basis: BasisName | None, *, label: str, source: str) -> None:
-        """Install ``FFD(lattice, basis)`` as one undo step (see :meth:`swap_ffd`)."""
+        """Install ``FFD(lattice, basis)`` as one undo step (see :meth:`swap_ffd`).
+
+        Parameters
+        ----------
+        lattice : Lattice
+            The new lattice; a TypeError for anything else.
+        basis : {"bspline", "bernstein"} or None
+            The FFD basis; None keeps the current one.
+        label : str
+            The command's name in the history.
+        source : str
+            How the lattice was made (see :meth:`swap_ffd`).
+
+        Examples
+        --------
+        >>> import pyvista as pv
+        >>> from ffd_notebook.view.editor.editor import PYVISTA_MESH_IO
+        >>> sphere = pv.Sphere(theta_resolution=8, phi_resolution=8)
+        >>> session = EditingSession(sphere, mesh_io=PYVISTA_MESH_IO, shape=(4, 4, 4))
+        >>> from ffd_notebook import Lattice
+        >>> lattice = Lattice.around(session.mesh.points, (4, 4, 4), basis="bernstein")
+        >>> session.swap_lattice(lattice, "bernstein", label="code", source="fit")
+        >>> session.basis, session.lattice_source
+        ('bernstein', 'fit')
+        """
         if not isinstance(lattice, Lattice):
             raise TypeError(f"lattice must be a Lattice, got {type(lattice).__name__}")
         # validates (e.g. a B-spline lattice needs 4 points per axis) before any change
@@ -859,9 +954,29 @@ class EditingSession:
     def swap_ffd(self, ffd: FFD, *, label: str, source: str, deformer: Deformer | None = None) -> None:
         """Install ``ffd`` (its lattice, basis, border, affine part, ``only_inside``) as one undo step.
 
-        ``source`` (how the lattice was made: ``"fit"``, ``"given"``, ``"ffd-placed"``, ``"ffd-min"``,
-        ``"file"``) decides what loading a mesh does with it, and is undone with it. ``deformer``:
-        ``ffd`` already bound to the mesh's points (e.g. in a worker thread), else it is bound here.
+        Parameters
+        ----------
+        ffd : FFD
+            What to install; a TypeError for anything else.
+        label : str
+            The command's name in the history.
+        source : {"fit", "given", "ffd-placed", "ffd-min", "file"}
+            How the lattice was made: decides what loading a mesh does with it, and is undone with it.
+        deformer : Deformer, optional
+            ``ffd`` already bound to the mesh's points (e.g. in a worker thread); bound here if omitted.
+
+        Examples
+        --------
+        >>> import pyvista as pv
+        >>> from ffd_notebook.view.editor.editor import PYVISTA_MESH_IO
+        >>> sphere = pv.Sphere(theta_resolution=8, phi_resolution=8)
+        >>> session = EditingSession(sphere, mesh_io=PYVISTA_MESH_IO, shape=(4, 4, 4))
+        >>> from ffd_notebook.ffd.deform import FFD
+        >>> from ffd_notebook import Lattice
+        >>> ffd = FFD(Lattice.around(session.mesh.points, (5, 5, 5)), "bspline")
+        >>> session.swap_ffd(ffd, label="code", source="given")
+        >>> session.lattice.shape, session.undo(), session.lattice.shape
+        ((5, 5, 5), True, (4, 4, 4))
         """
         if not isinstance(ffd, FFD):
             raise TypeError(f"ffd must be an FFD, got {type(ffd).__name__}")
@@ -872,11 +987,31 @@ class EditingSession:
         self._bind_lattice(ffd.bind(self.mesh.points) if deformer is None else deformer, label)
 
     def fitted_ffd(self, shape: ArrayLike) -> FFD:
-        """The FFD of a new lattice with ``shape`` control points per axis fitted around the mesh; changes
-        nothing (a message and a ValueError if it cannot be built).
+        """The FFD of a new lattice with ``shape`` control points per axis fitted around the mesh.
 
-        Binding it to the mesh (``ffd.bind(session.mesh.points)``, seconds on a 500k-point mesh) is
-        the slow part of :meth:`set_shape`: a worker thread may do it and hand the deformer over.
+        It changes nothing (a message and a ValueError if it cannot be built). Binding it to the mesh
+        (``ffd.bind(session.mesh.points)``, seconds on a 500k-point mesh) is the slow part of
+        :meth:`set_shape`: a worker thread may do it and hand the deformer over.
+
+        Parameters
+        ----------
+        shape : array_like of int
+            Control points per axis.
+
+        Returns
+        -------
+        FFD
+            The session's FFD (basis, strength, weights) on the new lattice, offsets at zero.
+
+        Examples
+        --------
+        >>> import pyvista as pv
+        >>> from ffd_notebook.view.editor.editor import PYVISTA_MESH_IO
+        >>> sphere = pv.Sphere(theta_resolution=8, phi_resolution=8)
+        >>> session = EditingSession(sphere, mesh_io=PYVISTA_MESH_IO, shape=(4, 4, 4))
+        >>> ffd = session.fitted_ffd((5, 4, 4))
+        >>> ffd.lattice.shape, session.lattice.shape
+        ((5, 4, 4), (4, 4, 4))
         """
         try:
             lattice = fitted_lattice(self.mesh, tuple(int(s) for s in np.ravel(shape)), self.basis)
@@ -889,7 +1024,22 @@ class EditingSession:
     def set_shape(self, shape: ArrayLike, deformer: Deformer | None = None) -> None:
         """Fit a new lattice with ``shape`` control points per axis around the mesh (undoable).
 
-        ``deformer``: :meth:`fitted_ffd` of this shape, already bound to the current mesh's points.
+        Parameters
+        ----------
+        shape : array_like of int
+            Control points per axis.
+        deformer : Deformer, optional
+            :meth:`fitted_ffd` of this shape, already bound to the current mesh's points.
+
+        Examples
+        --------
+        >>> import pyvista as pv
+        >>> from ffd_notebook.view.editor.editor import PYVISTA_MESH_IO
+        >>> sphere = pv.Sphere(theta_resolution=8, phi_resolution=8)
+        >>> session = EditingSession(sphere, mesh_io=PYVISTA_MESH_IO, shape=(4, 4, 4))
+        >>> session.set_shape((5, 4, 4))
+        >>> session.lattice.shape, list(session.messages)[-1]
+        ((5, 4, 4), 'new 5x4x4 lattice around the mesh')
         """
         if deformer is None:
             deformer = self.fitted_ffd(shape).bind(self.mesh.points)
@@ -899,8 +1049,31 @@ class EditingSession:
         self.info(f"new {'x'.join(map(str, deformer.ffd.lattice.shape))} lattice around the mesh")
 
     def basis_ffd(self, basis: BasisName) -> FFD:
-        """The FFD :meth:`set_basis` installs for ``basis`` (the lattice refitted for it); changes nothing (a
-        message and a ValueError if it cannot be built). Binding it to the mesh is the slow part."""
+        """The FFD :meth:`set_basis` installs for ``basis`` (the lattice refitted for it).
+
+        It changes nothing (a message and a ValueError if it cannot be built). Binding it to the mesh is
+        the slow part.
+
+        Parameters
+        ----------
+        basis : {"bspline", "bernstein"}
+            The basis to switch to.
+
+        Returns
+        -------
+        FFD
+            A lattice of the current shape fitted around the mesh for ``basis``, offsets at zero.
+
+        Examples
+        --------
+        >>> import pyvista as pv
+        >>> from ffd_notebook.view.editor.editor import PYVISTA_MESH_IO
+        >>> sphere = pv.Sphere(theta_resolution=8, phi_resolution=8)
+        >>> session = EditingSession(sphere, mesh_io=PYVISTA_MESH_IO, shape=(4, 4, 4))
+        >>> ffd = session.basis_ffd("bernstein")
+        >>> ffd.basis, ffd.lattice.shape, session.basis
+        ('bernstein', (4, 4, 4), 'bspline')
+        """
         try:
             return FFD(fitted_lattice(self.mesh, self.lattice.shape, basis), basis)
         except ValueError as exc:
@@ -910,7 +1083,22 @@ class EditingSession:
     def set_basis(self, basis: str, deformer: Deformer | None = None) -> None:
         """Switch the basis; refits the lattice around the mesh for it (offsets start at zero; undoable).
 
-        ``deformer``: :meth:`basis_ffd` of ``basis``, already bound to the current mesh's points.
+        Parameters
+        ----------
+        basis : {"bspline", "bernstein"}
+            The new basis (nothing happens if it is the current one).
+        deformer : Deformer, optional
+            :meth:`basis_ffd` of ``basis``, already bound to the current mesh's points.
+
+        Examples
+        --------
+        >>> import pyvista as pv
+        >>> from ffd_notebook.view.editor.editor import PYVISTA_MESH_IO
+        >>> sphere = pv.Sphere(theta_resolution=8, phi_resolution=8)
+        >>> session = EditingSession(sphere, mesh_io=PYVISTA_MESH_IO, shape=(4, 4, 4))
+        >>> session.set_basis("bernstein")
+        >>> session.basis, list(session.messages)[-1]
+        ('bernstein', 'basis: bernstein')
         """
         if basis == self.basis:
             return
@@ -926,6 +1114,21 @@ class EditingSession:
 
         The offsets stay (as in Blender, where the interpolation is a property of the lattice); one
         undo step. A Bernstein lattice has none: switch the basis to ``"bspline"`` first.
+
+        Parameters
+        ----------
+        interpolation : str or tuple of str
+            One interpolation for every axis, or three (x, y, z).
+
+        Examples
+        --------
+        >>> import pyvista as pv
+        >>> from ffd_notebook.view.editor.editor import PYVISTA_MESH_IO
+        >>> sphere = pv.Sphere(theta_resolution=8, phi_resolution=8)
+        >>> session = EditingSession(sphere, mesh_io=PYVISTA_MESH_IO, shape=(4, 4, 4))
+        >>> session.set_interpolation(("bspline", "catmull-rom", "linear"))
+        >>> session.interpolation, list(session.messages)[-1]
+        (('bspline', 'catmull-rom', 'linear'), 'interpolation: bspline / catmull-rom / linear')
         """
         try:
             if self.basis == "bernstein":
@@ -943,7 +1146,25 @@ class EditingSession:
         self.info(f"interpolation: {' / '.join(self.interpolation)}")
 
     def set_strength(self, strength: float) -> None:
-        """Scale the whole deformation: 1 full, 0 none, negative the other way (Blender's strength); one undo step."""
+        """Scale the whole deformation: 1 full, 0 none, negative the other way (Blender's strength); one undo step.
+
+        Parameters
+        ----------
+        strength : float
+            The factor applied to every control point's offset.
+
+        Examples
+        --------
+        >>> import pyvista as pv
+        >>> from ffd_notebook.view.editor.editor import PYVISTA_MESH_IO
+        >>> sphere = pv.Sphere(theta_resolution=8, phi_resolution=8)
+        >>> session = EditingSession(sphere, mesh_io=PYVISTA_MESH_IO, shape=(4, 4, 4))
+        >>> session.move_control_point((0, 0, 0), (0.0, 0.0, 1.0))
+        >>> full = abs(session.deformed_points - session.rest_points).max()
+        >>> session.set_strength(0.5)
+        >>> bool(abs(abs(session.deformed_points - session.rest_points).max() - full / 2) < 1e-9)
+        True
+        """
         try:
             ffd = copy_ffd(self.ffd, strength=strength)
         except ValueError as exc:
@@ -958,12 +1179,53 @@ class EditingSession:
         Always starts from the mesh as loaded, so repeated calls do not compound. Per-vertex colors
         are kept; the lattice and its offsets are kept and the deformer is re-bound to the new
         vertices; the undo history stays valid.
+
+        Parameters
+        ----------
+        reduction : float
+            Fraction of the loaded mesh's faces to remove, in ``[0, 1)``.
+
+        Returns
+        -------
+        mesh
+            The decimated mesh, now the session's mesh.
+
+        Examples
+        --------
+        >>> import pyvista as pv
+        >>> from ffd_notebook.view.editor.editor import PYVISTA_MESH_IO
+        >>> sphere = pv.Sphere(theta_resolution=8, phi_resolution=8)
+        >>> session = EditingSession(sphere, mesh_io=PYVISTA_MESH_IO, shape=(4, 4, 4))
+        >>> session.decimate(0.5).n_cells, session.decimate(0.5).n_cells, session.decimate(0).n_cells
+        (48, 48, 96)
         """
         return self.use_decimated(self.decimation(reduction))
 
     def decimation(self, reduction: float) -> Decimation:
-        """The work of :meth:`decimate`, changing nothing (a worker thread may do it): the decimated mesh and the
-        lattice bound to it. A message and a ValueError if it cannot be done."""
+        """The work of :meth:`decimate`, changing nothing (a worker thread may do it).
+
+        A message and a ValueError if it cannot be done.
+
+        Parameters
+        ----------
+        reduction : float
+            Fraction of the loaded mesh's faces to remove.
+
+        Returns
+        -------
+        Decimation
+            The decimated mesh and the lattice bound to it, for :meth:`use_decimated`.
+
+        Examples
+        --------
+        >>> import pyvista as pv
+        >>> from ffd_notebook.view.editor.editor import PYVISTA_MESH_IO
+        >>> sphere = pv.Sphere(theta_resolution=8, phi_resolution=8)
+        >>> session = EditingSession(sphere, mesh_io=PYVISTA_MESH_IO, shape=(4, 4, 4))
+        >>> done = session.decimation(0.5)
+        >>> done.mesh.n_cells, session.mesh.n_cells
+        (48, 96)
+        """
         try:
             reduction = float(reduction)
             source = self.source_mesh
@@ -980,7 +1242,28 @@ class EditingSession:
         return Decimation(reduction, source, ffd, ffd.lattice.offsets.copy(), mesh, deformer)
 
     def use_decimated(self, done: Decimation) -> Any:
-        """Use a :meth:`decimation` (made from this session's current mesh and lattice: else a ValueError)."""
+        """Use a :meth:`decimation` (made from this session's current mesh and lattice: else a ValueError).
+
+        Parameters
+        ----------
+        done : Decimation
+            What :meth:`decimation` returned.
+
+        Returns
+        -------
+        mesh
+            The decimated mesh, now the session's mesh.
+
+        Examples
+        --------
+        >>> import pyvista as pv
+        >>> from ffd_notebook.view.editor.editor import PYVISTA_MESH_IO
+        >>> sphere = pv.Sphere(theta_resolution=8, phi_resolution=8)
+        >>> session = EditingSession(sphere, mesh_io=PYVISTA_MESH_IO, shape=(4, 4, 4))
+        >>> done = session.decimation(0.5)
+        >>> session.use_decimated(done).n_cells, list(session.messages)[-1]
+        (48, 'decimated by 50%: 26 vertices, 48 faces')
+        """
         if done.source is not self.source_mesh or done.ffd is not self.ffd:
             raise ValueError("the mesh or the lattice changed meanwhile; decimate again")
         if self.ffd.weights is not None:  # one per vertex of the mesh as it was
@@ -1078,10 +1361,36 @@ class EditingSession:
 
     # ------------------------------------------------------------------ binding the model
     def replace_mesh(self, mesh: Any, deformer: Deformer, *, label: str, new_document: bool) -> None:
-        """Use another mesh with ``deformer`` (its lattice bound to ``mesh.points``; made by
-        :class:`~.files.SessionFiles`, possibly in a worker thread). A new document (a loaded mesh) clears
-        the history; a decimation keeps it and the mesh it started from. Emits ``"mesh"``, then
-        ``"lattice"`` when the lattice is another one."""
+        """Use another mesh with ``deformer`` (its lattice bound to ``mesh.points``).
+
+        The deformer is made by :class:`~.files.SessionFiles`, possibly in a worker thread. A new
+        document (a loaded mesh) clears the history; a decimation keeps it and the mesh it started
+        from. Emits ``"mesh"``, then ``"lattice"`` when the lattice is another one.
+
+        Parameters
+        ----------
+        mesh : mesh object
+            The new rest surface.
+        deformer : Deformer
+            The FFD to use, bound to ``mesh.points``.
+        label : str
+            The command's name for the changes.
+        new_document : bool
+            Whether the mesh is a new document (clears the history and pins) rather than a decimation.
+
+        Examples
+        --------
+        >>> import pyvista as pv
+        >>> from ffd_notebook.view.editor.editor import PYVISTA_MESH_IO
+        >>> sphere = pv.Sphere(theta_resolution=8, phi_resolution=8)
+        >>> session = EditingSession(sphere, mesh_io=PYVISTA_MESH_IO, shape=(4, 4, 4))
+        >>> cube = pv.Cube().triangulate()
+        >>> changes = []
+        >>> _ = session.subscribe(changes.append)
+        >>> session.replace_mesh(cube, session.ffd.bind(cube.points), label="load mesh", new_document=True)
+        >>> [change.kind for change in changes], session.mesh.n_points
+        (['mesh'], 8)
+        """
         new_lattice, selected = deformer.ffd is not self.ffd, self.selected
         if new_document:
             self.history.clear()
