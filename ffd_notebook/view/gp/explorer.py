@@ -426,6 +426,28 @@ class GPExplorer(ModelModes):
         See :func:`ffd_notebook.view.jupyter.show_plotter`; outside a kernel, ``plotter.show(**kwargs)``.
         The output showing it keeps the explorer alive until its cell runs again
         (:func:`~ffd_notebook.view.jupyter.keep_while_shown`).
+
+        Parameters
+        ----------
+        **kwargs
+            Passed to ``plotter.show`` outside a kernel (or with a static backend).
+
+        Returns
+        -------
+        object
+            In a kernel, the trame view's widget; elsewhere what ``plotter.show`` returns (None, or the
+            picture with ``return_img=True``).
+
+        Examples
+        --------
+        Outside a kernel (a script, a test), the picture PyVista renders:
+
+        >>> import pyvista as pv
+        >>> sphere = pv.Sphere(theta_resolution=8, phi_resolution=8)
+        >>> explorer = GPExplorer(sphere, off_screen=True, window_size=(64, 48), rng=0)
+        >>> explorer.show(return_img=True, auto_close=False).shape
+        (48, 64, 3)
+        >>> explorer.close()
         """
         shown = show_plotter(self.plotter, **kwargs)
         keep_while_shown(self)

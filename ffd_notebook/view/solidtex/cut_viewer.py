@@ -516,6 +516,30 @@ class CutViewer:
 
         The output showing it keeps the viewer alive until its cell runs again
         (:func:`~ffd_notebook.view.jupyter.keep_while_shown`).
+
+        Parameters
+        ----------
+        **kwargs
+            Passed to ``plotter.show`` outside a kernel (or with a static backend).
+
+        Returns
+        -------
+        object
+            In a kernel, the trame view's widget; elsewhere what ``plotter.show`` returns (None, or the
+            picture with ``return_img=True``).
+
+        Examples
+        --------
+        Outside a kernel, the picture of the current cut:
+
+        >>> from ffd_notebook.meshing.organ import tetrahedralize
+        >>> grid = tetrahedralize(pv.Sphere(theta_resolution=10, phi_resolution=10), method="delaunay")
+        >>> texture = SolidTexture.fit(np.full((4, 4, 4, 3), 200, np.uint8), grid.bounds)
+        >>> viewer = CutViewer(TexturedOrgan(grid, texture, subdivisions=0), window_size=(64, 48))
+        >>> image = viewer.show(return_img=True, auto_close=False)
+        >>> image.shape, bool(image.std() > 0)
+        ((48, 64, 3), True)
+        >>> viewer.close()
         """
         self.plotter.last_image = None
         shown = show_plotter(self.plotter, **kwargs)
