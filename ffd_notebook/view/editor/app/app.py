@@ -137,7 +137,22 @@ class EditorApp:
         return values
 
     def sync(self) -> None:
-        """Copy the editor's state (:func:`..session.controls.session_state`) to the page."""
+        """Copy the editor's state (:func:`..session.controls.session_state`) to the page.
+
+        Examples
+        --------
+        A value typed on the page but not applied goes back to the editor's:
+
+        >>> import pyvista as pv
+        >>> from ffd_notebook.view import Editor
+        >>> sphere = pv.Sphere(theta_resolution=8, phi_resolution=8)
+        >>> app = EditorApp(Editor(sphere, shape=(4, 4, 4), window_size=(64, 48)), name="doctest_app_sync")
+        >>> app.state.nx = 7
+        >>> app.sync()
+        >>> app.state.nx
+        4
+        >>> app.close()
+        """
         with self.state:
             self.state.update(self._editor_values())
 
@@ -154,6 +169,30 @@ class EditorApp:
 
         A failure becomes a message on the page instead of a traceback. File actions go through the
         app's root folder and a worker thread (their named triggers) instead of the editor's own.
+
+        Parameters
+        ----------
+        key : str
+            The control's key (``"apply"``, ``"undo"``, ``"reset_all"``...).
+        values : list, optional
+            The values of the control's page fields, in order (e.g. ``[i, j, k, dx, dy, dz]`` for ``"apply"``).
+
+        Returns
+        -------
+        bool
+            Whether the command succeeded (True for a file action handed to its worker).
+
+        Examples
+        --------
+        >>> import pyvista as pv
+        >>> from ffd_notebook.view import Editor
+        >>> sphere = pv.Sphere(theta_resolution=8, phi_resolution=8)
+        >>> app = EditorApp(Editor(sphere, shape=(4, 4, 4), window_size=(64, 48)), name="doctest_app_run")
+        >>> app.run("apply", [1, 2, 1, 0.0, 0.0, 0.25]), app.editor.lattice.offsets[1, 2, 1].tolist()
+        (True, [0.0, 0.0, 0.25])
+        >>> app.run("apply", [9, 2, 1, 0.0, 0.0, 0.25]), app.state.messages[-1]["error"]
+        (False, True)
+        >>> app.close()
         """
         control = by_key(key, self.controls)
         if control.app_trigger is not None:
@@ -164,7 +203,20 @@ class EditorApp:
         return ok
 
     def reset_camera(self) -> None:
-        """Fit the camera to the scene."""
+        """Fit the camera to the scene.
+
+        Examples
+        --------
+        >>> import pyvista as pv
+        >>> from ffd_notebook.view import Editor
+        >>> sphere = pv.Sphere(theta_resolution=8, phi_resolution=8)
+        >>> app = EditorApp(Editor(sphere, shape=(4, 4, 4), window_size=(64, 48)), name="doctest_app_camera")
+        >>> app.editor.plotter.camera.position = (10.0, 10.0, 10.0)
+        >>> app.reset_camera()
+        >>> bool(max(abs(v) for v in app.editor.plotter.camera.position) < 10.0)
+        True
+        >>> app.close()
+        """
         self.editor.plotter.reset_camera()
         self.view.update()
 
@@ -190,7 +242,18 @@ class EditorApp:
         return self.server.start(port=port, host=host, **kwargs)
 
     def close(self) -> None:
-        """Remove the uploads folder and close the editor."""
+        """Remove the uploads folder and close the editor.
+
+        Examples
+        --------
+        >>> import pyvista as pv
+        >>> from ffd_notebook.view import Editor
+        >>> sphere = pv.Sphere(theta_resolution=8, phi_resolution=8)
+        >>> app = EditorApp(Editor(sphere, shape=(4, 4, 4), window_size=(64, 48)), name="doctest_app_close")
+        >>> app.close()
+        >>> app.editor.lifetime.alive
+        False
+        """
         self.files.cleanup()
         self.editor.close()
 
