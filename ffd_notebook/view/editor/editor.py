@@ -551,8 +551,36 @@ class Editor:
         self.session.files.save_mesh(path)
 
     def load_face(self, photo: Any) -> pv.PolyData:
-        """Replace the mesh with the coloured face of a photo (path or array; a new undo history), as loading a
-        mesh does. A photo without a face raises :class:`~ffd_notebook.errors.NoFaceError` and changes nothing."""
+        """Replace the mesh with the coloured face of a photo (a new undo history), as loading a mesh does.
+
+        A photo without a face raises :class:`~ffd_notebook.errors.NoFaceError` and changes nothing.
+
+        Parameters
+        ----------
+        photo : str, os.PathLike, numpy.ndarray or Photo
+            The photo: a file, an RGB array, or a :class:`~ffd_notebook.face.photo.Photo`.
+
+        Returns
+        -------
+        pyvista.PolyData
+            The face mesh (``"RGB"`` point colours, millimetres), now the editor's mesh.
+
+        Examples
+        --------
+        >>> import pyvista as pv
+        >>> from skimage import data
+        >>> editor = Editor(pv.Sphere(theta_resolution=8, phi_resolution=8), shape=(4, 4, 4), window_size=(64, 48))
+        >>> face = editor.load_face(data.astronaut())
+        >>> face.n_points, editor.mesh is face, editor.session.has_colors
+        (28881, True, True)
+        >>> editor.load_face(data.coins())
+        Traceback (most recent call last):
+        ...
+        ffd_notebook.errors.NoFaceError: the photo (a 384x303 array): no face found in the photo
+        >>> editor.mesh is face
+        True
+        >>> editor.close()
+        """
         return self.session.files.load_face(photo)
 
     def screenshot(self, path: Path | None = None) -> NDArray[np.uint8]:
