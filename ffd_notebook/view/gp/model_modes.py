@@ -280,7 +280,7 @@ class ModelModes:
     def set_model(self, model: LowRankGP, name: str) -> None:
         """Make a shape model the one shown (no drawing).
 
-        Landmarks are dropped and the mean is shown at the next :meth:`refresh`; the mesh keeps its cells
+        Landmarks are dropped and the mean is shown at the next ``refresh()``; the mesh keeps its cells
         (:meth:`open_model` also replaces the mesh and the sliders).
 
         Parameters

@@ -181,7 +181,7 @@ class ControlPanel(widgets.VBox):
         Parameters
         ----------
         control : Control
-            One of the panel's :attr:`controls` (:data:`..session.controls.CONTROLS`).
+            One of the panel's ``controls`` (:data:`..session.controls.CONTROLS`).
         values : sequence
             The values of the control's fields (``control.state``), in order.
 
