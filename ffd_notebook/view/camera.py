@@ -35,6 +35,18 @@ def view_direction(normal: ArrayLike, elevation: float = 0.4) -> NDArray[np.floa
     For a cut, ``normal`` points to the side the cut removed, where the camera goes; it is raised
     by ``elevation`` times the world's up (z, or y for a nearly horizontal face).
 
+    Parameters
+    ----------
+    normal : array_like
+        The face's outward normal (3 values, any non-zero length).
+    elevation : float, default 0.4
+        How far to raise the direction towards the world's up, relative to the normal's unit length.
+
+    Returns
+    -------
+    numpy.ndarray
+        The unit direction from the face towards the camera, shape ``(3,)``.
+
     Examples
     --------
     >>> view_direction((0, 1, 0), elevation=0.0).tolist()

@@ -26,6 +26,11 @@ _WINDOW_LOCK = threading.Lock()  # the variable is set only while one of our win
 def is_headless() -> bool:
     """True on Linux with no X11/Wayland display (a server, a container, CI).
 
+    Returns
+    -------
+    bool
+        ``True`` when no display is set on Linux; always ``False`` on other systems.
+
     Examples
     --------
     >>> isinstance(is_headless(), bool)
@@ -65,6 +70,11 @@ def new_plotter(*, headless: bool | None = None, **kwargs: Any) -> Any:
         :func:`headless_settings_apply`.
     **kwargs
         Passed to :class:`pyvista.Plotter`.
+
+    Returns
+    -------
+    pyvista.Plotter
+        The new plotter (off-screen plotters render into an EGL window when headless).
 
     Examples
     --------

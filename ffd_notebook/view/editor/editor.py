@@ -256,6 +256,27 @@ class Editor:
 
         Errors are logged to :attr:`messages` (PyVista would turn them into warnings nobody sees);
         :attr:`last_callback_ms` is how long the session's drag took.
+
+        Parameters
+        ----------
+        center : array_like
+            The handle's new position (world coordinates).
+        index : int
+            The control point's flat C-order index.
+
+        Examples
+        --------
+        >>> import pyvista as pv
+        >>> from ffd_notebook.view import Editor
+        >>> sphere = pv.Sphere(theta_resolution=8, phi_resolution=8)
+        >>> editor = Editor(sphere, shape=(4, 4, 4), window_size=(64, 48))
+        >>> editor.on_widget_moved(editor.session.control_points()[5] + (0.0, 0.0, 0.2), 5)
+        >>> editor.lattice.offsets.reshape(-1, 3)[5].round(3).tolist(), editor.last_callback_ms > 0
+        ([0.0, 0.0, 0.2], True)
+        >>> editor.on_widget_moved((0.0, 0.0, 0.0), 999)
+        >>> print(editor.messages[-1])  # doctest: +ELLIPSIS
+        Error: widget callback failed for control point 999: ValueError('index 999 is out of bounds ...')
+        >>> editor.close()
         """
         t0 = time.perf_counter()
         try:
@@ -269,38 +290,200 @@ class Editor:
     # The session has every command (``editor.session``: select, set_shape, set_basis, show_colors,
     # surface drags, decimate...); these are the ones the README and the tutorials use on the editor.
     def update(self, changed: Any = None) -> None:
-        """Show edits made in place to ``editor.lattice.offsets`` (one undo step): :meth:`EditingSession.update`."""
+        """Show edits made in place to ``editor.lattice.offsets`` (one undo step): :meth:`EditingSession.update`.
+
+        Parameters
+        ----------
+        changed : list of tuple of int, optional
+            Control points ``(i, j, k)`` edited in place (a hint; points found to differ are always included).
+
+        Examples
+        --------
+        >>> import pyvista as pv
+        >>> from ffd_notebook.view import Editor
+        >>> sphere = pv.Sphere(theta_resolution=8, phi_resolution=8)
+        >>> editor = Editor(sphere, shape=(4, 4, 4), window_size=(64, 48))
+        >>> editor.lattice.offsets[1, 1, 2] = (0.0, 0.0, 0.2)
+        >>> editor.update([(1, 1, 2)])
+        >>> bool(editor.deformed_mesh.points[:, 2].max() > editor.mesh.points[:, 2].max())
+        True
+        >>> editor.close()
+        """
         self.session.update(changed)
 
     def undo(self) -> bool:
-        """Revert the last step; False if there was none."""
+        """Revert the last step; False if there was none.
+
+        Returns
+        -------
+        bool
+            Whether a step was reverted.
+
+        Examples
+        --------
+        >>> import pyvista as pv
+        >>> from ffd_notebook.view import Editor
+        >>> sphere = pv.Sphere(theta_resolution=8, phi_resolution=8)
+        >>> editor = Editor(sphere, shape=(4, 4, 4), window_size=(64, 48))
+        >>> editor.undo()
+        False
+        >>> editor.lattice.offsets[0, 0, 0] = (0.1, 0.0, 0.0)
+        >>> editor.update()
+        >>> editor.undo(), float(abs(editor.lattice.offsets).sum())
+        (True, 0.0)
+        >>> editor.close()
+        """
         return self.session.undo()
 
     def redo(self) -> bool:
-        """Re-apply the last undone step; False if there was none."""
+        """Re-apply the last undone step; False if there was none.
+
+        Returns
+        -------
+        bool
+            Whether a step was re-applied.
+
+        Examples
+        --------
+        >>> import pyvista as pv
+        >>> from ffd_notebook.view import Editor
+        >>> sphere = pv.Sphere(theta_resolution=8, phi_resolution=8)
+        >>> editor = Editor(sphere, shape=(4, 4, 4), window_size=(64, 48))
+        >>> editor.lattice.offsets[0, 0, 0] = (0.1, 0.0, 0.0)
+        >>> editor.update()
+        >>> editor.undo(), editor.redo(), editor.redo(), editor.lattice.offsets[0, 0, 0].tolist()
+        (True, True, False, [0.1, 0.0, 0.0])
+        >>> editor.close()
+        """
         return self.session.redo()
 
     def reset(self, ijk: ArrayLike | None = None) -> None:
-        """Zero the offset of control point ``ijk``, or of all of them (one undo step)."""
+        """Zero the offset of control point ``ijk``, or of all of them (one undo step).
+
+        Parameters
+        ----------
+        ijk : array_like, optional
+            The control point ``(i, j, k)``; all of them if omitted.
+
+        Examples
+        --------
+        >>> import pyvista as pv
+        >>> from ffd_notebook.view import Editor
+        >>> sphere = pv.Sphere(theta_resolution=8, phi_resolution=8)
+        >>> editor = Editor(sphere, shape=(4, 4, 4), window_size=(64, 48))
+        >>> editor.lattice.offsets[0, 0, 0] = (0.1, 0.0, 0.0)
+        >>> editor.lattice.offsets[3, 3, 3] = (0.0, 0.2, 0.0)
+        >>> editor.update()
+        >>> editor.reset((0, 0, 0))
+        >>> float(abs(editor.lattice.offsets).sum())
+        0.2
+        >>> editor.reset()
+        >>> float(abs(editor.lattice.offsets).sum())
+        0.0
+        >>> editor.close()
+        """
         self.session.reset(ijk)
 
     def set_field(self, field: Field | None) -> None:
-        """Color the mesh by ``"displacement"``, by folding (``"jacobian"``), or not (None)."""
+        """Color the mesh by ``"displacement"``, by folding (``"jacobian"``), or not (None).
+
+        Parameters
+        ----------
+        field : {None, "displacement", "jacobian", "weights"}
+            The field shown on the mesh (``"weights"``: the vertices' painted weights).
+
+        Examples
+        --------
+        >>> import pyvista as pv
+        >>> from ffd_notebook.view import Editor
+        >>> sphere = pv.Sphere(theta_resolution=8, phi_resolution=8)
+        >>> editor = Editor(sphere, shape=(4, 4, 4), window_size=(64, 48))
+        >>> editor.set_field("jacobian")
+        >>> editor.session.field, editor.messages[-1]
+        ('jacobian', 'folding (det J <= 0) at 0 of 50 vertices')
+        >>> editor.close()
+        """
         self.session.set_field(field)
 
     def show_points(self, which: PointsShown) -> None:
-        """Draw all control points (``"all"``), those near the selection (``"near"``), the hull or ``"auto"``."""
+        """Draw all control points (``"all"``), those near the selection (``"near"``), the hull or ``"auto"``.
+
+        Parameters
+        ----------
+        which : {"auto", "all", "near", "hull"}
+            The control points drawn (``"auto"``: all up to 1000 control points, else the hull).
+
+        Examples
+        --------
+        >>> import pyvista as pv
+        >>> from ffd_notebook.view import Editor
+        >>> sphere = pv.Sphere(theta_resolution=8, phi_resolution=8)
+        >>> editor = Editor(sphere, shape=(4, 4, 4), window_size=(64, 48))
+        >>> editor.show_points("hull")
+        >>> editor.session.points_shown
+        'hull'
+        >>> editor.close()
+        """
         self.session.show_points(which)
 
     def load_deformation(self, path: Path) -> FFD:
         """Load a deformation file (.ffd, ITK .tfm/.txt/.h5/.hdf5, PyGeM .prm; one undo step) and return the FFD.
 
         A bad file raises and changes nothing (:meth:`.session.files.SessionFiles.load_deformation`).
+
+        Parameters
+        ----------
+        path : str or os.PathLike
+            The file; its extension says the format.
+
+        Returns
+        -------
+        FFD
+            The deformation now applied to the mesh.
+
+        Examples
+        --------
+        >>> import os, tempfile
+        >>> import pyvista as pv
+        >>> from ffd_notebook.view import Editor
+        >>> sphere = pv.Sphere(theta_resolution=8, phi_resolution=8)
+        >>> editor = Editor(sphere, shape=(4, 4, 4), window_size=(64, 48))
+        >>> editor.lattice.offsets[1, 2, 1] = (0.0, 0.0, 0.2)
+        >>> editor.update()
+        >>> folder = tempfile.mkdtemp()
+        >>> editor.save_deformation(os.path.join(folder, "bulge.ffd"))
+        >>> editor.reset()
+        >>> ffd = editor.load_deformation(os.path.join(folder, "bulge.ffd"))
+        >>> ffd.lattice.offsets[1, 2, 1].tolist(), editor.lattice is ffd.lattice
+        ([0.0, 0.0, 0.2], True)
+        >>> editor.close()
         """
         return self.session.files.load_deformation(path)
 
     def save_deformation(self, path: Path) -> None:
-        """Save the FFD to a deformation file (format by extension), atomically."""
+        """Save the FFD to a deformation file (format by extension), atomically.
+
+        Parameters
+        ----------
+        path : str or os.PathLike
+            Where to write (.ffd, ITK .tfm/.txt/.h5/.hdf5, PyGeM .prm...).
+
+        Examples
+        --------
+        >>> import os, tempfile
+        >>> from ffd_notebook.io import load_ffd
+        >>> import pyvista as pv
+        >>> from ffd_notebook.view import Editor
+        >>> sphere = pv.Sphere(theta_resolution=8, phi_resolution=8)
+        >>> editor = Editor(sphere, shape=(4, 4, 4), window_size=(64, 48))
+        >>> editor.lattice.offsets[1, 2, 1] = (0.0, 0.0, 0.2)
+        >>> editor.update()
+        >>> path = os.path.join(tempfile.mkdtemp(), "bulge.ffd")
+        >>> editor.save_deformation(path)
+        >>> load_ffd(path).offsets[1, 2, 1].tolist()
+        [0.0, 0.0, 0.2]
+        >>> editor.close()
+        """
         self.session.files.save_deformation(path)
 
     def load_ffd(self, path: Path) -> Lattice:
@@ -315,20 +498,115 @@ class Editor:
     save_ffd = renamed(save_deformation, "save_ffd")
 
     def load_mesh(self, path: Path) -> pv.PolyData:
-        """Load a mesh (OBJ with colours, or anything PyVista reads; a new undo history). A bad file changes nothing."""
+        """Load a mesh (OBJ with colours, or anything PyVista reads; a new undo history). A bad file changes nothing.
+
+        Parameters
+        ----------
+        path : str or os.PathLike
+            The mesh file.
+
+        Returns
+        -------
+        pyvista.PolyData
+            The loaded surface, now the editor's mesh.
+
+        Examples
+        --------
+        >>> import os, tempfile
+        >>> import pyvista as pv
+        >>> from ffd_notebook.view import Editor
+        >>> sphere = pv.Sphere(theta_resolution=8, phi_resolution=8)
+        >>> editor = Editor(sphere, shape=(4, 4, 4), window_size=(64, 48))
+        >>> path = os.path.join(tempfile.mkdtemp(), "cube.ply")
+        >>> pv.Cube().triangulate().save(path)
+        >>> editor.load_mesh(path).n_points, editor.mesh.n_points
+        (8, 8)
+        >>> editor.close()
+        """
         return self.session.files.load_mesh(path)
 
     def save_mesh(self, path: Path) -> None:
-        """Save the deformed mesh (OBJ with colours, PLY, VTP, ... by extension), atomically."""
+        """Save the deformed mesh (OBJ with colours, PLY, VTP, ... by extension), atomically.
+
+        Parameters
+        ----------
+        path : str or os.PathLike
+            Where to write; the extension says the format.
+
+        Examples
+        --------
+        >>> import os, tempfile
+        >>> import pyvista as pv
+        >>> from ffd_notebook.view import Editor
+        >>> sphere = pv.Sphere(theta_resolution=8, phi_resolution=8)
+        >>> editor = Editor(sphere, shape=(4, 4, 4), window_size=(64, 48))
+        >>> editor.lattice.offsets[1, 1, 3] = (0.0, 0.0, 0.3)
+        >>> editor.update()
+        >>> path = os.path.join(tempfile.mkdtemp(), "bulged.ply")
+        >>> editor.save_mesh(path)
+        >>> bool(pv.read(path).points[:, 2].max() > sphere.points[:, 2].max())
+        True
+        >>> editor.close()
+        """
         self.session.files.save_mesh(path)
 
     def load_face(self, photo: Any) -> pv.PolyData:
-        """Replace the mesh with the coloured face of a photo (path or array; a new undo history), as loading a
-        mesh does. A photo without a face raises :class:`~ffd_notebook.errors.NoFaceError` and changes nothing."""
+        """Replace the mesh with the coloured face of a photo (a new undo history), as loading a mesh does.
+
+        A photo without a face raises :class:`~ffd_notebook.errors.NoFaceError` and changes nothing.
+
+        Parameters
+        ----------
+        photo : str, os.PathLike, numpy.ndarray or Photo
+            The photo: a file, an RGB array, or a :class:`~ffd_notebook.face.photo.Photo`.
+
+        Returns
+        -------
+        pyvista.PolyData
+            The face mesh (``"RGB"`` point colours, millimetres), now the editor's mesh.
+
+        Examples
+        --------
+        >>> import pyvista as pv
+        >>> from skimage import data
+        >>> editor = Editor(pv.Sphere(theta_resolution=8, phi_resolution=8), shape=(4, 4, 4), window_size=(64, 48))
+        >>> face = editor.load_face(data.astronaut())
+        >>> face.n_points, editor.mesh is face, editor.session.has_colors
+        (28881, True, True)
+        >>> editor.load_face(data.coins())
+        Traceback (most recent call last):
+        ...
+        ffd_notebook.errors.NoFaceError: the photo (a 384x303 array): no face found in the photo
+        >>> editor.mesh is face
+        True
+        >>> editor.close()
+        """
         return self.session.files.load_face(photo)
 
     def screenshot(self, path: Path | None = None) -> NDArray[np.uint8]:
-        """Render and return the image ``(h, w, 3)`` uint8; also write a PNG if ``path`` is given."""
+        """Render and return the image ``(h, w, 3)`` uint8; also write a PNG if ``path`` is given.
+
+        Parameters
+        ----------
+        path : str or os.PathLike, optional
+            A PNG file to write too.
+
+        Returns
+        -------
+        numpy.ndarray
+            The rendered view, ``(height, width, 3)`` uint8.
+
+        Examples
+        --------
+        >>> import pyvista as pv
+        >>> from ffd_notebook.view import Editor
+        >>> sphere = pv.Sphere(theta_resolution=8, phi_resolution=8)
+        >>> editor = Editor(sphere, shape=(4, 4, 4), window_size=(64, 48))
+        >>> image = editor.screenshot()
+        >>> image.shape, image.dtype.name, bool(image.std() > 0)
+        ((48, 64, 3), 'uint8', True)
+        >>> editor.close()
+        """
         return self.scene.screenshot(path)
 
     # ------------------------------------------------------------------ Jupyter
@@ -343,7 +621,20 @@ class Editor:
         return self._widget
 
     def display(self) -> None:
-        """Show the editor in the notebook, once per cell (showing it again in the same cell does nothing)."""
+        """Show the editor in the notebook, once per cell (showing it again in the same cell does nothing).
+
+        Examples
+        --------
+        Outside a notebook, IPython's ``display`` prints what would be shown:
+
+        >>> import pyvista as pv
+        >>> from ffd_notebook.view import Editor
+        >>> sphere = pv.Sphere(theta_resolution=8, phi_resolution=8)
+        >>> editor = Editor(sphere, shape=(4, 4, 4), window_size=(64, 48))
+        >>> editor.display()  # doctest: +ELLIPSIS
+        <ffd_notebook.view.editor.notebook.output.EditorOutput object at ...>
+        >>> editor.close()
+        """
         from IPython.display import display
 
         from ..jupyter import execution_count, keep_while_shown
@@ -363,6 +654,18 @@ class Editor:
         """Release the plotter, its browser views and the widgets now (the editor cannot be used afterwards).
 
         An editor nobody refers to any more is released the same way when it is collected.
+
+        Examples
+        --------
+        >>> import pyvista as pv
+        >>> from ffd_notebook.view import Editor
+        >>> sphere = pv.Sphere(theta_resolution=8, phi_resolution=8)
+        >>> editor = Editor(sphere, shape=(4, 4, 4), window_size=(64, 48))
+        >>> editor.lifetime.alive
+        True
+        >>> editor.close()
+        >>> editor.lifetime.alive
+        False
         """
         from ..jupyter import forget_shown
 

@@ -159,7 +159,26 @@ class GPExplorer(ModelModes):
         self.refresh()
 
     def set_rest_points(self, points: ArrayLike, model_scale: float | None) -> None:
-        """Rest shape, its size, the colour scale and the default landmark noise."""
+        """Rest shape, its size, the colour scale and the default landmark noise.
+
+        Parameters
+        ----------
+        points : array_like
+            ``(N, 3)`` rest positions of the vertices.
+        model_scale : float or None
+            The colour scale a shape model gives (its typical displacement); None: 3 % of the shape's size
+            (unless the explorer was given ``scale``).
+
+        Examples
+        --------
+        >>> import pyvista as pv
+        >>> sphere = pv.Sphere(theta_resolution=8, phi_resolution=8)
+        >>> explorer = GPExplorer(sphere, off_screen=True, window_size=(64, 48), rng=0)
+        >>> explorer.set_rest_points(2 * sphere.points, None)
+        >>> round(explorer.size, 3), round(explorer.scale, 4)
+        (3.406, 0.1022)
+        >>> explorer.close()
+        """
         self.rest_points = np.array(points, dtype=np.float64)
         extent = self.rest_points.max(axis=0) - self.rest_points.min(axis=0)
         self.size = float(np.linalg.norm(extent)) or 1.0
@@ -199,7 +218,23 @@ class GPExplorer(ModelModes):
 
     # ------------------------------------------------------------------ actions (also the widgets' callbacks)
     def set_sigma(self, sigma: float) -> None:
-        """Change the kernel width: rebuild the model and redraw (same random coefficients)."""
+        """Change the kernel width: rebuild the model and redraw (same random coefficients).
+
+        Parameters
+        ----------
+        sigma : float
+            The new width (positive; a ValueError for a shape model, which has none).
+
+        Examples
+        --------
+        >>> import pyvista as pv
+        >>> sphere = pv.Sphere(theta_resolution=8, phi_resolution=8)
+        >>> explorer = GPExplorer(sphere, off_screen=True, window_size=(64, 48), rng=0)
+        >>> explorer.set_sigma(0.2)
+        >>> explorer.sigma, float(explorer.kernel.sigma)
+        (0.2, 0.2)
+        >>> explorer.close()
+        """
         if self.model_name is not None:
             raise ValueError(f"{self.model_name} is a shape model: it has no kernel width")
         if not np.isfinite(sigma) or sigma <= 0:
@@ -215,8 +250,25 @@ class GPExplorer(ModelModes):
     def sample(self, rng: int | np.random.Generator | None = None, *, seed: int | None = None) -> None:
         """Show a random deformation (a posterior sample when there are landmarks).
 
-        ``rng`` (an int or a Generator; ``seed=`` is a deprecated alias) fixes the sample; without
-        it the next draw of the explorer's own :attr:`rng`, as the "sample" button does.
+        Parameters
+        ----------
+        rng : int or numpy.random.Generator, optional
+            Fixes the sample; without it the next draw of the explorer's own :attr:`rng`, as the
+            "sample" button does.
+        seed : int, optional
+            Deprecated alias of ``rng``.
+
+        Examples
+        --------
+        >>> import pyvista as pv
+        >>> sphere = pv.Sphere(theta_resolution=8, phi_resolution=8)
+        >>> explorer = GPExplorer(sphere, off_screen=True, window_size=(64, 48), rng=0)
+        >>> explorer.sample(rng=1)
+        >>> first = explorer.displacement.copy()
+        >>> explorer.sample(rng=1)
+        >>> bool(abs(first).max() > 0), bool((explorer.displacement == first).all())
+        (True, True)
+        >>> explorer.close()
         """
         if seed is not None:
             rng = renamed_keyword({"seed": seed}, "seed", "rng", rng, "GPExplorer.sample")
@@ -226,7 +278,19 @@ class GPExplorer(ModelModes):
         self.refresh()
 
     def show_mean(self) -> None:
-        """Show the mean deformation (the posterior mean when there are landmarks)."""
+        """Show the mean deformation (the posterior mean when there are landmarks).
+
+        Examples
+        --------
+        >>> import pyvista as pv
+        >>> sphere = pv.Sphere(theta_resolution=8, phi_resolution=8)
+        >>> explorer = GPExplorer(sphere, off_screen=True, window_size=(64, 48), rng=0)
+        >>> explorer.sample(rng=1)
+        >>> explorer.show_mean()
+        >>> float(abs(explorer.displacement).max())
+        0.0
+        >>> explorer.close()
+        """
         self._coefficients = None
         self.sync_mode_sliders()
         self.refresh()
@@ -237,9 +301,34 @@ class GPExplorer(ModelModes):
         """Observe a displacement at a point (rest coordinates); returns the landmark's index.
 
         Without ``displacement`` the landmark pins the point where it is currently shown. The
-        displacement is from the rest (reference) point, not from the mean shape. ``noise`` is
-        the observation's variance, three variances or a 3x3 covariance (default
-        ``noise``). The view switches to the posterior mean.
+        displacement is from the rest (reference) point, not from the mean shape. The view switches
+        to the posterior mean.
+
+        Parameters
+        ----------
+        point : array_like
+            Where the displacement is observed (rest coordinates, 3 values).
+        displacement : array_like, optional
+            The observed displacement; by default the one shown there now.
+        noise : float or array_like, optional
+            The observation's variance, three variances or a 3x3 covariance (default: the explorer's
+            ``noise``).
+
+        Returns
+        -------
+        int
+            The new landmark's index.
+
+        Examples
+        --------
+        >>> import pyvista as pv
+        >>> sphere = pv.Sphere(theta_resolution=8, phi_resolution=8)
+        >>> explorer = GPExplorer(sphere, off_screen=True, window_size=(64, 48), rng=0)
+        >>> explorer.add_landmark(explorer.rest_points[0], (0.0, 0.0, 0.2))
+        0
+        >>> explorer.displacement[0].round(2).tolist()
+        [0.0, 0.0, 0.2]
+        >>> explorer.close()
         """
         where = np.asarray(point, dtype=np.float64).reshape(3)
         if displacement is None:
@@ -259,14 +348,47 @@ class GPExplorer(ModelModes):
         return len(self.landmarks) - 1
 
     def move_landmark(self, index: int, displacement: ArrayLike) -> None:
-        """Set the observed displacement of landmark ``index`` (the posterior variance is unchanged)."""
+        """Set the observed displacement of landmark ``index`` (the posterior variance is unchanged).
+
+        Parameters
+        ----------
+        index : int
+            The landmark (as :meth:`add_landmark` returned it).
+        displacement : array_like
+            Its new observed displacement.
+
+        Examples
+        --------
+        >>> import pyvista as pv
+        >>> sphere = pv.Sphere(theta_resolution=8, phi_resolution=8)
+        >>> explorer = GPExplorer(sphere, off_screen=True, window_size=(64, 48), rng=0)
+        >>> explorer.add_landmark(explorer.rest_points[0], (0.0, 0.0, 0.2))
+        0
+        >>> explorer.move_landmark(0, (0.0, 0.1, 0.0))
+        >>> explorer.displacement[0].round(2).tolist()
+        [0.0, 0.1, 0.0]
+        >>> explorer.close()
+        """
         where, _ = self.landmarks[index]
         self.landmarks[index] = (where, np.asarray(displacement, dtype=np.float64).reshape(3))
         self._condition()
         self.refresh()
 
     def clear_landmarks(self) -> None:
-        """Remove every landmark: back to the prior."""
+        """Remove every landmark: back to the prior.
+
+        Examples
+        --------
+        >>> import pyvista as pv
+        >>> sphere = pv.Sphere(theta_resolution=8, phi_resolution=8)
+        >>> explorer = GPExplorer(sphere, off_screen=True, window_size=(64, 48), rng=0)
+        >>> explorer.add_landmark(explorer.rest_points[0], (0.0, 0.0, 0.2))
+        0
+        >>> explorer.clear_landmarks()
+        >>> len(explorer.landmarks), float(abs(explorer.displacement).max())
+        (0, 0.0)
+        >>> explorer.close()
+        """
         self.landmarks.clear()
         self.landmark_noise.clear()
         if self._widgets_on:
@@ -276,7 +398,28 @@ class GPExplorer(ModelModes):
         self.refresh()
 
     def screenshot(self, filename: str | None = None) -> NDArray[np.uint8]:
-        """Render and return the image (and write it if ``filename`` is given)."""
+        """Render and return the image (and write it if ``filename`` is given).
+
+        Parameters
+        ----------
+        filename : str, optional
+            An image file to write too (PNG, JPEG... by extension).
+
+        Returns
+        -------
+        numpy.ndarray
+            The rendered view, ``(height, width, 3)`` uint8.
+
+        Examples
+        --------
+        >>> import pyvista as pv
+        >>> sphere = pv.Sphere(theta_resolution=8, phi_resolution=8)
+        >>> explorer = GPExplorer(sphere, off_screen=True, window_size=(64, 48), rng=0)
+        >>> image = explorer.screenshot()
+        >>> image.shape, image.dtype.name
+        ((48, 64, 3), 'uint8')
+        >>> explorer.close()
+        """
         self.plotter.render()
         return self.plotter.screenshot(filename, return_img=True)
 
@@ -286,6 +429,28 @@ class GPExplorer(ModelModes):
         See :func:`ffd_notebook.view.jupyter.show_plotter`; outside a kernel, ``plotter.show(**kwargs)``.
         The output showing it keeps the explorer alive until its cell runs again
         (:func:`~ffd_notebook.view.jupyter.keep_while_shown`).
+
+        Parameters
+        ----------
+        **kwargs
+            Passed to ``plotter.show`` outside a kernel (or with a static backend).
+
+        Returns
+        -------
+        object
+            In a kernel, the trame view's widget; elsewhere what ``plotter.show`` returns (None, or the
+            picture with ``return_img=True``).
+
+        Examples
+        --------
+        Outside a kernel (a script, a test), the picture PyVista renders:
+
+        >>> import pyvista as pv
+        >>> sphere = pv.Sphere(theta_resolution=8, phi_resolution=8)
+        >>> explorer = GPExplorer(sphere, off_screen=True, window_size=(64, 48), rng=0)
+        >>> explorer.show(return_img=True, auto_close=False).shape
+        (48, 64, 3)
+        >>> explorer.close()
         """
         shown = show_plotter(self.plotter, **kwargs)
         keep_while_shown(self)
@@ -295,6 +460,15 @@ class GPExplorer(ModelModes):
         """Close the browser views and the plotter (if the explorer made it) and free its render window.
 
         An explorer nobody refers to any more (no variable, no output showing it) is closed the same way.
+
+        Examples
+        --------
+        >>> import pyvista as pv
+        >>> sphere = pv.Sphere(theta_resolution=8, phi_resolution=8)
+        >>> explorer = GPExplorer(sphere, off_screen=True, window_size=(64, 48), rng=0)
+        >>> explorer.close()
+        >>> explorer.lifetime.alive
+        False
         """
         forget_shown(self)
         self.lifetime.close()
@@ -397,7 +571,23 @@ class GPExplorer(ModelModes):
         )
 
     def refresh(self) -> None:
-        """Show the current deformation: mesh points, arrows and variance, in place."""
+        """Show the current deformation: mesh points, arrows and variance, in place.
+
+        Examples
+        --------
+        The mesh shown is redrawn from the model, whatever was done to its points:
+
+        >>> import pyvista as pv
+        >>> sphere = pv.Sphere(theta_resolution=8, phi_resolution=8)
+        >>> explorer = GPExplorer(sphere, off_screen=True, window_size=(64, 48), rng=0)
+        >>> explorer.sample(rng=1)
+        >>> shown = explorer.mesh.points.copy()
+        >>> explorer.mesh.points[:] = 0.0
+        >>> explorer.refresh()
+        >>> bool((explorer.mesh.points == shown).all())
+        True
+        >>> explorer.close()
+        """
         process = self.process
         field = process.mean() if self._coefficients is None else process.instance(self._coefficients)
         n = len(self.rest_points)

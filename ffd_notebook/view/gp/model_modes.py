@@ -169,7 +169,31 @@ class ModelModes:
 
     @staticmethod
     def guarded(fn: Any, *args: Any) -> None:
-        """Run a widget callback ``fn(*args)``; a failure is logged, not lost in a PyVista warning."""
+        """Run a widget callback ``fn(*args)``; a failure is logged, not lost in a PyVista warning.
+
+        Parameters
+        ----------
+        fn : callable
+            The callback.
+        *args
+            Its arguments.
+
+        Examples
+        --------
+        >>> import pyvista as pv
+        >>> from ffd_notebook.view import GPExplorer
+        >>> ref = pv.Sphere(theta_resolution=8, phi_resolution=8)
+        >>> model = LowRankGP.from_examples(ref, [ref.points * s for s in (0.9, 1.0, 1.1)])
+        >>> explorer = GPExplorer(model=model, off_screen=True, window_size=(64, 48))
+        >>> explorer.guarded(explorer.set_mode, 0, 0.5)
+        >>> explorer.coefficients.tolist()
+        [0.5]
+        >>> explorer.guarded(explorer.set_mode, 9, 0.5)
+        Traceback (most recent call last):
+        ...
+        IndexError: mode 9 out of range for rank 1
+        >>> explorer.close()
+        """
         # PyVista turns exceptions in callbacks into warnings: log them where they can be read
         try:
             fn(*args)
@@ -183,12 +207,51 @@ class ModelModes:
         The mesh becomes the model's mean shape, landmarks are dropped, and the first
         :attr:`n_modes` modes get sliders. A file that cannot be read raises
         :class:`~ffd_notebook.errors.FileFormatError` and leaves the explorer as it was.
+
+        Parameters
+        ----------
+        source : LowRankGP or str or os.PathLike
+            The model, or its Statismo file.
+
+        Examples
+        --------
+        A kernel model of a sphere, then a shape model of spheres of three sizes:
+
+        >>> import pyvista as pv
+        >>> from ffd_notebook.view import GPExplorer
+        >>> ref = pv.Sphere(theta_resolution=8, phi_resolution=8)
+        >>> explorer = GPExplorer(ref, off_screen=True, window_size=(64, 48), rng=0)
+        >>> explorer.open_model(LowRankGP.from_examples(ref, [ref.points * s for s in (0.9, 1.0, 1.1)]))
+        >>> print(explorer.status_text().splitlines()[0])
+        model (50 points, rank 1), rank 1: prior mean
+        >>> explorer.close()
         """
         model, name = resolve_model(source)  # every failure happens here, before any change
         self._use_model(model, name, model_mesh(model))
 
     def set_landmark_noise(self, index: int, noise: ArrayLike) -> None:
-        """Change landmark ``index``'s noise: a variance, three variances or a 3x3 covariance."""
+        """Change landmark ``index``'s noise: a variance, three variances or a 3x3 covariance.
+
+        Parameters
+        ----------
+        index : int
+            The landmark.
+        noise : float or array_like
+            Its observation's variance, three variances (x, y, z) or a 3x3 covariance.
+
+        Examples
+        --------
+        >>> import pyvista as pv
+        >>> from ffd_notebook.view import GPExplorer
+        >>> sphere = pv.Sphere(theta_resolution=8, phi_resolution=8)
+        >>> explorer = GPExplorer(sphere, off_screen=True, window_size=(64, 48), rng=0)
+        >>> explorer.add_landmark(explorer.rest_points[0], (0.0, 0.0, 0.2))
+        0
+        >>> explorer.set_landmark_noise(0, [1e-6, 1e-6, 1.0])  # z barely observed: back towards 0
+        >>> bool(abs(explorer.displacement[0, 2]) < 0.1)
+        True
+        >>> explorer.close()
+        """
         covs = list(self.landmark_noise)
         covs[index] = landmark_covariance(noise)
         self._posterior = self.conditioned(self.landmarks, covs)
@@ -199,13 +262,64 @@ class ModelModes:
     def conditioned(
         self, landmarks: list[tuple[NDArray, NDArray]], noise: list[NDArray[np.float64]]
     ) -> LowRankGP | None:
+        """The model conditioned on landmarks (the posterior), or None without landmarks.
+
+        Parameters
+        ----------
+        landmarks : list of tuple of numpy.ndarray
+            ``(point, displacement)`` pairs, rest coordinates.
+        noise : list of numpy.ndarray
+            One 3x3 observation covariance per landmark.
+
+        Returns
+        -------
+        LowRankGP or None
+            The posterior; None if ``landmarks`` is empty. The explorer does not change.
+
+        Examples
+        --------
+        >>> import pyvista as pv
+        >>> from ffd_notebook.view import GPExplorer
+        >>> ref = pv.Sphere(theta_resolution=8, phi_resolution=8)
+        >>> model = LowRankGP.from_examples(ref, [ref.points * s for s in (0.9, 1.0, 1.1)])
+        >>> explorer = GPExplorer(model=model, off_screen=True, window_size=(64, 48))
+        >>> point = explorer.rest_points[:1]
+        >>> posterior = explorer.conditioned([(point[0], np.array([0.0, 0.0, 0.2]))], [1e-6 * np.eye(3)])
+        >>> posterior.mean(point).round(2).tolist(), explorer.conditioned([], []) is None
+        ([[0.0, 0.0, 0.2]], True)
+        >>> explorer.close()
+        """
         if not landmarks:
             return None
         where, moved = (np.array(v) for v in zip(*landmarks, strict=True))
         return self.model.posterior(where, moved, stacked_noise(noise))
 
     def set_model(self, model: LowRankGP, name: str) -> None:
-        """Make a shape model the one shown (no drawing)."""
+        """Make a shape model the one shown (no drawing).
+
+        Landmarks are dropped and the mean is shown at the next ``refresh()``; the mesh keeps its cells
+        (:meth:`open_model` also replaces the mesh and the sliders).
+
+        Parameters
+        ----------
+        model : LowRankGP
+            The shape model, on the explorer's vertices.
+        name : str
+            Its name in the status text.
+
+        Examples
+        --------
+        >>> import pyvista as pv
+        >>> from ffd_notebook.view import GPExplorer
+        >>> ref = pv.Sphere(theta_resolution=8, phi_resolution=8)
+        >>> model = LowRankGP.from_examples(ref, [ref.points * s for s in (0.9, 1.0, 1.1)])
+        >>> explorer = GPExplorer(model=model, off_screen=True, window_size=(64, 48))
+        >>> explorer.set_mode(0, 1.0)
+        >>> explorer.set_model(model, "spheres")
+        >>> explorer.model_name, explorer.coefficients.tolist()
+        ('spheres', [0.0])
+        >>> explorer.close()
+        """
         self.model, self.model_name, self.sigma = model, name, None
         typical = float(np.sqrt(model.variance().mean()))  # a typical displacement standard deviation
         self.set_rest_points(model.points, typical)
@@ -241,6 +355,25 @@ class ModelModes:
         """Show the instance with these coefficients ``(rank,)`` (standard-normal units).
 
         With landmarks they are coefficients of the posterior's principal modes.
+
+        Parameters
+        ----------
+        coefficients : array_like
+            One finite value per mode of the process shown (a ValueError otherwise).
+
+        Examples
+        --------
+        >>> import pyvista as pv
+        >>> from ffd_notebook.view import GPExplorer
+        >>> ref = pv.Sphere(theta_resolution=8, phi_resolution=8)
+        >>> model = LowRankGP.from_examples(ref, [ref.points * s for s in (0.9, 1.0, 1.1)])
+        >>> explorer = GPExplorer(model=model, off_screen=True, window_size=(64, 48))
+        >>> explorer.set_coefficients([0.5])
+        >>> bool(np.allclose(explorer.displacement, model.instance([0.5]), atol=1e-6))
+        True
+        >>> explorer.mode_sliders[0].GetRepresentation().GetValue()
+        0.5
+        >>> explorer.close()
         """
         rank = self.process.rank
         coef = np.asarray(coefficients, dtype=np.float64)
@@ -251,7 +384,27 @@ class ModelModes:
         self.refresh()
 
     def set_mode(self, k: int, value: float) -> None:
-        """Set the coefficient of mode ``k`` (what mode slider ``k`` does); the others stay."""
+        """Set the coefficient of mode ``k`` (what mode slider ``k`` does); the others stay.
+
+        Parameters
+        ----------
+        k : int
+            The mode (0 is the first); an IndexError beyond the rank.
+        value : float
+            Its coefficient (standard-normal units).
+
+        Examples
+        --------
+        >>> import pyvista as pv
+        >>> from ffd_notebook.view import GPExplorer
+        >>> ref = pv.Sphere(theta_resolution=8, phi_resolution=8)
+        >>> model = LowRankGP.from_examples(ref, [ref.points * s for s in (0.9, 1.0, 1.1)])
+        >>> explorer = GPExplorer(model=model, off_screen=True, window_size=(64, 48))
+        >>> explorer.set_mode(0, 1.0)
+        >>> explorer.coefficients.tolist()
+        [1.0]
+        >>> explorer.close()
+        """
         coef = self.coefficients
         if not 0 <= k < len(coef):
             raise IndexError(f"mode {k} out of range for rank {len(coef)}")
@@ -261,7 +414,20 @@ class ModelModes:
         self.set_coefficients(coef)
 
     def add_mode_sliders(self) -> None:
-        """Sliders for the first :attr:`n_modes` modes (more are added if a later model has more)."""
+        """Sliders for the first :attr:`n_modes` modes (more are added if a later model has more).
+
+        Examples
+        --------
+        >>> import pyvista as pv
+        >>> from ffd_notebook.view import GPExplorer
+        >>> ref = pv.Sphere(theta_resolution=8, phi_resolution=8)
+        >>> model = LowRankGP.from_examples(ref, [ref.points * s for s in (0.9, 1.0, 1.1)])
+        >>> explorer = GPExplorer(model=model, off_screen=True, window_size=(64, 48))
+        >>> explorer.add_mode_sliders()  # already there: nothing is added twice
+        >>> len(explorer.mode_sliders)
+        1
+        >>> explorer.close()
+        """
         wanted = min(self.n_modes, self.model.rank)
         for k in range(len(self.mode_sliders), wanted):
             x = 0.2 + 0.155 * k  # a row along the bottom, right of the "sample" button
@@ -285,7 +451,27 @@ class ModelModes:
         self.sync_mode_sliders()
 
     def status_text(self) -> str:
-        """The text in the corner: the model, what is shown, its log density and how to add landmarks."""
+        """The text in the corner: the model, what is shown, its log density and how to add landmarks.
+
+        Returns
+        -------
+        str
+            Several lines, as shown in the view's corner.
+
+        Examples
+        --------
+        >>> import pyvista as pv
+        >>> from ffd_notebook.view import GPExplorer
+        >>> ref = pv.Sphere(theta_resolution=8, phi_resolution=8)
+        >>> model = LowRankGP.from_examples(ref, [ref.points * s for s in (0.9, 1.0, 1.1)])
+        >>> explorer = GPExplorer(model=model, off_screen=True, window_size=(64, 48))
+        >>> explorer.set_mode(0, 1.0)
+        >>> print(explorer.status_text())
+        model (50 points, rank 1), rank 1: prior instance
+        log p(shape) = -0.4
+        sliders: modes 1-1; right-click or P over the mesh: add a landmark; drag its sphere to move it
+        >>> explorer.close()
+        """
         what = "mean" if self._coefficients is None else "sample" if self.model_name is None else "instance"
         shown = f"posterior {what}, {len(self.landmarks)} landmarks" if self.landmarks else f"prior {what}"
         if self.model_name is None:
@@ -299,7 +485,24 @@ class ModelModes:
         return status
 
     def sync_mode_sliders(self) -> None:
-        """Put the sliders where the coefficients are (setting a value does not call back)."""
+        """Put the sliders where the coefficients are (setting a value does not call back).
+
+        Examples
+        --------
+        >>> import pyvista as pv
+        >>> from ffd_notebook.view import GPExplorer
+        >>> ref = pv.Sphere(theta_resolution=8, phi_resolution=8)
+        >>> model = LowRankGP.from_examples(ref, [ref.points * s for s in (0.9, 1.0, 1.1)])
+        >>> explorer = GPExplorer(model=model, off_screen=True, window_size=(64, 48))
+        >>> explorer.set_mode(0, 1.0)
+        >>> explorer.set_model(model, "spheres")  # the mean again, without drawing: the slider stays
+        >>> explorer.mode_sliders[0].GetRepresentation().GetValue()
+        1.0
+        >>> explorer.sync_mode_sliders()
+        >>> explorer.mode_sliders[0].GetRepresentation().GetValue()
+        0.0
+        >>> explorer.close()
+        """
         coef = self.coefficients
         for k, slider in enumerate(self.mode_sliders):
             value = float(np.clip(coef[k], *MODE_RANGE)) if k < len(coef) else 0.0

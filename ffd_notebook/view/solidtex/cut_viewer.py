@@ -91,13 +91,54 @@ class TexturedOrgan:
 
         The outer surface's points are deformed individually (it is denser than the tetrahedra),
         so a smooth deformation stays smooth on screen.
+
+        Parameters
+        ----------
+        transform : callable or None
+            Maps ``(N, 3)`` rest positions to deformed positions; None puts the organ back at rest.
+
+        Examples
+        --------
+        >>> from ffd_notebook.meshing.organ import tetrahedralize
+        >>> grid = tetrahedralize(pv.Sphere(theta_resolution=10, phi_resolution=10), method="delaunay")
+        >>> texture = SolidTexture.fit(np.random.default_rng(0).integers(0, 255, (8, 8, 8, 3), np.uint8), grid.bounds)
+        >>> organ = TexturedOrgan(grid, texture, subdivisions=0)
+        >>> organ.deform(lambda rest: 2.0 * rest)
+        >>> round(float(organ.grid.points[:, 0].max()), 3), round(float(organ.surface.points[:, 0].max()), 3)
+        (0.985, 0.985)
+        >>> organ.deform(None)
+        >>> round(float(organ.grid.points[:, 0].max()), 3)
+        0.492
         """
         for mesh in (self.grid, self.surface):
             rest = rest_points(mesh)
             mesh.points = rest.copy() if transform is None else np.asarray(transform(rest), dtype=np.float64)
 
     def cut_face(self, origin: ArrayLike, normal: ArrayLike) -> pv.PolyData:
-        """The section of the tetrahedra by the plane, coloured from the texture at rest positions."""
+        """The section of the tetrahedra by the plane, coloured from the texture at rest positions.
+
+        Parameters
+        ----------
+        origin : array_like
+            A point of the plane.
+        normal : array_like
+            The plane's normal (any non-zero length).
+
+        Returns
+        -------
+        pyvista.PolyData
+            Triangles in the plane with ``uint8`` point data ``"RGB"`` (no points if the plane misses the organ).
+
+        Examples
+        --------
+        >>> from ffd_notebook.meshing.organ import tetrahedralize
+        >>> grid = tetrahedralize(pv.Sphere(theta_resolution=10, phi_resolution=10), method="delaunay")
+        >>> texture = SolidTexture.fit(np.random.default_rng(0).integers(0, 255, (8, 8, 8, 3), np.uint8), grid.bounds)
+        >>> organ = TexturedOrgan(grid, texture, subdivisions=0)
+        >>> face = organ.cut_face((0, 0, 0), (1, 0, 0))
+        >>> face.n_points > 0, float(abs(face.points[:, 0]).max()), face.point_data["RGB"].dtype.name
+        (True, 0.0, 'uint8')
+        """
         face = self.grid.slice(normal=_unit(normal), origin=np.asarray(origin, float), generate_triangles=True)
         if face.n_points == 0:
             return _empty_coloured()
@@ -112,6 +153,30 @@ class TexturedOrgan:
 
         Triangles wholly behind the plane are kept as they are (a NumPy selection); only the few
         that cross it go through VTK's clipper, which keeps a cut of a dense surface fast.
+
+        Parameters
+        ----------
+        origin : array_like
+            A point of the plane.
+        normal : array_like
+            The plane's normal, pointing to the side that is cut away.
+
+        Returns
+        -------
+        pyvista.PolyData
+            The kept surface with its ``"RGB"`` colours (no points if the plane is behind the whole organ).
+
+        Examples
+        --------
+        >>> from ffd_notebook.meshing.organ import tetrahedralize
+        >>> grid = tetrahedralize(pv.Sphere(theta_resolution=10, phi_resolution=10), method="delaunay")
+        >>> texture = SolidTexture.fit(np.random.default_rng(0).integers(0, 255, (8, 8, 8, 3), np.uint8), grid.bounds)
+        >>> organ = TexturedOrgan(grid, texture, subdivisions=0)
+        >>> kept = organ.clipped_surface((0, 0, 0), (1, 0, 0))
+        >>> float(kept.points[:, 0].max()), kept.n_cells < organ.surface.n_cells
+        (0.0, True)
+        >>> organ.clipped_surface((1, 0, 0), (-1, 0, 0)).n_points
+        0
         """
         n = _unit(normal)
         points = np.asarray(self.surface.points)
@@ -145,7 +210,33 @@ class TexturedOrgan:
         return out
 
     def cut(self, origin: ArrayLike, normal: ArrayLike) -> tuple[pv.PolyData, pv.PolyData]:
-        """``(outer surface behind the plane, cut face)`` for a plane through ``origin``."""
+        """``(outer surface behind the plane, cut face)`` for a plane through ``origin``.
+
+        Parameters
+        ----------
+        origin : array_like
+            A point of the plane.
+        normal : array_like
+            The plane's normal, pointing to the side that is cut away.
+
+        Returns
+        -------
+        outside : pyvista.PolyData
+            :meth:`clipped_surface`.
+        face : pyvista.PolyData
+            :meth:`cut_face`.
+
+        Examples
+        --------
+        >>> from ffd_notebook.meshing.organ import tetrahedralize
+        >>> grid = tetrahedralize(pv.Sphere(theta_resolution=10, phi_resolution=10), method="delaunay")
+        >>> texture = SolidTexture.fit(np.random.default_rng(0).integers(0, 255, (8, 8, 8, 3), np.uint8), grid.bounds)
+        >>> organ = TexturedOrgan(grid, texture, subdivisions=0)
+        >>> organ.deform(lambda rest: rest + (0.5, 0.0, 0.0))
+        >>> outside, face = organ.cut((0.5, 0, 0), (1, 0, 0))
+        >>> float(outside.points[:, 0].max()), bool(abs(face.points[:, 0] - 0.5).max() < 1e-6)
+        (0.5, True)
+        """
         return self.clipped_surface(origin, normal), self.cut_face(origin, normal)
 
 
@@ -255,6 +346,16 @@ class CutViewer:
         The meshes on screen; :meth:`update` replaces their contents in place.
     widget : vtkImplicitPlaneWidget
         The plane widget.
+
+    Examples
+    --------
+    >>> from ffd_notebook.meshing.organ import tetrahedralize
+    >>> grid = tetrahedralize(pv.Sphere(theta_resolution=10, phi_resolution=10), method="delaunay")
+    >>> texture = SolidTexture.fit(np.random.default_rng(0).integers(0, 255, (8, 8, 8, 3), np.uint8), grid.bounds)
+    >>> viewer = CutViewer(TexturedOrgan(grid, texture, subdivisions=0), normal=(0, 1, 0), window_size=(64, 48))
+    >>> viewer.face.n_cells > 0, float(viewer.outside.points[:, 1].max()), viewer.plotter.screenshot().shape
+    (True, 0.0, (48, 64, 3))
+    >>> viewer.close()
     """
 
     def __init__(
@@ -340,6 +441,25 @@ class CutViewer:
         """Recut with a new plane (or the same plane after :meth:`TexturedOrgan.deform`).
 
         The widget follows a plane set here (it is not re-placed while the user drags it).
+
+        Parameters
+        ----------
+        origin : array_like, optional
+            A new point of the plane; the current one if omitted.
+        normal : array_like, optional
+            A new normal; the current one if omitted.
+
+        Examples
+        --------
+        >>> from ffd_notebook.meshing.organ import tetrahedralize
+        >>> grid = tetrahedralize(pv.Sphere(theta_resolution=10, phi_resolution=10), method="delaunay")
+        >>> texture = SolidTexture.fit(np.random.default_rng(0).integers(0, 255, (8, 8, 8, 3), np.uint8), grid.bounds)
+        >>> organ = TexturedOrgan(grid, texture, subdivisions=0)
+        >>> viewer = CutViewer(organ, window_size=(64, 48))
+        >>> viewer.update(origin=(0.2, 0.0, 0.0))
+        >>> round(float(viewer.face.points[:, 0].max()), 3), viewer.widget.GetOrigin()
+        (0.2, (0.2, 0.0, 0.0))
+        >>> viewer.close()
         """
         if origin is not None:
             self.origin = np.asarray(origin, dtype=np.float64)
@@ -358,6 +478,27 @@ class CutViewer:
         The camera looks along :func:`~ffd_notebook.view.camera.view_direction` and is fitted to
         the organ's meshes with :func:`~ffd_notebook.view.camera.frame_camera`, not to the
         widget's box.
+
+        Parameters
+        ----------
+        elevation : float, default 0.4
+            How far the view direction is raised above the cut's normal (:func:`view_direction`).
+        margin : float, default 1.04
+            Room around the organ (1: the meshes touch the picture's border).
+
+        Examples
+        --------
+        >>> from ffd_notebook.meshing.organ import tetrahedralize
+        >>> grid = tetrahedralize(pv.Sphere(theta_resolution=10, phi_resolution=10), method="delaunay")
+        >>> texture = SolidTexture.fit(np.random.default_rng(0).integers(0, 255, (8, 8, 8, 3), np.uint8), grid.bounds)
+        >>> organ = TexturedOrgan(grid, texture, subdivisions=0)
+        >>> viewer = CutViewer(organ, window_size=(64, 48))
+        >>> viewer.update(normal=(0, 0, 1))
+        >>> viewer.look_at_cut(elevation=0.0)
+        >>> position = np.asarray(viewer.plotter.camera.position)
+        >>> bool(position[2] > 0 and abs(position[:2]).max() < 1e-6)
+        True
+        >>> viewer.close()
         """
         points = [np.asarray(m.points) for m in (self.outside, self.face) if m.n_cells]
         if not points:  # the plane cuts everything away: frame the whole organ
@@ -375,6 +516,30 @@ class CutViewer:
 
         The output showing it keeps the viewer alive until its cell runs again
         (:func:`~ffd_notebook.view.jupyter.keep_while_shown`).
+
+        Parameters
+        ----------
+        **kwargs
+            Passed to ``plotter.show`` outside a kernel (or with a static backend).
+
+        Returns
+        -------
+        object
+            In a kernel, the trame view's widget; elsewhere what ``plotter.show`` returns (None, or the
+            picture with ``return_img=True``).
+
+        Examples
+        --------
+        Outside a kernel, the picture of the current cut:
+
+        >>> from ffd_notebook.meshing.organ import tetrahedralize
+        >>> grid = tetrahedralize(pv.Sphere(theta_resolution=10, phi_resolution=10), method="delaunay")
+        >>> texture = SolidTexture.fit(np.full((4, 4, 4, 3), 200, np.uint8), grid.bounds)
+        >>> viewer = CutViewer(TexturedOrgan(grid, texture, subdivisions=0), window_size=(64, 48))
+        >>> image = viewer.show(return_img=True, auto_close=False)
+        >>> image.shape, bool(image.std() > 0)
+        ((48, 64, 3), True)
+        >>> viewer.close()
         """
         self.plotter.last_image = None
         shown = show_plotter(self.plotter, **kwargs)
@@ -385,6 +550,17 @@ class CutViewer:
         """Close the browser views and the plotter (if the viewer made it).
 
         A viewer nobody refers to any more (no variable, no output showing it) is closed the same way.
+
+        Examples
+        --------
+        >>> from ffd_notebook.meshing.organ import tetrahedralize
+        >>> grid = tetrahedralize(pv.Sphere(theta_resolution=10, phi_resolution=10), method="delaunay")
+        >>> texture = SolidTexture.fit(np.random.default_rng(0).integers(0, 255, (8, 8, 8, 3), np.uint8), grid.bounds)
+        >>> organ = TexturedOrgan(grid, texture, subdivisions=0)
+        >>> viewer = CutViewer(organ, window_size=(64, 48))
+        >>> viewer.close()
+        >>> viewer.lifetime.alive
+        False
         """
         forget_shown(self)
         self.lifetime.close()

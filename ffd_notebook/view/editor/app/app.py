@@ -137,7 +137,22 @@ class EditorApp:
         return values
 
     def sync(self) -> None:
-        """Copy the editor's state (:func:`..session.controls.session_state`) to the page."""
+        """Copy the editor's state (:func:`..session.controls.session_state`) to the page.
+
+        Examples
+        --------
+        A value typed on the page but not applied goes back to the editor's:
+
+        >>> import pyvista as pv
+        >>> from ffd_notebook.view import Editor
+        >>> sphere = pv.Sphere(theta_resolution=8, phi_resolution=8)
+        >>> app = EditorApp(Editor(sphere, shape=(4, 4, 4), window_size=(64, 48)), name="doctest_app_sync")
+        >>> app.state.nx = 7
+        >>> app.sync()
+        >>> app.state.nx
+        4
+        >>> app.close()
+        """
         with self.state:
             self.state.update(self._editor_values())
 
@@ -154,6 +169,30 @@ class EditorApp:
 
         A failure becomes a message on the page instead of a traceback. File actions go through the
         app's root folder and a worker thread (their named triggers) instead of the editor's own.
+
+        Parameters
+        ----------
+        key : str
+            The control's key (``"apply"``, ``"undo"``, ``"reset_all"``...).
+        values : list, optional
+            The values of the control's page fields, in order (e.g. ``[i, j, k, dx, dy, dz]`` for ``"apply"``).
+
+        Returns
+        -------
+        bool
+            Whether the command succeeded (True for a file action handed to its worker).
+
+        Examples
+        --------
+        >>> import pyvista as pv
+        >>> from ffd_notebook.view import Editor
+        >>> sphere = pv.Sphere(theta_resolution=8, phi_resolution=8)
+        >>> app = EditorApp(Editor(sphere, shape=(4, 4, 4), window_size=(64, 48)), name="doctest_app_run")
+        >>> app.run("apply", [1, 2, 1, 0.0, 0.0, 0.25]), app.editor.lattice.offsets[1, 2, 1].tolist()
+        (True, [0.0, 0.0, 0.25])
+        >>> app.run("apply", [9, 2, 1, 0.0, 0.0, 0.25]), app.state.messages[-1]["error"]
+        (False, True)
+        >>> app.close()
         """
         control = by_key(key, self.controls)
         if control.app_trigger is not None:
@@ -164,7 +203,20 @@ class EditorApp:
         return ok
 
     def reset_camera(self) -> None:
-        """Fit the camera to the scene."""
+        """Fit the camera to the scene.
+
+        Examples
+        --------
+        >>> import pyvista as pv
+        >>> from ffd_notebook.view import Editor
+        >>> sphere = pv.Sphere(theta_resolution=8, phi_resolution=8)
+        >>> app = EditorApp(Editor(sphere, shape=(4, 4, 4), window_size=(64, 48)), name="doctest_app_camera")
+        >>> app.editor.plotter.camera.position = (10.0, 10.0, 10.0)
+        >>> app.reset_camera()
+        >>> bool(max(abs(v) for v in app.editor.plotter.camera.position) < 10.0)
+        True
+        >>> app.close()
+        """
         self.editor.plotter.reset_camera()
         self.view.update()
 
@@ -173,6 +225,43 @@ class EditorApp:
         """Serve the page (blocks until the server stops); prints the URL, with its token, once listening.
 
         The server requires the token and refuses other sites' pages (:func:`.web_security.protect`).
+
+        Parameters
+        ----------
+        port : int, default 8080
+            The port to listen on (0: any free port).
+        host : str, default "127.0.0.1"
+            The interface to listen on (``"0.0.0.0"`` for every one: the printed URL then names this machine).
+        **kwargs
+            Passed to trame's ``server.start`` (by default no browser is opened, no connection banner
+            printed, and an idle server is not stopped).
+
+        Returns
+        -------
+        object
+            What trame's ``server.start`` returns once the server has stopped (None when it ran in the main loop).
+
+        Examples
+        --------
+        A server that fetches its own page once listening, then stops:
+
+        >>> import asyncio
+        >>> import aiohttp
+        >>> import pyvista as pv
+        >>> from ffd_notebook.view import Editor
+        >>> sphere = pv.Sphere(theta_resolution=8, phi_resolution=8)
+        >>> app = EditorApp(Editor(sphere, shape=(4, 4, 4), window_size=(64, 48)), name="doctest_app_start")
+        >>> statuses = []
+        >>> async def visit():
+        ...     async with aiohttp.ClientSession() as http, http.get(app.url) as page:
+        ...         statuses.append(page.status)
+        ...     await app.server.stop()
+        >>> app.server.controller.on_server_ready.add(lambda **_: asyncio.ensure_future(visit()))
+        >>> app.start(port=0)  # doctest: +ELLIPSIS
+        ffd_notebook editor running at http://127.0.0.1:.../?secret=...
+        >>> statuses
+        [200]
+        >>> app.close()
         """
         protect(self.server, AccessPolicy(self.token, bind_host=host))
         shown_host = socket.gethostname() if host in ("0.0.0.0", "::", "") else host
@@ -190,7 +279,18 @@ class EditorApp:
         return self.server.start(port=port, host=host, **kwargs)
 
     def close(self) -> None:
-        """Remove the uploads folder and close the editor."""
+        """Remove the uploads folder and close the editor.
+
+        Examples
+        --------
+        >>> import pyvista as pv
+        >>> from ffd_notebook.view import Editor
+        >>> sphere = pv.Sphere(theta_resolution=8, phi_resolution=8)
+        >>> app = EditorApp(Editor(sphere, shape=(4, 4, 4), window_size=(64, 48)), name="doctest_app_close")
+        >>> app.close()
+        >>> app.editor.lifetime.alive
+        False
+        """
         self.files.cleanup()
         self.editor.close()
 
@@ -207,11 +307,64 @@ def run_app(
     setup: Callable[[EditorApp], None] | None = None,
     image: str | os.PathLike[str] | None = None,
 ) -> EditorApp:
-    """Build the editor (``mesh`` path or the sample mesh, optional ``ffd`` lattice, optional ``image`` shown as
-    warped slices; an image without a mesh gets a lattice fitted to its box) and serve it (blocking).
+    """Build the editor and serve it (blocking) until the server stops.
 
-    Typed paths are confined to ``root`` (default: the current folder); uploads are removed at exit.
-    ``setup(app)`` runs before the server starts (a hook for code, e.g. tests' instrumentation).
+    The editor shows the ``mesh`` file (or the sample mesh), with an optional ``ffd`` deformation
+    file and an optional ``image`` shown as warped slices (an image without a mesh gets a lattice
+    fitted to its box). Typed paths are confined to ``root`` (default: the current folder); uploads
+    are removed at exit. ``setup(app)`` runs before the server starts (a hook for code, e.g. tests'
+    instrumentation).
+
+    Parameters
+    ----------
+    mesh : str or os.PathLike, optional
+        A mesh file; the sample mesh if omitted.
+    ffd : str or os.PathLike, optional
+        A deformation file loaded onto it (:meth:`Editor.load_deformation`).
+    port : int, default 8080
+        The port to listen on (0: any free port).
+    host : str, default "127.0.0.1"
+        The interface to listen on.
+    shape : tuple of int, default (5, 5, 5)
+        Control points per axis of the fitted lattice.
+    basis : {"bspline", "bernstein"}, default "bspline"
+        The FFD basis.
+    root : str or os.PathLike, optional
+        The folder typed paths are confined to.
+    max_file_bytes : int
+        Largest file the app reads or accepts as an upload.
+    setup : callable, optional
+        ``setup(app)``, called with the :class:`EditorApp` before the server starts.
+    image : str or os.PathLike, optional
+        An image file shown as three slices warped by the lattice.
+
+    Returns
+    -------
+    EditorApp
+        The app, once its server has stopped.
+
+    Examples
+    --------
+    A server on a sphere that fetches its own page once listening, then stops:
+
+    >>> import asyncio, os, tempfile
+    >>> import aiohttp
+    >>> import pyvista as pv
+    >>> path = os.path.join(tempfile.mkdtemp(), "ball.ply")
+    >>> pv.Sphere(theta_resolution=8, phi_resolution=8).save(path)
+    >>> statuses = []
+    >>> def visit_then_stop(app):
+    ...     async def visit():
+    ...         async with aiohttp.ClientSession() as http, http.get(app.url) as page:
+    ...             statuses.append(page.status)
+    ...         await app.server.stop()
+    ...     app.server.controller.on_server_ready.add(lambda **_: asyncio.ensure_future(visit()))
+    >>> app = run_app(path, port=0, shape=(4, 4, 4), root=os.path.dirname(path), setup=visit_then_stop)
+    ... # doctest: +ELLIPSIS
+    ffd_notebook editor running at http://127.0.0.1:.../?secret=...
+    >>> statuses, app.editor.mesh.n_points, app.editor.lattice.shape
+    ([200], 50, (4, 4, 4))
+    >>> app.editor.close()
     """
     editor = Editor(mesh, shape=tuple(shape), basis=basis, image=image)
     if ffd is not None:

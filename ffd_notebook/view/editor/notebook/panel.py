@@ -177,7 +177,28 @@ class ControlPanel(widgets.VBox):
 
     # ------------------------------------------------------------------ actions (one editor call each)
     def act(self, control: Control, values: Sequence[Any]) -> None:
-        """Run ``control`` with ``values`` (a failure becomes the editor's last message, shown below)."""
+        """Run ``control`` with ``values`` (a failure becomes the editor's last message, shown below).
+
+        Parameters
+        ----------
+        control : Control
+            One of the panel's ``controls`` (:data:`..session.controls.CONTROLS`).
+        values : sequence
+            The values of the control's fields (``control.state``), in order.
+
+        Examples
+        --------
+        >>> import pyvista as pv
+        >>> from ffd_notebook.view import Editor, ControlPanel
+        >>> editor = Editor(pv.Sphere(theta_resolution=8, phi_resolution=8), shape=(4, 4, 4), window_size=(64, 48))
+        >>> panel = ControlPanel(editor)
+        >>> editor.session.move_control_point((1, 2, 1), (0.0, 0.0, 0.25))
+        >>> undo = next(control for control in panel.controls if control.key == "undo")
+        >>> panel.act(undo, [])
+        >>> editor.lattice.offsets[1, 2, 1].tolist(), panel.undo_button.disabled
+        ([0.0, 0.0, 0.0], True)
+        >>> editor.close()
+        """
         run(self.editor.session, control, values)
         self.sync()
 
@@ -198,7 +219,23 @@ class ControlPanel(widgets.VBox):
             self.sync()
 
     def sync(self) -> None:
-        """Show the editor's state (:func:`..session.controls.session_state`) in every control."""
+        """Show the editor's state (:func:`..session.controls.session_state`) in every control.
+
+        Examples
+        --------
+        A value typed in a field but not applied goes back to the editor's:
+
+        >>> import pyvista as pv
+        >>> from ffd_notebook.view import Editor, ControlPanel
+        >>> editor = Editor(pv.Sphere(theta_resolution=8, phi_resolution=8), shape=(4, 4, 4), window_size=(64, 48))
+        >>> panel = ControlPanel(editor)
+        >>> editor.session.move_control_point((1, 2, 1), (0.0, 0.0, 0.25))
+        >>> panel.xyz[2].value = 0.9
+        >>> panel.sync()
+        >>> panel.xyz[2].value
+        0.25
+        >>> editor.close()
+        """
         state = session_state(self.editor.session)
         if "sel_i" not in state:  # nothing selected: keep the typed index, show its displacement
             ijk = tuple(int(self._fields[k].value) for k in ("sel_i", "sel_j", "sel_k") if k in self._fields)

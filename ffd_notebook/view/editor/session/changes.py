@@ -33,6 +33,17 @@ DRAG_SYNC_S = 0.25
 class Change:
     """What one session command changed.
 
+    Parameters
+    ----------
+    kind : str
+        One of :data:`KINDS`; any other value raises ValueError.
+    points : array_like of int, optional
+        Flat indices of the changed control points (stored as a 1-D ``numpy.intp`` array); ``None`` for all.
+    label : str, default ""
+        The command's name.
+    started : float, optional
+        When the command began; by default :func:`time.perf_counter` at creation.
+
     Attributes
     ----------
     kind : str

@@ -57,7 +57,31 @@ PointsShown = Literal["auto", "all", "near", "hull"]
 
 @dataclass(frozen=True)
 class MeshIO:
-    """The mesh operations a session needs but must not import (the editor passes PyVista's)."""
+    """The mesh operations a session needs but must not import (the editor passes PyVista's).
+
+    Parameters
+    ----------
+    read : callable
+        ``read(path)``: the surface mesh in a file.
+    write : callable
+        ``write(path, mesh)``: save a mesh, atomically.
+    decimate : callable
+        ``decimate(mesh, reduction)``: a new mesh with that fraction of its faces removed.
+    with_points : callable
+        ``with_points(mesh, points)``: a new mesh with those points and the mesh's faces and point data.
+    color_array : callable
+        ``color_array(mesh)``: the name of its per-vertex color array, or None.
+    face : callable
+        ``face(photo)``: a coloured face mesh from a photo (path, array or ``face.Photo``).
+
+    Examples
+    --------
+    >>> import pyvista as pv
+    >>> from ffd_notebook.view.editor.editor import PYVISTA_MESH_IO
+    >>> sphere = pv.Sphere(theta_resolution=8, phi_resolution=8)
+    >>> PYVISTA_MESH_IO.color_array(sphere), sphere.n_cells, PYVISTA_MESH_IO.decimate(sphere, 0.5).n_cells
+    (None, 96, 48)
+    """
 
     read: Callable[[Any], Any]  # path -> surface mesh
     write: Callable[[Any, Any], None]  # (path, mesh) -> None, atomically
@@ -207,11 +231,49 @@ class EditingSession:
         return self.mesh_io.with_points(self.mesh, self.deformed_points)
 
     def control_points(self) -> NDArray[np.float64]:
-        """Deformed control points, flat C order ``(M, 3)``: rest position + offset."""
+        """Deformed control points, flat C order ``(M, 3)``: rest position + offset.
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(M, 3)`` float64 positions, one row per control point (row :meth:`flat_index` of ``(i, j, k)``).
+
+        Examples
+        --------
+        >>> import pyvista as pv
+        >>> from ffd_notebook.view.editor.editor import PYVISTA_MESH_IO
+        >>> sphere = pv.Sphere(theta_resolution=8, phi_resolution=8)
+        >>> session = EditingSession(sphere, mesh_io=PYVISTA_MESH_IO, shape=(4, 4, 4))
+        >>> session.move_control_point((0, 0, 0), (0.0, 0.0, 0.5))
+        >>> moved = session.control_points() - session.lattice.control_points().reshape(-1, 3)
+        >>> session.control_points().shape, moved[0].tolist()
+        ((64, 3), [0.0, 0.0, 0.5])
+        """
         return self._rest_control + self.lattice.offsets.reshape(-1, 3)
 
     def field_values(self) -> NDArray[np.float32] | None:
-        """The shown field per vertex: ``|displacement|``, folding (1 where det J <= 0), or None."""
+        """The shown field per vertex: ``|displacement|``, folding (1 where det J <= 0), or None.
+
+        Returns
+        -------
+        numpy.ndarray or None
+            One float32 value per vertex of the mesh for the field set with :meth:`set_field`; None when no
+            field is shown.
+
+        Examples
+        --------
+        >>> import pyvista as pv
+        >>> from ffd_notebook.view.editor.editor import PYVISTA_MESH_IO
+        >>> sphere = pv.Sphere(theta_resolution=8, phi_resolution=8)
+        >>> session = EditingSession(sphere, mesh_io=PYVISTA_MESH_IO, shape=(4, 4, 4))
+        >>> session.field_values() is None
+        True
+        >>> session.move_control_point((0, 0, 0), (0.0, 0.0, 0.5))
+        >>> session.set_field("displacement")
+        >>> values = session.field_values()
+        >>> values.shape, values.dtype.name, bool(values.max() > 0)
+        ((50,), 'float32', True)
+        """
         if self.field == "displacement":
             diff = np.asarray(self.deformed_points, dtype=np.float64) - self.rest_points
             return np.sqrt(np.einsum("ij,ij->i", diff, diff)).astype(np.float32)
@@ -224,11 +286,55 @@ class EditingSession:
         return None
 
     def flat_index(self, ijk: tuple[int, ...]) -> int:
-        """Flat C-order index of control point ``(i, j, k)`` (its sphere widget's index)."""
+        """Flat C-order index of control point ``(i, j, k)`` (its sphere widget's index).
+
+        Parameters
+        ----------
+        ijk : tuple of int
+            The control point's indices along x, y and z.
+
+        Returns
+        -------
+        int
+            Its row in ``lattice.offsets.reshape(-1, 3)`` and in :meth:`control_points`.
+
+        Examples
+        --------
+        >>> import pyvista as pv
+        >>> from ffd_notebook.view.editor.editor import PYVISTA_MESH_IO
+        >>> sphere = pv.Sphere(theta_resolution=8, phi_resolution=8)
+        >>> session = EditingSession(sphere, mesh_io=PYVISTA_MESH_IO, shape=(4, 4, 4))
+        >>> session.flat_index((1, 2, 1))
+        25
+        """
         return int(np.ravel_multi_index(ijk, self.lattice.shape))
 
     def check_ijk(self, ijk: ArrayLike) -> tuple[int, int, int]:
-        """``ijk`` as a tuple of three ints inside the lattice; a ValueError otherwise."""
+        """``ijk`` as a tuple of three ints inside the lattice; a ValueError otherwise.
+
+        Parameters
+        ----------
+        ijk : array_like
+            Three whole numbers, each within the lattice's shape on its axis.
+
+        Returns
+        -------
+        tuple of int
+            ``(i, j, k)`` as Python ints.
+
+        Examples
+        --------
+        >>> import pyvista as pv
+        >>> from ffd_notebook.view.editor.editor import PYVISTA_MESH_IO
+        >>> sphere = pv.Sphere(theta_resolution=8, phi_resolution=8)
+        >>> session = EditingSession(sphere, mesh_io=PYVISTA_MESH_IO, shape=(4, 4, 4))
+        >>> session.check_ijk([1, 2, 3.0])
+        (1, 2, 3)
+        >>> session.check_ijk((4, 0, 0))
+        Traceback (most recent call last):
+        ...
+        ValueError: control point index must be (i, j, k) within the lattice (4, 4, 4), got (4, 0, 0)
+        """
         arr = np.asarray(ijk)
         shape = self.lattice.shape
         if arr.shape != (3,) or not np.all(arr == np.round(arr)) or np.any(arr < 0) or np.any(arr >= shape):
@@ -237,26 +343,123 @@ class EditingSession:
 
     # ------------------------------------------------------------------ notification and messages
     def subscribe(self, callback: Callable[[Change], None]) -> Callable[[], None]:
-        """Call ``callback(change)`` after every command; returns a function that unsubscribes."""
+        """Call ``callback(change)`` after every command; returns a function that unsubscribes.
+
+        Parameters
+        ----------
+        callback : callable
+            Called with each :class:`~.changes.Change`, in subscription order.
+
+        Returns
+        -------
+        callable
+            Call it (no arguments) to stop the notifications.
+
+        Examples
+        --------
+        >>> import pyvista as pv
+        >>> from ffd_notebook.view.editor.editor import PYVISTA_MESH_IO
+        >>> sphere = pv.Sphere(theta_resolution=8, phi_resolution=8)
+        >>> session = EditingSession(sphere, mesh_io=PYVISTA_MESH_IO, shape=(4, 4, 4))
+        >>> changes = []
+        >>> unsubscribe = session.subscribe(changes.append)
+        >>> session.select((1, 1, 1))
+        >>> unsubscribe()
+        >>> session.select(None)
+        >>> [(change.kind, change.label) for change in changes]
+        [('select', 'select')]
+        """
         return self._subscribers.add(callback)
 
     def close(self) -> None:
-        """Unsubscribe everybody."""
+        """Unsubscribe everybody.
+
+        Examples
+        --------
+        >>> import pyvista as pv
+        >>> from ffd_notebook.view.editor.editor import PYVISTA_MESH_IO
+        >>> sphere = pv.Sphere(theta_resolution=8, phi_resolution=8)
+        >>> session = EditingSession(sphere, mesh_io=PYVISTA_MESH_IO, shape=(4, 4, 4))
+        >>> changes = []
+        >>> _ = session.subscribe(changes.append)
+        >>> session.close()
+        >>> session.select((1, 1, 1))
+        >>> changes
+        []
+        """
         self._subscribers.clear()
 
     def notify(self, kind: Any, points: Any = None, label: str = "", started: float | None = None) -> None:
-        """Tell every subscriber about one :class:`~.changes.Change` (from the session's commands and parts)."""
+        """Tell every subscriber about one :class:`~.changes.Change` (from the session's commands and parts).
+
+        Parameters
+        ----------
+        kind : str
+            The change's kind (one of :data:`~.changes.KINDS`).
+        points : array_like of int, optional
+            Flat indices of the control points concerned; None for all (or none, as the kind says).
+        label : str, default ""
+            The command that made the change.
+        started : float, optional
+            :func:`time.perf_counter` when the command began; now by default.
+
+        Examples
+        --------
+        >>> import pyvista as pv
+        >>> from ffd_notebook.view.editor.editor import PYVISTA_MESH_IO
+        >>> sphere = pv.Sphere(theta_resolution=8, phi_resolution=8)
+        >>> session = EditingSession(sphere, mesh_io=PYVISTA_MESH_IO, shape=(4, 4, 4))
+        >>> changes = []
+        >>> _ = session.subscribe(changes.append)
+        >>> session.notify("offsets", [3, 7], "code")
+        >>> changes[0].kind, changes[0].points.tolist(), changes[0].label
+        ('offsets', [3, 7], 'code')
+        """
         change = Change(kind, points, label) if started is None else Change(kind, points, label, started)
         self.image.follow(change)  # the warped slices first: every view then sees them up to date
         self._subscribers.emit(change)
 
     def info(self, text: str) -> None:
-        """Add a message (and tell the views)."""
+        """Add a message (and tell the views).
+
+        Parameters
+        ----------
+        text : str
+            The message, as the user reads it.
+
+        Examples
+        --------
+        >>> import pyvista as pv
+        >>> from ffd_notebook.view.editor.editor import PYVISTA_MESH_IO
+        >>> sphere = pv.Sphere(theta_resolution=8, phi_resolution=8)
+        >>> session = EditingSession(sphere, mesh_io=PYVISTA_MESH_IO, shape=(4, 4, 4))
+        >>> changes = []
+        >>> _ = session.subscribe(changes.append)
+        >>> session.info("lattice saved")
+        >>> list(session.messages)[-1], changes[-1].kind
+        ('lattice saved', 'message')
+        """
         self.messages.append(text)
         self.notify("message")
 
     def error(self, text: str) -> None:
-        """Add an error message ``"Error: text"`` (and tell the views)."""
+        """Add an error message ``"Error: text"`` (and tell the views).
+
+        Parameters
+        ----------
+        text : str
+            What went wrong.
+
+        Examples
+        --------
+        >>> import pyvista as pv
+        >>> from ffd_notebook.view.editor.editor import PYVISTA_MESH_IO
+        >>> sphere = pv.Sphere(theta_resolution=8, phi_resolution=8)
+        >>> session = EditingSession(sphere, mesh_io=PYVISTA_MESH_IO, shape=(4, 4, 4))
+        >>> session.error("no such file")
+        >>> list(session.messages)[-1]
+        'Error: no such file'
+        """
         self.info(f"Error: {text}")
 
     def attempt(self, action: Callable[..., Any], *args: Any) -> bool:
@@ -265,10 +468,28 @@ class EditingSession:
         The session's own commands log what went wrong themselves; any other failure (e.g. a value
         typed in a panel that is not a number) is logged as ``"Error: <exception>"``.
 
+        Parameters
+        ----------
+        action : callable
+            What to run.
+        *args
+            Its positional arguments.
+
         Returns
         -------
         bool
             Whether ``action`` succeeded.
+
+        Examples
+        --------
+        >>> import pyvista as pv
+        >>> from ffd_notebook.view.editor.editor import PYVISTA_MESH_IO
+        >>> sphere = pv.Sphere(theta_resolution=8, phi_resolution=8)
+        >>> session = EditingSession(sphere, mesh_io=PYVISTA_MESH_IO, shape=(4, 4, 4))
+        >>> session.attempt(float, "abc"), list(session.messages)[-1]
+        (False, "Error: could not convert string to float: 'abc'")
+        >>> session.attempt(session.move_control_point, (0, 0, 0), (0.1, 0.0, 0.0))
+        True
         """
         n_messages = self.messages.n_added
         try:
@@ -281,7 +502,23 @@ class EditingSession:
 
     # ------------------------------------------------------------------ dragging a handle
     def begin_drag(self, index: int) -> None:
-        """A handle was grabbed: close the open undo step and select its control point."""
+        """A handle was grabbed: close the open undo step and select its control point.
+
+        Parameters
+        ----------
+        index : int
+            The control point's flat C-order index (its handle's index).
+
+        Examples
+        --------
+        >>> import pyvista as pv
+        >>> from ffd_notebook.view.editor.editor import PYVISTA_MESH_IO
+        >>> sphere = pv.Sphere(theta_resolution=8, phi_resolution=8)
+        >>> session = EditingSession(sphere, mesh_io=PYVISTA_MESH_IO, shape=(4, 4, 4))
+        >>> session.begin_drag(25)
+        >>> session.selected
+        (1, 2, 1)
+        """
         self.history.close()
         self._dragged = int(index)
         self._select(tuple(int(v) for v in np.unravel_index(int(index), self.lattice.shape)), "drag")
@@ -290,6 +527,29 @@ class EditingSession:
         """The handle of control point ``index`` (flat C order) is at ``position``: move it there.
 
         One ``"drag"`` change with that one point; consecutive drags of the same point are one undo step.
+
+        Parameters
+        ----------
+        index : int
+            The control point's flat C-order index.
+        position : array_like
+            Where its handle is now (world coordinates, 3 values).
+        started : float, optional
+            :func:`time.perf_counter` when the handle moved (passed on to the change, for timing).
+
+        Examples
+        --------
+        >>> import pyvista as pv
+        >>> from ffd_notebook.view.editor.editor import PYVISTA_MESH_IO
+        >>> sphere = pv.Sphere(theta_resolution=8, phi_resolution=8)
+        >>> session = EditingSession(sphere, mesh_io=PYVISTA_MESH_IO, shape=(4, 4, 4))
+        >>> session.begin_drag(5)
+        >>> rest = session.control_points()[5]
+        >>> session.drag(5, rest + (0.0, 0.0, 0.1))
+        >>> session.drag(5, rest + (0.0, 0.0, 0.2))
+        >>> session.end_drag()
+        >>> session.lattice.offsets.reshape(-1, 3)[5].round(3).tolist(), len(session.history)
+        ([0.0, 0.0, 0.2], 1)
         """
         index = int(index)
         ijk = tuple(int(v) for v in np.unravel_index(index, self.lattice.shape))
@@ -304,7 +564,22 @@ class EditingSession:
         self.notify("drag", [index], "drag", started)
 
     def end_drag(self) -> None:
-        """The handle was released: the drag's undo step is closed."""
+        """The handle was released: the drag's undo step is closed.
+
+        Examples
+        --------
+        >>> import pyvista as pv
+        >>> from ffd_notebook.view.editor.editor import PYVISTA_MESH_IO
+        >>> sphere = pv.Sphere(theta_resolution=8, phi_resolution=8)
+        >>> session = EditingSession(sphere, mesh_io=PYVISTA_MESH_IO, shape=(4, 4, 4))
+        >>> changes = []
+        >>> _ = session.subscribe(changes.append)
+        >>> session.begin_drag(5)
+        >>> session.drag(5, session.control_points()[5] + (0.0, 0.1, 0.0))
+        >>> session.end_drag()
+        >>> changes[-1].kind, changes[-1].points.tolist(), session.undo()
+        ('offsets', [5], True)
+        """
         self.history.close()
         points = [] if self._dragged is None else [self._dragged]
         self._dragged = None
@@ -317,6 +592,22 @@ class EditingSession:
         Offsets that differ from what the session last committed become one ``"code"`` step.
         ``changed`` (a list of ``(i, j, k)``) is a hint; points found to differ are always included.
         With neither, everything is recomputed (e.g. the lattice's origin was changed in place).
+
+        Parameters
+        ----------
+        changed : list of tuple of int, optional
+            Control points ``(i, j, k)`` edited in place, to recompute even if their offsets look unchanged.
+
+        Examples
+        --------
+        >>> import pyvista as pv
+        >>> from ffd_notebook.view.editor.editor import PYVISTA_MESH_IO
+        >>> sphere = pv.Sphere(theta_resolution=8, phi_resolution=8)
+        >>> session = EditingSession(sphere, mesh_io=PYVISTA_MESH_IO, shape=(4, 4, 4))
+        >>> session.lattice.offsets[3, 3, 3] = (0.0, 0.0, 0.1)
+        >>> session.update()
+        >>> len(session.history), float(abs(session.deformed_points - session.rest_points).max()) > 0
+        (1, True)
         """
         self.history.close()
         lat = self.lattice
@@ -338,7 +629,25 @@ class EditingSession:
             self.notify("offsets", np.ravel_multi_index(tuple(todo.T), lat.shape), "code")
 
     def move_control_point(self, ijk: ArrayLike, displacement: ArrayLike) -> None:
-        """Set the offset of control point ``ijk`` to ``displacement`` (world units; one undo step)."""
+        """Set the offset of control point ``ijk`` to ``displacement`` (world units; one undo step).
+
+        Parameters
+        ----------
+        ijk : array_like
+            The control point ``(i, j, k)``.
+        displacement : array_like
+            Its new offset from the rest position: three finite numbers.
+
+        Examples
+        --------
+        >>> import pyvista as pv
+        >>> from ffd_notebook.view.editor.editor import PYVISTA_MESH_IO
+        >>> sphere = pv.Sphere(theta_resolution=8, phi_resolution=8)
+        >>> session = EditingSession(sphere, mesh_io=PYVISTA_MESH_IO, shape=(4, 4, 4))
+        >>> session.move_control_point((1, 2, 1), (0.0, 0.0, 0.25))
+        >>> session.lattice.offsets[1, 2, 1].tolist(), session.selected
+        ([0.0, 0.0, 0.25], (1, 2, 1))
+        """
         ijk_t = self.check_ijk(ijk)
         value = np.asarray(displacement, dtype=np.float64).reshape(3)
         if not np.all(np.isfinite(value)):
@@ -347,7 +656,28 @@ class EditingSession:
         self._select(ijk_t, "move")
 
     def reset(self, ijk: ArrayLike | None = None) -> None:
-        """Zero the offset of one control point, or of all of them (one undo step)."""
+        """Zero the offset of one control point, or of all of them (one undo step).
+
+        Parameters
+        ----------
+        ijk : array_like, optional
+            The control point ``(i, j, k)`` to reset; all of them if omitted.
+
+        Examples
+        --------
+        >>> import pyvista as pv
+        >>> from ffd_notebook.view.editor.editor import PYVISTA_MESH_IO
+        >>> sphere = pv.Sphere(theta_resolution=8, phi_resolution=8)
+        >>> session = EditingSession(sphere, mesh_io=PYVISTA_MESH_IO, shape=(4, 4, 4))
+        >>> session.move_control_point((0, 0, 0), (0.1, 0.0, 0.0))
+        >>> session.move_control_point((3, 3, 3), (0.0, 0.1, 0.0))
+        >>> session.reset((0, 0, 0))
+        >>> float(abs(session.lattice.offsets).sum())
+        0.1
+        >>> session.reset()
+        >>> float(abs(session.lattice.offsets).sum()), len(session.history)
+        (0.0, 4)
+        """
         if ijk is None:
             points = [tuple(v) for v in np.argwhere(np.any(self.lattice.offsets != 0, axis=-1))]
         else:
@@ -356,7 +686,27 @@ class EditingSession:
             self.set_offsets(points, np.zeros((len(points), 3)), label="reset")
 
     def set_offsets(self, points: list[tuple[int, int, int]], values: ArrayLike, *, label: str) -> None:
-        """Set the offsets of control points ``points`` (a list of ``(i, j, k)``) to ``values``: one undo step."""
+        """Set the offsets of control points ``points`` (a list of ``(i, j, k)``) to ``values``: one undo step.
+
+        Parameters
+        ----------
+        points : list of tuple of int
+            The control points ``(i, j, k)``.
+        values : array_like
+            ``(len(points), 3)`` new offsets (or one row for all).
+        label : str
+            The command's name in the history and the change.
+
+        Examples
+        --------
+        >>> import pyvista as pv
+        >>> from ffd_notebook.view.editor.editor import PYVISTA_MESH_IO
+        >>> sphere = pv.Sphere(theta_resolution=8, phi_resolution=8)
+        >>> session = EditingSession(sphere, mesh_io=PYVISTA_MESH_IO, shape=(4, 4, 4))
+        >>> session.set_offsets([(0, 0, 1), (0, 0, 2)], [[0, 0, 0.1], [0, 0, 0.2]], label="code")
+        >>> session.lattice.offsets[0, 0, 1:3].tolist(), session.undo()
+        ([[0.0, 0.0, 0.1], [0.0, 0.0, 0.2]], True)
+        """
         self.history.close()
         idx = tuple(np.array(points).reshape(-1, 3).T)
         before = self.lattice.offsets[idx].copy()
@@ -367,14 +717,58 @@ class EditingSession:
     def commit_rows(
         self, idx: tuple[NDArray[np.intp], ...], label: str, *, kind: str = "offsets", started: float | None = None
     ) -> None:
-        """Offsets at ``idx`` were written: commit them, update the deformer, tell the views (a ``kind`` change)."""
+        """Offsets at ``idx`` were written: commit them, update the deformer, tell the views (a ``kind`` change).
+
+        Parameters
+        ----------
+        idx : tuple of numpy.ndarray
+            ``(i, j, k)`` index arrays of the control points whose ``lattice.offsets`` were written.
+        label : str
+            The command's name for the change.
+        kind : str, default "offsets"
+            The change's kind.
+        started : float, optional
+            :func:`time.perf_counter` when the command began.
+
+        Examples
+        --------
+        >>> import pyvista as pv
+        >>> from ffd_notebook.view.editor.editor import PYVISTA_MESH_IO
+        >>> sphere = pv.Sphere(theta_resolution=8, phi_resolution=8)
+        >>> session = EditingSession(sphere, mesh_io=PYVISTA_MESH_IO, shape=(4, 4, 4))
+        >>> import numpy as np
+        >>> idx = (np.array([0]), np.array([0]), np.array([0]))
+        >>> session.lattice.offsets[idx] = (0.0, 0.0, 0.3)
+        >>> session.commit_rows(idx, "code")
+        >>> bool(np.abs(session.deformed_points - session.rest_points).max() > 0)
+        True
+        """
         self._committed[idx] = self.lattice.offsets[idx]
         self.deformed_points = self.deformer.update(list(zip(*(i.tolist() for i in idx), strict=True)))
         self.notify(kind, np.ravel_multi_index(idx, self.lattice.shape), label, started)
 
     # ------------------------------------------------------------------ selection
     def select(self, ijk: ArrayLike | None) -> None:
-        """Select control point ``(i, j, k)`` (highlighted; the panels edit it), or None."""
+        """Select control point ``(i, j, k)`` (highlighted; the panels edit it), or None.
+
+        Parameters
+        ----------
+        ijk : array_like or None
+            The control point, or None to clear the selection.
+
+        Examples
+        --------
+        >>> import pyvista as pv
+        >>> from ffd_notebook.view.editor.editor import PYVISTA_MESH_IO
+        >>> sphere = pv.Sphere(theta_resolution=8, phi_resolution=8)
+        >>> session = EditingSession(sphere, mesh_io=PYVISTA_MESH_IO, shape=(4, 4, 4))
+        >>> session.select((1, 1, 1))
+        >>> session.selected
+        (1, 1, 1)
+        >>> session.select(None)
+        >>> session.selected is None
+        True
+        """
         self._select(None if ijk is None else self.check_ijk(ijk), "select")
 
     def _select(self, ijk: tuple[int, ...] | None, label: str) -> None:
@@ -383,19 +777,88 @@ class EditingSession:
 
     # ------------------------------------------------------------------ undo / redo
     def undo(self, prepared: PreparedStep | None = None) -> bool:
-        """Revert the last step; False if there was none. ``prepared``: :meth:`prepare_step` of it (its lattice
-        bound to the mesh in a worker thread)."""
+        """Revert the last step; False if there was none.
+
+        Parameters
+        ----------
+        prepared : PreparedStep, optional
+            :meth:`prepare_step` of the step (its lattice bound to the mesh in a worker thread).
+
+        Returns
+        -------
+        bool
+            Whether a step was reverted.
+
+        Examples
+        --------
+        >>> import pyvista as pv
+        >>> from ffd_notebook.view.editor.editor import PYVISTA_MESH_IO
+        >>> sphere = pv.Sphere(theta_resolution=8, phi_resolution=8)
+        >>> session = EditingSession(sphere, mesh_io=PYVISTA_MESH_IO, shape=(4, 4, 4))
+        >>> session.move_control_point((0, 0, 0), (0.1, 0.0, 0.0))
+        >>> session.undo(), session.undo(), float(abs(session.lattice.offsets).sum())
+        (True, False, 0.0)
+        """
         return self._apply(self.history.undo, prepared, forward=False)
 
     def redo(self, prepared: PreparedStep | None = None) -> bool:
-        """Re-apply the last undone step; False if there was none. ``prepared``: as for :meth:`undo`."""
+        """Re-apply the last undone step; False if there was none.
+
+        Parameters
+        ----------
+        prepared : PreparedStep, optional
+            As for :meth:`undo`.
+
+        Returns
+        -------
+        bool
+            Whether a step was re-applied.
+
+        Examples
+        --------
+        >>> import pyvista as pv
+        >>> from ffd_notebook.view.editor.editor import PYVISTA_MESH_IO
+        >>> sphere = pv.Sphere(theta_resolution=8, phi_resolution=8)
+        >>> session = EditingSession(sphere, mesh_io=PYVISTA_MESH_IO, shape=(4, 4, 4))
+        >>> session.move_control_point((0, 0, 0), (0.1, 0.0, 0.0))
+        >>> session.undo(), session.redo(), session.redo()
+        (True, True, False)
+        >>> session.lattice.offsets[0, 0, 0].tolist()
+        [0.1, 0.0, 0.0]
+        """
         return self._apply(self.history.redo, prepared, forward=True)
 
     def prepare_step(self, forward: bool = False) -> PreparedStep | None:
-        """The next undo (``forward``: redo) step if it replaces the lattice, with a copy of the FFD it installs;
+        """The next undo (``forward``: redo) step if it replaces the lattice, with a copy of the FFD it installs.
+
         None for any other step. Binding that FFD to the mesh (``prepared.bind()``, about a second on a
         500k-point mesh) is the slow part of undoing it: a worker thread may do it and pass the result to
-        :meth:`undo` / :meth:`redo`, which check that the history and the mesh have not changed meanwhile."""
+        :meth:`undo` / :meth:`redo`, which check that the history and the mesh have not changed meanwhile.
+
+        Parameters
+        ----------
+        forward : bool, default False
+            The next redo step instead of the next undo step.
+
+        Returns
+        -------
+        PreparedStep or None
+            The step and its FFD (bound by ``prepared.bind()``), or None if the step only moves control points.
+
+        Examples
+        --------
+        >>> import pyvista as pv
+        >>> from ffd_notebook.view.editor.editor import PYVISTA_MESH_IO
+        >>> sphere = pv.Sphere(theta_resolution=8, phi_resolution=8)
+        >>> session = EditingSession(sphere, mesh_io=PYVISTA_MESH_IO, shape=(4, 4, 4))
+        >>> session.set_strength(0.5)
+        >>> prepared = session.prepare_step()
+        >>> session.undo(prepared.bind()), session.ffd.strength
+        (True, 1.0)
+        >>> session.move_control_point((0, 0, 0), (0.1, 0.0, 0.0))
+        >>> print(session.prepare_step())
+        None
+        """
         step = self.history.peek(forward)
         if not isinstance(step, LatticeSwap):
             return None
@@ -433,11 +896,56 @@ class EditingSession:
         """Replace the lattice (and optionally the basis); one undo step. Invalid input changes nothing.
 
         A lattice given this way stays where it is when another mesh is loaded.
+
+        Parameters
+        ----------
+        lattice : Lattice
+            The new lattice (used as is).
+        basis : {"bspline", "bernstein"}, optional
+            The FFD basis; the current one if omitted.
+        label : str, default "lattice"
+            The command's name in the history.
+
+        Examples
+        --------
+        >>> import pyvista as pv
+        >>> from ffd_notebook.view.editor.editor import PYVISTA_MESH_IO
+        >>> sphere = pv.Sphere(theta_resolution=8, phi_resolution=8)
+        >>> session = EditingSession(sphere, mesh_io=PYVISTA_MESH_IO, shape=(4, 4, 4))
+        >>> from ffd_notebook import Lattice
+        >>> lattice = Lattice.around(session.mesh.points, (6, 4, 4))
+        >>> session.set_lattice(lattice)
+        >>> session.lattice is lattice, session.lattice_source, session.can_undo
+        (True, 'given', True)
         """
         self.swap_lattice(lattice, basis, label=label, source="given")
 
     def swap_lattice(self, lattice: Lattice, basis: BasisName | None, *, label: str, source: str) -> None:
-        """Install ``FFD(lattice, basis)`` as one undo step (see :meth:`swap_ffd`)."""
+        """Install ``FFD(lattice, basis)`` as one undo step (see :meth:`swap_ffd`).
+
+        Parameters
+        ----------
+        lattice : Lattice
+            The new lattice; a TypeError for anything else.
+        basis : {"bspline", "bernstein"} or None
+            The FFD basis; None keeps the current one.
+        label : str
+            The command's name in the history.
+        source : str
+            How the lattice was made (see :meth:`swap_ffd`).
+
+        Examples
+        --------
+        >>> import pyvista as pv
+        >>> from ffd_notebook.view.editor.editor import PYVISTA_MESH_IO
+        >>> sphere = pv.Sphere(theta_resolution=8, phi_resolution=8)
+        >>> session = EditingSession(sphere, mesh_io=PYVISTA_MESH_IO, shape=(4, 4, 4))
+        >>> from ffd_notebook import Lattice
+        >>> lattice = Lattice.around(session.mesh.points, (4, 4, 4), basis="bernstein")
+        >>> session.swap_lattice(lattice, "bernstein", label="code", source="fit")
+        >>> session.basis, session.lattice_source
+        ('bernstein', 'fit')
+        """
         if not isinstance(lattice, Lattice):
             raise TypeError(f"lattice must be a Lattice, got {type(lattice).__name__}")
         # validates (e.g. a B-spline lattice needs 4 points per axis) before any change
@@ -446,9 +954,29 @@ class EditingSession:
     def swap_ffd(self, ffd: FFD, *, label: str, source: str, deformer: Deformer | None = None) -> None:
         """Install ``ffd`` (its lattice, basis, border, affine part, ``only_inside``) as one undo step.
 
-        ``source`` (how the lattice was made: ``"fit"``, ``"given"``, ``"ffd-placed"``, ``"ffd-min"``,
-        ``"file"``) decides what loading a mesh does with it, and is undone with it. ``deformer``:
-        ``ffd`` already bound to the mesh's points (e.g. in a worker thread), else it is bound here.
+        Parameters
+        ----------
+        ffd : FFD
+            What to install; a TypeError for anything else.
+        label : str
+            The command's name in the history.
+        source : {"fit", "given", "ffd-placed", "ffd-min", "file"}
+            How the lattice was made: decides what loading a mesh does with it, and is undone with it.
+        deformer : Deformer, optional
+            ``ffd`` already bound to the mesh's points (e.g. in a worker thread); bound here if omitted.
+
+        Examples
+        --------
+        >>> import pyvista as pv
+        >>> from ffd_notebook.view.editor.editor import PYVISTA_MESH_IO
+        >>> sphere = pv.Sphere(theta_resolution=8, phi_resolution=8)
+        >>> session = EditingSession(sphere, mesh_io=PYVISTA_MESH_IO, shape=(4, 4, 4))
+        >>> from ffd_notebook.ffd.deform import FFD
+        >>> from ffd_notebook import Lattice
+        >>> ffd = FFD(Lattice.around(session.mesh.points, (5, 5, 5)), "bspline")
+        >>> session.swap_ffd(ffd, label="code", source="given")
+        >>> session.lattice.shape, session.undo(), session.lattice.shape
+        ((5, 5, 5), True, (4, 4, 4))
         """
         if not isinstance(ffd, FFD):
             raise TypeError(f"ffd must be an FFD, got {type(ffd).__name__}")
@@ -459,11 +987,31 @@ class EditingSession:
         self._bind_lattice(ffd.bind(self.mesh.points) if deformer is None else deformer, label)
 
     def fitted_ffd(self, shape: ArrayLike) -> FFD:
-        """The FFD of a new lattice with ``shape`` control points per axis fitted around the mesh; changes
-        nothing (a message and a ValueError if it cannot be built).
+        """The FFD of a new lattice with ``shape`` control points per axis fitted around the mesh.
 
-        Binding it to the mesh (``ffd.bind(session.mesh.points)``, seconds on a 500k-point mesh) is
-        the slow part of :meth:`set_shape`: a worker thread may do it and hand the deformer over.
+        It changes nothing (a message and a ValueError if it cannot be built). Binding it to the mesh
+        (``ffd.bind(session.mesh.points)``, seconds on a 500k-point mesh) is the slow part of
+        :meth:`set_shape`: a worker thread may do it and hand the deformer over.
+
+        Parameters
+        ----------
+        shape : array_like of int
+            Control points per axis.
+
+        Returns
+        -------
+        FFD
+            The session's FFD (basis, strength, weights) on the new lattice, offsets at zero.
+
+        Examples
+        --------
+        >>> import pyvista as pv
+        >>> from ffd_notebook.view.editor.editor import PYVISTA_MESH_IO
+        >>> sphere = pv.Sphere(theta_resolution=8, phi_resolution=8)
+        >>> session = EditingSession(sphere, mesh_io=PYVISTA_MESH_IO, shape=(4, 4, 4))
+        >>> ffd = session.fitted_ffd((5, 4, 4))
+        >>> ffd.lattice.shape, session.lattice.shape
+        ((5, 4, 4), (4, 4, 4))
         """
         try:
             lattice = fitted_lattice(self.mesh, tuple(int(s) for s in np.ravel(shape)), self.basis)
@@ -476,7 +1024,22 @@ class EditingSession:
     def set_shape(self, shape: ArrayLike, deformer: Deformer | None = None) -> None:
         """Fit a new lattice with ``shape`` control points per axis around the mesh (undoable).
 
-        ``deformer``: :meth:`fitted_ffd` of this shape, already bound to the current mesh's points.
+        Parameters
+        ----------
+        shape : array_like of int
+            Control points per axis.
+        deformer : Deformer, optional
+            :meth:`fitted_ffd` of this shape, already bound to the current mesh's points.
+
+        Examples
+        --------
+        >>> import pyvista as pv
+        >>> from ffd_notebook.view.editor.editor import PYVISTA_MESH_IO
+        >>> sphere = pv.Sphere(theta_resolution=8, phi_resolution=8)
+        >>> session = EditingSession(sphere, mesh_io=PYVISTA_MESH_IO, shape=(4, 4, 4))
+        >>> session.set_shape((5, 4, 4))
+        >>> session.lattice.shape, list(session.messages)[-1]
+        ((5, 4, 4), 'new 5x4x4 lattice around the mesh')
         """
         if deformer is None:
             deformer = self.fitted_ffd(shape).bind(self.mesh.points)
@@ -486,8 +1049,31 @@ class EditingSession:
         self.info(f"new {'x'.join(map(str, deformer.ffd.lattice.shape))} lattice around the mesh")
 
     def basis_ffd(self, basis: BasisName) -> FFD:
-        """The FFD :meth:`set_basis` installs for ``basis`` (the lattice refitted for it); changes nothing (a
-        message and a ValueError if it cannot be built). Binding it to the mesh is the slow part."""
+        """The FFD :meth:`set_basis` installs for ``basis`` (the lattice refitted for it).
+
+        It changes nothing (a message and a ValueError if it cannot be built). Binding it to the mesh is
+        the slow part.
+
+        Parameters
+        ----------
+        basis : {"bspline", "bernstein"}
+            The basis to switch to.
+
+        Returns
+        -------
+        FFD
+            A lattice of the current shape fitted around the mesh for ``basis``, offsets at zero.
+
+        Examples
+        --------
+        >>> import pyvista as pv
+        >>> from ffd_notebook.view.editor.editor import PYVISTA_MESH_IO
+        >>> sphere = pv.Sphere(theta_resolution=8, phi_resolution=8)
+        >>> session = EditingSession(sphere, mesh_io=PYVISTA_MESH_IO, shape=(4, 4, 4))
+        >>> ffd = session.basis_ffd("bernstein")
+        >>> ffd.basis, ffd.lattice.shape, session.basis
+        ('bernstein', (4, 4, 4), 'bspline')
+        """
         try:
             return FFD(fitted_lattice(self.mesh, self.lattice.shape, basis), basis)
         except ValueError as exc:
@@ -497,7 +1083,22 @@ class EditingSession:
     def set_basis(self, basis: BasisName, deformer: Deformer | None = None) -> None:
         """Switch the basis; refits the lattice around the mesh for it (offsets start at zero; undoable).
 
-        ``deformer``: :meth:`basis_ffd` of ``basis``, already bound to the current mesh's points.
+        Parameters
+        ----------
+        basis : {"bspline", "bernstein"}
+            The new basis (nothing happens if it is the current one).
+        deformer : Deformer, optional
+            :meth:`basis_ffd` of ``basis``, already bound to the current mesh's points.
+
+        Examples
+        --------
+        >>> import pyvista as pv
+        >>> from ffd_notebook.view.editor.editor import PYVISTA_MESH_IO
+        >>> sphere = pv.Sphere(theta_resolution=8, phi_resolution=8)
+        >>> session = EditingSession(sphere, mesh_io=PYVISTA_MESH_IO, shape=(4, 4, 4))
+        >>> session.set_basis("bernstein")
+        >>> session.basis, list(session.messages)[-1]
+        ('bernstein', 'basis: bernstein')
         """
         if basis == self.basis:
             return
@@ -513,6 +1114,21 @@ class EditingSession:
 
         The offsets stay (as in Blender, where the interpolation is a property of the lattice); one
         undo step. A Bernstein lattice has none: switch the basis to ``"bspline"`` first.
+
+        Parameters
+        ----------
+        interpolation : str or tuple of str
+            One interpolation for every axis, or three (x, y, z).
+
+        Examples
+        --------
+        >>> import pyvista as pv
+        >>> from ffd_notebook.view.editor.editor import PYVISTA_MESH_IO
+        >>> sphere = pv.Sphere(theta_resolution=8, phi_resolution=8)
+        >>> session = EditingSession(sphere, mesh_io=PYVISTA_MESH_IO, shape=(4, 4, 4))
+        >>> session.set_interpolation(("bspline", "catmull-rom", "linear"))
+        >>> session.interpolation, list(session.messages)[-1]
+        (('bspline', 'catmull-rom', 'linear'), 'interpolation: bspline / catmull-rom / linear')
         """
         try:
             if self.basis == "bernstein":
@@ -532,7 +1148,25 @@ class EditingSession:
         self.info(f"interpolation: {' / '.join(interpolation)}")
 
     def set_strength(self, strength: float) -> None:
-        """Scale the whole deformation: 1 full, 0 none, negative the other way (Blender's strength); one undo step."""
+        """Scale the whole deformation: 1 full, 0 none, negative the other way (Blender's strength); one undo step.
+
+        Parameters
+        ----------
+        strength : float
+            The factor applied to every control point's offset.
+
+        Examples
+        --------
+        >>> import pyvista as pv
+        >>> from ffd_notebook.view.editor.editor import PYVISTA_MESH_IO
+        >>> sphere = pv.Sphere(theta_resolution=8, phi_resolution=8)
+        >>> session = EditingSession(sphere, mesh_io=PYVISTA_MESH_IO, shape=(4, 4, 4))
+        >>> session.move_control_point((0, 0, 0), (0.0, 0.0, 1.0))
+        >>> full = abs(session.deformed_points - session.rest_points).max()
+        >>> session.set_strength(0.5)
+        >>> bool(abs(abs(session.deformed_points - session.rest_points).max() - full / 2) < 1e-9)
+        True
+        """
         try:
             ffd = copy_ffd(self.ffd, strength=strength)
         except ValueError as exc:
@@ -547,12 +1181,53 @@ class EditingSession:
         Always starts from the mesh as loaded, so repeated calls do not compound. Per-vertex colors
         are kept; the lattice and its offsets are kept and the deformer is re-bound to the new
         vertices; the undo history stays valid.
+
+        Parameters
+        ----------
+        reduction : float
+            Fraction of the loaded mesh's faces to remove, in ``[0, 1)``.
+
+        Returns
+        -------
+        mesh
+            The decimated mesh, now the session's mesh.
+
+        Examples
+        --------
+        >>> import pyvista as pv
+        >>> from ffd_notebook.view.editor.editor import PYVISTA_MESH_IO
+        >>> sphere = pv.Sphere(theta_resolution=8, phi_resolution=8)
+        >>> session = EditingSession(sphere, mesh_io=PYVISTA_MESH_IO, shape=(4, 4, 4))
+        >>> session.decimate(0.5).n_cells, session.decimate(0.5).n_cells, session.decimate(0).n_cells
+        (48, 48, 96)
         """
         return self.use_decimated(self.decimation(reduction))
 
     def decimation(self, reduction: float) -> Decimation:
-        """The work of :meth:`decimate`, changing nothing (a worker thread may do it): the decimated mesh and the
-        lattice bound to it. A message and a ValueError if it cannot be done."""
+        """The work of :meth:`decimate`, changing nothing (a worker thread may do it).
+
+        A message and a ValueError if it cannot be done.
+
+        Parameters
+        ----------
+        reduction : float
+            Fraction of the loaded mesh's faces to remove.
+
+        Returns
+        -------
+        Decimation
+            The decimated mesh and the lattice bound to it, for :meth:`use_decimated`.
+
+        Examples
+        --------
+        >>> import pyvista as pv
+        >>> from ffd_notebook.view.editor.editor import PYVISTA_MESH_IO
+        >>> sphere = pv.Sphere(theta_resolution=8, phi_resolution=8)
+        >>> session = EditingSession(sphere, mesh_io=PYVISTA_MESH_IO, shape=(4, 4, 4))
+        >>> done = session.decimation(0.5)
+        >>> done.mesh.n_cells, session.mesh.n_cells
+        (48, 96)
+        """
         try:
             reduction = float(reduction)
             source = self.source_mesh
@@ -569,7 +1244,28 @@ class EditingSession:
         return Decimation(reduction, source, ffd, ffd.lattice.offsets.copy(), mesh, deformer)
 
     def use_decimated(self, done: Decimation) -> Any:
-        """Use a :meth:`decimation` (made from this session's current mesh and lattice: else a ValueError)."""
+        """Use a :meth:`decimation` (made from this session's current mesh and lattice: else a ValueError).
+
+        Parameters
+        ----------
+        done : Decimation
+            What :meth:`decimation` returned.
+
+        Returns
+        -------
+        mesh
+            The decimated mesh, now the session's mesh.
+
+        Examples
+        --------
+        >>> import pyvista as pv
+        >>> from ffd_notebook.view.editor.editor import PYVISTA_MESH_IO
+        >>> sphere = pv.Sphere(theta_resolution=8, phi_resolution=8)
+        >>> session = EditingSession(sphere, mesh_io=PYVISTA_MESH_IO, shape=(4, 4, 4))
+        >>> done = session.decimation(0.5)
+        >>> session.use_decimated(done).n_cells, list(session.messages)[-1]
+        (48, 'decimated by 50%: 26 vertices, 48 faces')
+        """
         if done.source is not self.source_mesh or done.ffd is not self.ffd:
             raise ValueError("the mesh or the lattice changed meanwhile; decimate again")
         if self.ffd.weights is not None:  # one per vertex of the mesh as it was
@@ -584,14 +1280,53 @@ class EditingSession:
 
     # ------------------------------------------------------------------ coloring
     def show_colors(self, show: bool = True) -> None:
-        """Show the mesh's per-vertex colors (or a plain color)."""
+        """Show the mesh's per-vertex colors (or a plain color).
+
+        Parameters
+        ----------
+        show : bool, default True
+            Show the colors (a message says so if the mesh has none), or a plain color.
+
+        Examples
+        --------
+        >>> import pyvista as pv
+        >>> from ffd_notebook.view.editor.editor import PYVISTA_MESH_IO
+        >>> sphere = pv.Sphere(theta_resolution=8, phi_resolution=8)
+        >>> session = EditingSession(sphere, mesh_io=PYVISTA_MESH_IO, shape=(4, 4, 4))
+        >>> session.show_colors()
+        >>> session.colors_shown, list(session.messages)[-1]
+        (True, 'this mesh has no per-vertex colours')
+        >>> session.show_colors(False)
+        >>> session.colors_shown
+        False
+        """
         self.colors_shown = bool(show)
         if show and not self.has_colors:
             self.info("this mesh has no per-vertex colours")
         self.notify("display", None, "colors")
 
     def set_field(self, field: str | None) -> None:
-        """Color the mesh by a deformation field: None, ``"displacement"`` or ``"jacobian"`` (folding)."""
+        """Color the mesh by a deformation field: None, ``"displacement"`` or ``"jacobian"`` (folding).
+
+        Parameters
+        ----------
+        field : {None, "displacement", "jacobian", "weights"}
+            The field (:data:`FIELDS`); None for the mesh's own colors.
+
+        Examples
+        --------
+        >>> import pyvista as pv
+        >>> from ffd_notebook.view.editor.editor import PYVISTA_MESH_IO
+        >>> sphere = pv.Sphere(theta_resolution=8, phi_resolution=8)
+        >>> session = EditingSession(sphere, mesh_io=PYVISTA_MESH_IO, shape=(4, 4, 4))
+        >>> session.set_field("jacobian")
+        >>> list(session.messages)[-1]
+        'folding (det J <= 0) at 0 of 50 vertices'
+        >>> session.set_field("curl")
+        Traceback (most recent call last):
+        ...
+        ValueError: field must be one of (None, 'displacement', 'jacobian', 'weights'), got 'curl'
+        """
         if field not in FIELDS:
             raise ValueError(f"field must be one of {FIELDS}, got {field!r}")
         self.field = field
@@ -603,9 +1338,26 @@ class EditingSession:
             self.info(f"folding (det J <= 0) at {n} of {self.mesh.n_points} vertices")
 
     def show_points(self, which: str) -> None:
-        """Which control points the view draws (:data:`POINTS_SHOWN`): ``"all"``, ``"near"`` (those
-        within two index steps of the selection), ``"hull"`` (the lattice's boundary) or ``"auto"`` (the
-        default: all of them up to 1000 control points, the hull of a denser lattice)."""
+        """Which control points the view draws (:data:`POINTS_SHOWN`).
+
+        ``"all"``, ``"near"`` (those within two index steps of the selection), ``"hull"`` (the lattice's
+        boundary) or ``"auto"`` (the default: all of them up to 1000 control points, the hull of a denser lattice).
+
+        Parameters
+        ----------
+        which : {"auto", "all", "near", "hull"}
+            The control points to draw.
+
+        Examples
+        --------
+        >>> import pyvista as pv
+        >>> from ffd_notebook.view.editor.editor import PYVISTA_MESH_IO
+        >>> sphere = pv.Sphere(theta_resolution=8, phi_resolution=8)
+        >>> session = EditingSession(sphere, mesh_io=PYVISTA_MESH_IO, shape=(4, 4, 4))
+        >>> session.show_points("hull")
+        >>> session.points_shown
+        'hull'
+        """
         if which not in POINTS_SHOWN:
             raise ValueError(f"points shown must be one of {POINTS_SHOWN}, got {which!r}")
         self.points_shown = which
@@ -613,10 +1365,36 @@ class EditingSession:
 
     # ------------------------------------------------------------------ binding the model
     def replace_mesh(self, mesh: Any, deformer: Deformer, *, label: str, new_document: bool) -> None:
-        """Use another mesh with ``deformer`` (its lattice bound to ``mesh.points``; made by
-        :class:`~.files.SessionFiles`, possibly in a worker thread). A new document (a loaded mesh) clears
-        the history; a decimation keeps it and the mesh it started from. Emits ``"mesh"``, then
-        ``"lattice"`` when the lattice is another one."""
+        """Use another mesh with ``deformer`` (its lattice bound to ``mesh.points``).
+
+        The deformer is made by :class:`~.files.SessionFiles`, possibly in a worker thread. A new
+        document (a loaded mesh) clears the history; a decimation keeps it and the mesh it started
+        from. Emits ``"mesh"``, then ``"lattice"`` when the lattice is another one.
+
+        Parameters
+        ----------
+        mesh : mesh object
+            The new rest surface.
+        deformer : Deformer
+            The FFD to use, bound to ``mesh.points``.
+        label : str
+            The command's name for the changes.
+        new_document : bool
+            Whether the mesh is a new document (clears the history and pins) rather than a decimation.
+
+        Examples
+        --------
+        >>> import pyvista as pv
+        >>> from ffd_notebook.view.editor.editor import PYVISTA_MESH_IO
+        >>> sphere = pv.Sphere(theta_resolution=8, phi_resolution=8)
+        >>> session = EditingSession(sphere, mesh_io=PYVISTA_MESH_IO, shape=(4, 4, 4))
+        >>> cube = pv.Cube().triangulate()
+        >>> changes = []
+        >>> _ = session.subscribe(changes.append)
+        >>> session.replace_mesh(cube, session.ffd.bind(cube.points), label="load mesh", new_document=True)
+        >>> [change.kind for change in changes], session.mesh.n_points
+        (['mesh'], 8)
+        """
         new_lattice, selected = deformer.ffd is not self.ffd, self.selected
         if new_document:
             self.history.clear()
