@@ -102,6 +102,20 @@ def lattice_record(lattice_object: Any, modifier: Any = None) -> dict[str, Any]:
         points' ``co`` and ``co_deform`` in the lattice object's space), ``matrix_world`` (4x4),
         ``interpolation`` (one FFD basis name per axis), ``outside`` (bool), ``strength``
         (float) and ``weights`` (``(N,)`` array or None).
+
+    Examples
+    --------
+    Inside Blender (these examples run in Blender's Python in the test suite):
+
+    >>> import bpy
+    >>> data = bpy.data.lattices.new("Cage")
+    >>> data.points_u, data.points_v, data.points_w = 3, 2, 2
+    >>> data.interpolation_type_u = "KEY_LINEAR"
+    >>> cage = bpy.data.objects.new("Cage", data)
+    >>> bpy.context.scene.collection.objects.link(cage)
+    >>> record = lattice_record(cage)
+    >>> record["shape"], record["interpolation"], record["rest"][:, 0, 0, 0].tolist()
+    ((3, 2, 2), ('linear', 'bspline', 'bspline'), [-1.0, 0.0, 1.0])
     """
     bpy = _bpy()
     lattice = lattice_object.data
@@ -157,6 +171,19 @@ def vertex_group_weights(mesh_object: Any, name: str) -> NDArray[np.float64]:
     ------
     KeyError
         If the object has no vertex group of that name.
+
+    Examples
+    --------
+    Inside Blender:
+
+    >>> import bpy
+    >>> mesh = bpy.data.meshes.new("Triangle")
+    >>> mesh.from_pydata([(0, 0, 0), (1, 0, 0), (0, 1, 0)], [], [(0, 1, 2)])
+    >>> triangle = bpy.data.objects.new("Triangle", mesh)
+    >>> nose = triangle.vertex_groups.new(name="nose")
+    >>> nose.add([1], 0.5, "REPLACE")
+    >>> vertex_group_weights(triangle, "nose").tolist()
+    [0.0, 0.5, 0.0]
     """
     group = mesh_object.vertex_groups.get(name)
     if group is None:
@@ -185,6 +212,21 @@ def evaluated_points(mesh_object: Any, *, world: bool = True) -> NDArray[np.floa
     -------
     numpy.ndarray
         ``(N, 3)`` float64, one row per vertex of the evaluated mesh.
+
+    Examples
+    --------
+    Inside Blender: two vertices of an object moved 10 along x (no modifier, so only the move applies).
+
+    >>> import bpy
+    >>> mesh = bpy.data.meshes.new("Two")
+    >>> mesh.from_pydata([(0, 0, 0), (0.25, 0, 0)], [], [])
+    >>> two = bpy.data.objects.new("Two", mesh)
+    >>> bpy.context.scene.collection.objects.link(two)
+    >>> two.location = (10.0, 0.0, 0.0)
+    >>> evaluated_points(two).round(3).tolist()
+    [[10.0, 0.0, 0.0], [10.25, 0.0, 0.0]]
+    >>> evaluated_points(two, world=False).round(3).tolist()
+    [[0.0, 0.0, 0.0], [0.25, 0.0, 0.0]]
     """
     bpy = _bpy()
     depsgraph = bpy.context.evaluated_depsgraph_get()
@@ -221,6 +263,23 @@ def lattice_from_record(record: dict[str, Any], name: str = "Lattice", *, collec
     -------
     bpy.types.Object
         The new lattice object.
+
+    Examples
+    --------
+    Inside Blender: a 2 x 2 x 2 lattice twice Blender's unit size, its top corner point raised.
+
+    >>> import bpy
+    >>> import numpy as np
+    >>> rest = np.stack(np.meshgrid(*[[-1.0, 1.0]] * 3, indexing="ij"), axis=-1)
+    >>> deformed = rest.copy()
+    >>> deformed[1, 1, 1, 2] += 0.5
+    >>> record = {"shape": (2, 2, 2), "rest": rest, "deformed": deformed, "matrix_world": np.eye(4),
+    ...           "interpolation": ("linear",) * 3, "outside": False}
+    >>> cage = lattice_from_record(record, "Raised")
+    >>> cage.data.points_u, cage.data.interpolation_type_w, np.round(cage.matrix_world.to_scale(), 3).tolist()
+    (2, 'KEY_LINEAR', [2.0, 2.0, 2.0])
+    >>> np.round(lattice_record(cage)["deformed"][1, 1, 1] - lattice_record(cage)["rest"][1, 1, 1], 3).tolist()
+    [0.0, 0.0, 0.25]
     """
     bpy = _bpy()
     from mathutils import Matrix  # Blender's, present wherever bpy is
@@ -278,6 +337,20 @@ def ffd_from_lattice(lattice_object: Any, modifier: Any = None) -> Any:
     -------
     FFD
         ``ffd.deform(world_points)`` gives what Blender's modifier gives (in world coordinates).
+
+    Examples
+    --------
+    Inside Blender: a 3 x 3 x 3 lattice with its centre point raised by 0.25 (of its unit size).
+
+    >>> import bpy
+    >>> data = bpy.data.lattices.new("Centre")
+    >>> data.points_u = data.points_v = data.points_w = 3
+    >>> cage = bpy.data.objects.new("Centre", data)
+    >>> bpy.context.scene.collection.objects.link(cage)
+    >>> data.points[13].co_deform.z += 0.25
+    >>> ffd = ffd_from_lattice(cage)
+    >>> ffd.lattice.shape, ffd.basis, ffd.border, ffd.lattice.offsets[1, 1, 1].round(3).tolist()
+    ((3, 3, 3), 'bspline', 'clamp', [0.0, 0.0, 0.25])
     """
     return ffd_from_record(lattice_record(lattice_object, modifier))
 
@@ -301,6 +374,27 @@ def lattice_from_ffd(ffd: Any, name: str = "Lattice", *, target: Any = None, col
     -------
     bpy.types.Object
         The new lattice object.
+
+    Examples
+    --------
+    Inside Blender: the lattice modifier of the new lattice moves a mesh's vertices as the FFD does.
+
+    >>> import bpy
+    >>> import numpy as np
+    >>> from ffd_notebook import FFD, Lattice
+    >>> lattice = Lattice((3, 3, 3), spacing=1.0, border="clamp")
+    >>> lattice.offsets[1, 1, 1] = (0.0, 0.0, 0.5)
+    >>> ffd = FFD(lattice, border="clamp")
+    >>> points = np.array([[1.0, 1.0, 1.0], [0.5, 1.2, 0.8]])
+    >>> mesh = bpy.data.meshes.new("Blob")
+    >>> mesh.from_pydata(points.tolist(), [], [])
+    >>> blob = bpy.data.objects.new("Blob", mesh)
+    >>> bpy.context.scene.collection.objects.link(blob)
+    >>> cage = lattice_from_ffd(ffd, "Cage", target=blob)
+    >>> bool(np.allclose(evaluated_points(blob), ffd.deform(points), atol=1e-5))
+    True
+    >>> bool(np.allclose(ffd_from_lattice(cage).lattice.offsets, lattice.offsets, atol=1e-6))
+    True
     """
     record = record_from_ffd(ffd)
     obj = lattice_from_record(record, name, collection=collection)
