@@ -99,6 +99,9 @@ def test_commands_follow_the_model_and_undo(shared_data):
     assert_follows_the_model(session)
     session.reset((1, 2, 1))
     assert_follows_the_model(session)
+    session.reset((1, 2, 1))  # already at rest: nothing to undo, no step recorded
+    session.reset((0, 0, 0))
+    assert len(session.history) == 3
     assert session.undo() and session.undo() and session.undo() and not session.can_undo
     assert not session.lattice.offsets.any()
     assert_follows_the_model(session)

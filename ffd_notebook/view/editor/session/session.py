@@ -656,7 +656,7 @@ class EditingSession:
         self._select(ijk_t, "move")
 
     def reset(self, ijk: ArrayLike | None = None) -> None:
-        """Zero the offset of one control point, or of all of them (one undo step).
+        """Zero the offset of one control point, or of all of them (one undo step; none if nothing moves).
 
         Parameters
         ----------
@@ -681,7 +681,8 @@ class EditingSession:
         if ijk is None:
             points = [tuple(v) for v in np.argwhere(np.any(self.lattice.offsets != 0, axis=-1))]
         else:
-            points = [self.check_ijk(ijk)]
+            point = self.check_ijk(ijk)
+            points = [point] if np.any(self.lattice.offsets[point] != 0) else []  # an unmoved point: no undo step
         if points:
             self.set_offsets(points, np.zeros((len(points), 3)), label="reset")
 
