@@ -8,19 +8,18 @@ transport move gives every projection the target's distribution.
 import numpy as np
 import pytest
 
-from ffd_notebook.solidtex import histogram_distance, likeness, self_similarity
+from ffd_notebook.solidtex import exemplar_from_image, histogram_distance, likeness, self_similarity
 from ffd_notebook.solidtex.transport import _scatter, _slice_patches, _transport_moves, exemplar_by_transport
 
 from .conftest import IMAGES
 
 
-@pytest.mark.parametrize("name", sorted(IMAGES))
-def test_every_slice_orientation_is_as_varied_as_the_image(name):
-    image = IMAGES[name]
-    volume = exemplar_by_transport(image)
+def test_every_slice_orientation_is_as_varied_as_the_image(made):
+    name, image, volume = made  # exemplar_from_image's default method is this one (checked below)
     assert volume.shape == (48, 48, 48, 3) and volume.dtype == np.uint8
     ratios = self_similarity(volume, image, slices=2)
-    # measured: see the figures printed on failure; new samples of the texture score 0.97-1.14
+    # measured: histology 0.89-1.11, gravel 0.83-0.89 (likeness 0.81-0.93, 0.78-0.90);
+    # new samples of the texture score 0.97-1.14, the image blurred by one pixel 0.6-0.7
     assert 0.8 <= ratios.min() and ratios.max() <= 1.6, (name, ratios)
     near = likeness(volume, image, slices=1)
     assert 0.75 <= near.min() and near.max() <= 1.3, (name, near)
@@ -62,6 +61,8 @@ def test_deterministic_and_checks_its_input():
     kw = {"levels": 2, "patch": (4,), "steps": (2,), "rounds": (1,), "neighbourhood": (5,), "fine_steps": 1}
     a = exemplar_by_transport(image, 16, **kw)
     np.testing.assert_array_equal(a, exemplar_by_transport(image, 16, **kw))
+    default = exemplar_from_image(image, 16, levels=2)  # the default method is this one
+    np.testing.assert_array_equal(default, exemplar_by_transport(image, 16, levels=2))
     assert not np.array_equal(a, exemplar_by_transport(image, 16, rng=1, **kw))
     with pytest.raises(ValueError, match="multiple"):
         exemplar_by_transport(image, 33, **kw)
