@@ -46,10 +46,12 @@ issue (crops at ``[100:, 100:]``; the "honeycomb" crop ``[340:404, 290:354]`` of
   0.71/0.73/0.78: stones and cells appear, soft;
 * ``r = -4``: sharper (honeycomb 0.85-0.91) but patches of one window show as small square blocks;
   the best-window vote instead of a mean: 1.0-1.1, and the streaks and blocks come back;
-* the defaults: honeycomb (64^3) 0.89/0.90/0.90, likeness 0.85-0.88, colour histogram distance
-  0.0070; gravel (96^3) 0.81/0.85/0.86, likeness ~0.81, 0.0000; ~107 s CPU at 96^3 (~70 s wall on
-  two cores). The columnar histology crop (cells running one way) scores lower across its
-  fibres: no solid can show fibres in every orientation.
+* the defaults: honeycomb (64^3) 0.91/0.92/0.94, likeness 0.86-0.90, colour histogram distance
+  0.0075; gravel (96^3) 0.85/0.88/0.91, likeness 0.83-0.85, 0.0000; the columnar histology crop
+  (96^3) 1.05/0.89/0.88, likeness 0.85-0.98, 0.0055 (Kopf's best vote: 1.19-1.35 but streaks,
+  0.0084). 96^3 takes 72-82 s wall, 110-125 s CPU (BLAS threads) on two cores. The columnar crop
+  (cells running one way) cannot look the same in every orientation: its slices across the
+  fibres are a different, isotropic texture.
 
 Hand-written on NumPy/SciPy: no maintained library synthesises solid textures from a 2D image
 (POT computes sliced Wasserstein distances, not this patch-adjoint synthesis, and a 1D transport is
