@@ -49,7 +49,8 @@ issue (crops at ``[100:, 100:]``; the "honeycomb" crop ``[340:404, 290:354]`` of
 * the defaults: honeycomb (64^3) 0.91/0.92/0.94, likeness 0.86-0.90, colour histogram distance
   0.0075; gravel (96^3) 0.85/0.88/0.91, likeness 0.83-0.85, 0.0000; the columnar histology crop
   (96^3) 1.05/0.89/0.88, likeness 0.85-0.98, 0.0055 (Kopf's best vote: 1.19-1.35 but streaks,
-  0.0084). 96^3 takes 72-82 s wall, 110-125 s CPU (BLAS threads) on two cores. The columnar crop
+  0.0084). 96^3 takes 72-82 s wall on two cores: 83 s CPU with one BLAS thread (the same volume),
+  110-125 s CPU with the default BLAS threads (they spin). The columnar crop
   (cells running one way) cannot look the same in every orientation: its slices across the
   fibres are a different, isotropic texture.
 
