@@ -17,6 +17,7 @@ from .similarity import likeness, self_similarity, self_similarity_figure, volum
 from .slices import as_rgb8, sliding_crops, volume_from_slices
 from .synthesis import Stage, plan_stages, synthesize
 from .tetra import boundary_faces
+from .transport import exemplar_by_transport
 
 __all__ = [
     "LazySolidTexture",
@@ -32,6 +33,7 @@ __all__ = [
     "classify_blocks",
     "color_histogram",
     "colour_histogram",
+    "exemplar_by_transport",
     "exemplar_from_image",
     "feature_inclusiveness",
     "gradient_energy",

@@ -258,11 +258,18 @@ def exemplar_from_image(
     pca_dims: int = 16,
     discrete_sweeps: int = 0,
     vote: str = "best",
+    method: str = "transport",
     rng: RNGLike = 0,
     progress: bool = False,
     seed: int | None = None,
 ) -> NDArray[np.uint8]:
-    """A cubic colour volume whose axis-aligned slices look like ``image`` (Kopf et al. 2007).
+    """A cubic colour volume whose axis-aligned slices look like ``image``.
+
+    By default (``method="transport"``) the slices' patch distributions are matched to the image's
+    by sliced optimal transport with robust neighbourhood steps
+    (:func:`~ffd_notebook.solidtex.transport.exemplar_by_transport`: coherent cells and stones, no
+    streaks or blocks); ``method="kopf"`` is the nearest-neighbour optimisation of Kopf et al. 2007
+    described in this module (sharp at ``vote="best"`` but streaky, blurred at ``vote="mean"``).
 
     Parameters
     ----------
@@ -290,6 +297,11 @@ def exemplar_from_image(
         How a voxel combines the colours its matched windows propose: ``"best"`` takes the one of
         the best-matching window (sharp; default), ``"mean"`` Kopf's IRLS-weighted mean (smooth:
         slices at 0.5-0.6 self-similarity on the histology image). See the module notes.
+        ``method="kopf"`` only, as are ``neighbourhood``, ``iterations``, ``pca_dims`` and
+        ``discrete_sweeps``.
+    method : {"transport", "kopf"}
+        ``"transport"`` (default): :func:`~ffd_notebook.solidtex.transport.exemplar_by_transport`
+        with its defaults and ``levels``; ``"kopf"``: the optimisation of this module.
     rng : int or numpy.random.Generator
         The result is the same for the same int. The optimisation needs an integer root seed (its
         colour transfers are seeded ``seed + iteration``): a Generator gives one 63-bit draw
@@ -310,10 +322,18 @@ def exemplar_from_image(
     --------
     >>> rng = np.random.default_rng(0)
     >>> stripes = np.kron(rng.integers(0, 2, (8, 1)) * 200, np.ones((4, 32))).astype(np.uint8)
-    >>> vol = exemplar_from_image(stripes, size=16, levels=2, neighbourhood=5, iterations=(2, 2))
+    >>> vol = exemplar_from_image(stripes, size=16, levels=2, neighbourhood=5, iterations=(2, 2), method="kopf")
     >>> vol.shape, vol.dtype.name
     ((16, 16, 16, 3), 'uint8')
     """
+    if method not in ("transport", "kopf"):
+        raise ValueError(f"method must be 'transport' or 'kopf', got {method!r}")
+    if seed is not None:
+        rng = renamed_keyword({"seed": seed}, "seed", "rng", rng, "exemplar_from_image")
+    if method == "transport":
+        from .transport import exemplar_by_transport  # it builds on this module's helpers
+
+        return exemplar_by_transport(image, size, levels=levels, rng=rng, progress=progress)
     img = as_rgb8(image).astype(np.float32)
     if vote not in ("best", "mean"):
         raise ValueError(f"vote must be 'best' or 'mean', got {vote!r}")
@@ -326,8 +346,6 @@ def exemplar_from_image(
         raise ValueError(f"size {size} must be a multiple of {scale} and at least {neighbourhood * scale}")
     if min(img.shape[:2]) // scale < neighbourhood + 1:
         raise ValueError(f"the image ({img.shape[0]}x{img.shape[1]}) is too small for {levels} levels")
-    if seed is not None:
-        rng = renamed_keyword({"seed": seed}, "seed", "rng", rng, "exemplar_from_image")
     seed = integer_seed(rng)
     rng = np.random.default_rng(seed)
     iters = [iterations[min(k, len(iterations) - 1)] for k in range(levels)]

@@ -14,40 +14,41 @@ def test_every_slice_orientation_is_as_varied_as_the_image(made):
     name, image, volume = made
     assert volume.shape == (*image.shape[:2], image.shape[0], 3) and volume.dtype == np.uint8  # the image's size
     ratios = self_similarity(volume, image, slices=2)
-    # measured: histology 1.21-1.33, gravel 1.06-1.09 (likeness 1.02-1.16 and 0.93-1.03)
+    # the default method ("transport"), measured: histology 0.89-1.11, gravel 0.83-0.89
+    # (likeness 0.81-0.93 and 0.78-0.90; Kopf's best vote gave 1.21-1.33 and 1.06-1.09 but streaks)
     assert 0.8 <= ratios.min() and ratios.max() <= 1.6, (name, ratios)
     near = likeness(volume, image, slices=1)
-    assert 0.8 <= near.min() and near.max() <= 1.3, (name, near)  # like the image, no copies of it
+    assert 0.75 <= near.min() and near.max() <= 1.3, (name, near)  # like the image, no copies of it
     assert histogram_distance(volume, image) < 0.05
 
 
 def test_the_mean_vote_blurs(images):
     # Kopf's weighted mean of the proposals (the old update) gives smoother slices than the best window
     image = images["gravel"]  # measured: mean 0.43-0.69, best 1.06-1.09
-    mean = exemplar_from_image(image, vote="mean")
-    best = exemplar_from_image(image, vote="best")
+    mean = exemplar_from_image(image, vote="mean", method="kopf")
+    best = exemplar_from_image(image, vote="best", method="kopf")
     assert self_similarity(mean, image, slices=1).max() < 0.8 < self_similarity(best, image, slices=1).min()
 
 
 def test_deterministic_and_checks_its_input(images):
     image = images["histology"][:32, :32]
-    kw = {"levels": 2, "neighbourhood": 5, "iterations": (2, 2)}
+    kw = {"levels": 2, "neighbourhood": 5, "iterations": (2, 2), "method": "kopf"}
     a = exemplar_from_image(image, 16, **kw)
     np.testing.assert_array_equal(a, exemplar_from_image(image, 16, **kw))
     assert not np.array_equal(a, exemplar_from_image(image, 16, rng=1, **kw))
     with pytest.raises(ValueError, match="multiple"):
-        exemplar_from_image(image, 33, levels=2)
+        exemplar_from_image(image, 33, levels=2, method="kopf")
     with pytest.raises(ValueError, match="odd"):
-        exemplar_from_image(image, 32, neighbourhood=4)
+        exemplar_from_image(image, 32, neighbourhood=4, method="kopf")
     with pytest.raises(ValueError, match="too small"):
-        exemplar_from_image(image[:12, :12], 32, levels=3, neighbourhood=5)
+        exemplar_from_image(image[:12, :12], 32, levels=3, neighbourhood=5, method="kopf")
     with pytest.raises(ValueError, match="vote"):
-        exemplar_from_image(image, 16, vote="median")
+        exemplar_from_image(image, 16, vote="median", method="kopf")
 
 
 def test_discrete_sweeps_copy_image_colours(images):
     image = images["histology"][:32, :32]
-    kw = {"levels": 2, "neighbourhood": 5, "iterations": (2, 2), "vote": "mean"}
+    kw = {"levels": 2, "neighbourhood": 5, "iterations": (2, 2), "vote": "mean", "method": "kopf"}
     smooth = exemplar_from_image(image, 16, **kw)
     swept = exemplar_from_image(image, 16, discrete_sweeps=2, **kw)
 
