@@ -2,9 +2,10 @@
 A textured organ, cut open
 ==========================
 
-A solid texture grown from scikit-image's immunohistochemistry picture (slices stacked into a small
-exemplar volume, then :func:`~ffd_notebook.solidtex.synthesize`), sampled inside PyVista's frog liver
-and cut open with a plane: the cut face shows the interior.
+A solid texture grown from scikit-image's immunohistochemistry picture (a small exemplar volume whose
+slices look like a crop of cells cut across, :func:`~ffd_notebook.solidtex.exemplar_from_image`, then
+:func:`~ffd_notebook.solidtex.synthesize`), sampled inside PyVista's frog liver and cut open with a
+plane: the cut face shows the interior.
 """
 
 import numpy as np
@@ -13,12 +14,12 @@ import skimage.data
 
 from ffd_notebook.datasets import frog_liver
 from ffd_notebook.meshing.organ import tetrahedralize
-from ffd_notebook.solidtex import SolidTexture, sliding_crops, synthesize, volume_from_slices
+from ffd_notebook.solidtex import SolidTexture, exemplar_from_image, synthesize
 from ffd_notebook.view.camera import frame_camera, view_direction
 from ffd_notebook.view.solidtex import TexturedOrgan, add_cut
 
-slices = sliding_crops(skimage.data.immunohistochemistry(), n_slices=32, size=48, step=(1, 1), start=(84, 84))
-exemplar = volume_from_slices(slices)
+cells = skimage.data.immunohistochemistry()[340:388, 290:338]  # 48 px of a gland cut across
+exemplar = exemplar_from_image(cells, rng=0)  # 48^3: its x, y and z slices all look like the crop
 grid = tetrahedralize(frog_liver(1500))
 texture = SolidTexture.fit(synthesize(exemplar, 64, rng=0, progress=False), grid.bounds)
 organ = TexturedOrgan(grid, texture)
