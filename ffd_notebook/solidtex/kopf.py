@@ -57,92 +57,38 @@ from typing import Any, cast
 import numpy as np
 from numpy.typing import NDArray
 from scipy import ndimage
-from scipy.spatial import cKDTree
-from scipy.stats import special_ortho_group
 from tqdm.auto import tqdm
 
 from .._util.deprecation import renamed_keyword
-from .neighbourhoods import image_windows
 from .seeding import RNGLike, integer_seed
+from .slice_search import (
+    BINS,
+    ImageNeighbourhoods,
+    downsample,
+    histogram_penalty,
+    slice_queries,
+    transfer_colours,
+    window_offsets,
+)
 from .slices import as_rgb8
+from .transport import exemplar_by_transport
 
 __all__ = ["exemplar_from_image"]
-
-_BINS = 16  # per-channel histogram bins of the histogram matching
-
-
-def _downsample(image: NDArray[np.float32], factor: int) -> NDArray[np.float32]:
-    """Mean of ``factor x factor`` pixel blocks (the image at a coarser pyramid level)."""
-    if factor == 1:
-        return image
-    h, w = (s - s % factor for s in image.shape[:2])
-    return image[:h, :w].reshape(h // factor, factor, w // factor, factor, 3).mean(axis=(1, 3))
-
-
-class _ImageNeighbourhoods:
-    """All ``n x n`` windows of one pyramid level of the image, PCA-reduced into a k-d tree."""
-
-    def __init__(self, image: NDArray[np.float32], n: int, dims: int, rng: np.random.Generator) -> None:
-        self.n = n
-        self.windows = image_windows(image, n)  # (M, 3 n^2), order (row, col, channel)
-        sample = self.windows[rng.choice(len(self.windows), min(len(self.windows), 6000), replace=False)]
-        self.mean = sample.mean(axis=0)
-        _, _, vt = np.linalg.svd(sample - self.mean, full_matrices=False)
-        self.basis = vt[: min(dims, vt.shape[0])].T.astype(np.float32)
-        self.tree = cKDTree((self.windows - self.mean) @ self.basis)
-
-    def nearest(self, queries: NDArray[np.float32]) -> tuple[NDArray[np.int64], NDArray[np.float32]]:
-        """Index of the nearest window and the true (full-dimensional) distance to it."""
-        _, idx = self.tree.query((queries - self.mean) @ self.basis, k=1, eps=0.5, workers=-1)
-        d = np.linalg.norm(self.windows[idx] - queries, axis=1)
-        return idx, d
-
-
-def _slice_queries(volume: NDArray[np.float32], axis: int, n: int, stride: int, offset: int) -> NDArray[np.float32]:
-    """Windows on the slices perpendicular to ``axis``, centred on a grid with ``stride`` in the slice (periodic)."""
-    h = n // 2
-    vol = np.moveaxis(volume, axis, 0)  # (S, R, C, 3): slices, rows, columns
-    pad = np.pad(vol, ((0, 0), (h, h), (h, h), (0, 0)), mode="wrap")
-    rows = np.arange(offset, vol.shape[1], stride)
-    cols = np.arange(offset, vol.shape[2], stride)
-    r = rows[:, None] + np.arange(n)[None, :]  # padded coordinates of each window's rows
-    c = cols[:, None] + np.arange(n)[None, :]
-    w = pad[:, r[:, None, :, None], c[None, :, None, :]]  # (S, nr, nc, n, n, 3)
-    return w.reshape(-1, 3 * n * n)
-
-
-def _histogram_penalty(volume: NDArray[np.float32], target: NDArray[np.float64]) -> NDArray[np.float32]:
-    """Per channel and bin, how much more of the volume falls in the bin than of the image (>= 0)."""
-    q = np.clip(volume.reshape(-1, 3) * (_BINS / 256.0), 0, _BINS - 1).astype(np.int64)
-    h = np.stack([np.bincount(q[:, c], minlength=_BINS) for c in range(3)]) / len(q)
-    return np.maximum(h - target, 0.0).astype(np.float32) * _BINS  # scaled: a fully doubled bin costs ~1
 
 
 def _proposals(volume, index, stride, offset):
     """For each slice orientation: the matched image windows, their distances, and their IRLS weights."""
     n = index.n
     for axis in range(3):
-        queries = _slice_queries(volume, axis, n, stride, offset)
+        queries = slice_queries(volume, axis, n, stride, offset)
         idx, dist = index.nearest(queries)
         weight = np.power(dist / np.sqrt(3 * n * n) + 0.05, 0.8 - 2.0).astype(np.float32)  # IRLS, r = 0.8
         yield axis, index.windows[idx].reshape(-1, n, n, 3), dist.astype(np.float32), weight
 
 
-def _offsets(shape, axis, n, stride, offset):
-    """For each window offset (dy, dx): the voxels (in the volume moved so ``axis`` is first) it lands on."""
-    h = n // 2
-    moved = (shape[axis], *(shape[a] for a in range(3) if a != axis))
-    rows0, cols0 = np.arange(offset, moved[1], stride), np.arange(offset, moved[2], stride)
-    grid = (moved[0], len(rows0), len(cols0))
-    for dy in range(n):
-        for dx in range(n):
-            # each (row, col) pair appears once for a fixed offset: fancy-index updates are exact
-            yield dy, dx, grid, np.ix_(np.arange(moved[0]), (rows0 + dy - h) % moved[1], (cols0 + dx - h) % moved[2])
-
-
 def _optimise(
     volume: NDArray[np.float32],
-    index: _ImageNeighbourhoods,
+    index: ImageNeighbourhoods,
     target_hist: NDArray[np.float64],
     stride: int,
     it: int,
@@ -157,15 +103,15 @@ def _optimise(
     instead of averaging neighbourhoods that disagree, which is what blurs the mean.
     """
     shape = volume.shape[:3]
-    penalty = _histogram_penalty(volume, target_hist)
+    penalty = histogram_penalty(volume, target_hist)
     offset = it % stride  # move the sparse grid between iterations so every voxel gets centred
     num = np.zeros((*shape, 3), np.float32)
     den = np.zeros(shape, np.float32) if vote == "mean" else np.full(shape, np.inf, np.float32)
     for axis, patches, dist, weight in _proposals(volume, index, stride, offset):
         numv, denv = np.moveaxis(num, axis, 0), np.moveaxis(den, axis, 0)
-        for dy, dx, grid, sub in _offsets(shape, axis, index.n, stride, offset):
+        for dy, dx, grid, sub in window_offsets(shape, axis, index.n, stride, offset):
             colour = patches[:, dy, dx]
-            bins = np.clip(colour * (_BINS / 256.0), 0, _BINS - 1).astype(np.int64)
+            bins = np.clip(colour * (BINS / 256.0), 0, BINS - 1).astype(np.int64)
             over = penalty[0, bins[:, 0]] + penalty[1, bins[:, 1]] + penalty[2, bins[:, 2]]
             if vote == "mean":
                 w = (weight / (1.0 + over)).reshape(grid)
@@ -182,7 +128,7 @@ def _optimise(
 
 
 def _discrete_sweep(
-    volume: NDArray[np.float32], index: _ImageNeighbourhoods, stride: int, offset: int, rng: np.random.Generator
+    volume: NDArray[np.float32], index: ImageNeighbourhoods, stride: int, offset: int, rng: np.random.Generator
 ) -> NDArray[np.float32]:
     """One discrete step at the finest level: voxels take a real image colour that lowers the energy.
 
@@ -199,19 +145,19 @@ def _discrete_sweep(
     vol = np.ascontiguousarray(np.moveaxis(volume, 3, 0))  # channels first: cheaper sums over colours
     matches = []
     for axis in range(3):
-        idx, dist = index.nearest(_slice_queries(volume, axis, n, stride, offset))
+        idx, dist = index.nearest(slice_queries(volume, axis, n, stride, offset))
         matches.append((axis, index.windows[idx].reshape(-1, n, n, 3), np.square(dist)))
     cands = np.repeat(vol[None], 4, axis=0)  # the current colour, then one proposal per orientation
     for axis, patches, _ in matches:
         mine = np.moveaxis(cands[1 + axis], axis + 1, 1)
-        for dy, dx, grid, sub in _offsets(shape, axis, n, stride, offset):
+        for dy, dx, grid, sub in window_offsets(shape, axis, n, stride, offset):
             if h <= dy < h + stride and h <= dx < h + stride:  # the window whose centre is nearest
                 mine[(slice(None), *sub)] = np.moveaxis(patches[:, dy, dx].reshape(*grid, 3), 3, 0)
     cost = np.zeros((4, *shape), np.float32)
     for axis, patches, r2 in matches:
         own, costs = np.moveaxis(vol, axis + 1, 1), np.moveaxis(cost, axis + 1, 1)
         options = np.moveaxis(cands, axis + 2, 2)
-        for dy, dx, grid, sub in _offsets(shape, axis, n, stride, offset):
+        for dy, dx, grid, sub in window_offsets(shape, axis, n, stride, offset):
             e = np.moveaxis(patches[:, dy, dx].reshape(*grid, 3), 3, 0)
             rest = np.maximum(r2.reshape(grid) - _sq(own[(slice(None), *sub)] - e), 0.0)
             for k in range(4):
@@ -224,28 +170,6 @@ def _discrete_sweep(
 def _sq(d: NDArray[np.float32]) -> NDArray[np.float32]:
     """Squared colour distance of channel-first differences."""
     return d[0] * d[0] + d[1] * d[1] + d[2] * d[2]
-
-
-def _transfer_colours(volume: NDArray[np.float32], image: NDArray[np.float32], rounds: int, seed: int):
-    """Give the volume's colours the image's joint RGB distribution (sliced optimal transport).
-
-    Each round rotates the colour space at random and matches each rotated channel's
-    distribution exactly (rank by rank), after Pitie, Kokaram and Dawson (2005); a few rounds
-    match the joint distribution, which per-channel matching alone does not. Averaging proposals
-    narrows the colours; this restores them without moving any structure.
-    """
-    x = volume.reshape(-1, 3).astype(np.float64)
-    y = image.reshape(-1, 3).astype(np.float64)
-    ranks = (np.arange(len(x)) + 0.5) / len(x)
-    quantiles = (np.arange(len(y)) + 0.5) / len(y)
-    rng = np.random.default_rng(seed)
-    for _ in range(rounds):
-        rotation = special_ortho_group.rvs(3, random_state=rng)
-        px, py = x @ rotation, y @ rotation
-        for c in range(3):
-            px[np.argsort(px[:, c], kind="stable"), c] = np.interp(ranks, quantiles, np.sort(py[:, c]))
-        x = px @ rotation.T
-    return x.reshape(volume.shape).astype(np.float32)
 
 
 def exemplar_from_image(
@@ -331,8 +255,6 @@ def exemplar_from_image(
     if seed is not None:
         rng = renamed_keyword({"seed": seed}, "seed", "rng", rng, "exemplar_from_image")
     if method == "transport":
-        from .transport import exemplar_by_transport  # it builds on this module's helpers
-
         return exemplar_by_transport(image, size, levels=levels, rng=rng, progress=progress)
     img = as_rgb8(image).astype(np.float32)
     if vote not in ("best", "mean"):
@@ -353,29 +275,29 @@ def exemplar_from_image(
     with tqdm(total=sum(iters), desc="exemplar from image", disable=not progress) as bar:
         for level in range(levels):
             factor = 2 ** (levels - 1 - level)
-            level_img = _downsample(img, factor)
+            level_img = downsample(img, factor)
             n_side = size // factor
             if volume is None:  # start from the image's own colours, shuffled
                 pixels = level_img.reshape(-1, 3)
                 volume = pixels[rng.integers(0, len(pixels), n_side**3)].reshape(n_side, n_side, n_side, 3)
             else:
                 volume = ndimage.zoom(volume, (2, 2, 2, 1), order=1, mode="grid-wrap", grid_mode=True)
-            index = _ImageNeighbourhoods(level_img, neighbourhood, pca_dims, rng)
+            index = ImageNeighbourhoods(level_img, neighbourhood, pca_dims, rng)
             target_hist = np.stack(
                 [
                     np.bincount(
-                        np.clip(level_img[..., c] * (_BINS / 256.0), 0, _BINS - 1).astype(int).ravel(), None, _BINS
+                        np.clip(level_img[..., c] * (BINS / 256.0), 0, BINS - 1).astype(int).ravel(), None, BINS
                     )
                     for c in range(3)
                 ]
             ) / (level_img.shape[0] * level_img.shape[1])
             for it in range(iters[level]):
                 if it or level:  # the shuffled start already has the image's colours
-                    volume = _transfer_colours(volume, level_img, 5, seed + it)
+                    volume = transfer_colours(volume, level_img, 5, seed + it)
                 volume = _optimise(volume.astype(np.float32), index, target_hist, 2, it, vote)
                 bar.update()
     assert volume is not None  # levels >= 1 (checked above)
-    volume = _transfer_colours(volume, img, 20, seed)
+    volume = transfer_colours(volume, img, 20, seed)
     if discrete_sweeps:  # ``index`` is the finest level's: the full image
         for sweep in range(discrete_sweeps):  # the sparse grid moves between sweeps, as in the optimisation
             volume = _discrete_sweep(volume.astype(np.float32), index, 2, sweep % 2, rng)

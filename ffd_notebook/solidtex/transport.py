@@ -68,17 +68,17 @@ from numpy.typing import NDArray
 from scipy import ndimage
 from tqdm.auto import tqdm
 
-from .kopf import (
-    _BINS,
-    _downsample,
-    _histogram_penalty,
-    _ImageNeighbourhoods,
-    _offsets,
-    _slice_queries,
-    _transfer_colours,
-)
 from .neighbourhoods import image_windows
 from .seeding import RNGLike, integer_seed
+from .slice_search import (
+    BINS,
+    ImageNeighbourhoods,
+    downsample,
+    histogram_penalty,
+    slice_queries,
+    transfer_colours,
+    window_offsets,
+)
 from .slices import as_rgb8
 
 __all__ = ["exemplar_by_transport"]
@@ -169,33 +169,33 @@ def _transport_steps(
             acc, cnt = _scatter(moves, shape, n, grid, oy, ox, stride)
             np.moveaxis(move, axis, 0)[...] += acc
             np.moveaxis(count, axis, 0)[...] += cnt
-        volume = volume + rate * move / np.maximum(count, 1)[..., None]
+        volume = (volume + rate * move / np.maximum(count, 1)[..., None]).astype(np.float32, copy=False)
     return volume
 
 
 def _robust_step(
-    volume: Array, index: _ImageNeighbourhoods, target_hist: NDArray[np.float64], stride: int, it: int, r: float
+    volume: Array, index: ImageNeighbourhoods, target_hist: NDArray[np.float64], stride: int, it: int, r: float
 ) -> Array:
     """Kopf's update: the IRLS-weighted mean of the colours the matched image windows propose, histogram-weighted."""
     shape = volume.shape[:3]
     n = index.n
-    penalty = _histogram_penalty(volume, target_hist)
+    penalty = histogram_penalty(volume, target_hist)
     offset = it % stride
     num = np.zeros((*shape, 3), np.float32)
     den = np.zeros(shape, np.float32)
     for axis in range(3):
-        idx, dist = index.nearest(_slice_queries(volume, axis, n, stride, offset))
+        idx, dist = index.nearest(slice_queries(volume, axis, n, stride, offset))
         weight = np.power(dist / np.sqrt(3 * n * n) + 0.05, r - 2.0).astype(np.float32)
         patches = index.windows[idx].reshape(-1, n, n, 3)
         numv, denv = np.moveaxis(num, axis, 0), np.moveaxis(den, axis, 0)
-        for dy, dx, grid, sub in _offsets(shape, axis, n, stride, offset):
+        for dy, dx, grid, sub in window_offsets(shape, axis, n, stride, offset):
             colour = patches[:, dy, dx]
-            bins = np.clip(colour * (_BINS / 256.0), 0, _BINS - 1).astype(np.int64)
+            bins = np.clip(colour * (BINS / 256.0), 0, BINS - 1).astype(np.int64)
             over = penalty[0, bins[:, 0]] + penalty[1, bins[:, 1]] + penalty[2, bins[:, 2]]
             w = (weight / (1.0 + over)).reshape(grid)
             numv[sub] += w[..., None] * colour.reshape(*grid, 3)
             denv[sub] += w
-    out: Array = num / np.maximum(den, 1e-30)[..., None]
+    out: Array = (num / np.maximum(den, np.float32(1e-30))[..., None]).astype(np.float32, copy=False)
     return np.where((den > 0)[..., None], out, volume)
 
 
@@ -301,7 +301,7 @@ def exemplar_by_transport(
     volume: Array | None = None
     for level in tqdm(range(levels), desc="exemplar by transport", disable=not progress):
         factor = 2 ** (levels - 1 - level)
-        level_img = _downsample(img, factor)
+        level_img = downsample(img, factor)
         side = size // factor
         if volume is None:  # the image's own colours, shuffled
             pixels = level_img.reshape(-1, 3)
@@ -315,15 +315,15 @@ def exemplar_by_transport(
             volume = _transport_steps(
                 volume, windows, n, min(5, counts[level] - done), gen, stride=stride, directions=directions
             )
-            volume = _transfer_colours(volume, level_img, 5, seed + done)
+            volume = transfer_colours(volume, level_img, 5, seed + done)
         if nrounds[level]:
-            index = _ImageNeighbourhoods(level_img, nbhd[level], 16, gen)
-            q = np.clip(level_img * (_BINS / 256.0), 0, _BINS - 1).astype(np.int64).reshape(-1, 3)
-            target_hist = np.stack([np.bincount(q[:, c], minlength=_BINS) for c in range(3)]) / len(q)
+            index = ImageNeighbourhoods(level_img, nbhd[level], 16, gen)
+            q = np.clip(level_img * (BINS / 256.0), 0, BINS - 1).astype(np.int64).reshape(-1, 3)
+            target_hist = np.stack([np.bincount(q[:, c], minlength=BINS) for c in range(3)]) / len(q)
             for it in range(nrounds[level]):
                 volume = _robust_step(volume.astype(np.float32), index, target_hist, 3, it, robustness)
                 volume = _transport_steps(volume, windows, n, 3, gen, stride=stride, directions=directions)
-                volume = _transfer_colours(volume, level_img, 5, seed + it)
+                volume = transfer_colours(volume, level_img, 5, seed + it)
     assert volume is not None
     if fine_steps:
         volume = _transport_steps(
@@ -336,7 +336,7 @@ def exemplar_by_transport(
             directions=fine_directions,
             rate=1.0,
         )
-    volume = _transfer_colours(volume, img, 20, seed)
+    volume = transfer_colours(volume, img, 20, seed)
     if grey:
         volume = _grey(volume, img)
     return np.clip(np.rint(volume), 0, 255).astype(np.uint8)

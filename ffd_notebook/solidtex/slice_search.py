@@ -1,0 +1,112 @@
+"""What both solid optimisations share: the image pyramid, image windows in a k-d tree, slice windows.
+
+:func:`~ffd_notebook.solidtex.exemplar_from_image` (Kopf et al. 2007, ``method="kopf"``) and
+:func:`~ffd_notebook.solidtex.exemplar_by_transport` both compare the windows of a volume's axis-aligned
+slices with the windows of one image: these are the pieces they have in common (the image's
+``2 x 2`` block-mean pyramid, its windows PCA-reduced in a SciPy k-d tree, slice windows centred on a
+sparse periodic grid and the voxels each window offset lands on, Kopf's histogram over-use penalty,
+and the sliced optimal-transport colour transfer). Implementation only: the public names are the
+two functions above.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.spatial import cKDTree
+from scipy.stats import special_ortho_group
+
+from .neighbourhoods import image_windows
+
+__all__ = [
+    "BINS",
+    "ImageNeighbourhoods",
+    "downsample",
+    "histogram_penalty",
+    "slice_queries",
+    "transfer_colours",
+    "window_offsets",
+]
+
+BINS = 16  # per-channel histogram bins of the histogram matching
+
+
+def downsample(image: NDArray[np.float32], factor: int) -> NDArray[np.float32]:
+    """Mean of ``factor x factor`` pixel blocks (the image at a coarser pyramid level)."""
+    if factor == 1:
+        return image
+    h, w = (s - s % factor for s in image.shape[:2])
+    return image[:h, :w].reshape(h // factor, factor, w // factor, factor, 3).mean(axis=(1, 3))
+
+
+class ImageNeighbourhoods:
+    """All ``n x n`` windows of one pyramid level of the image, PCA-reduced into a k-d tree."""
+
+    def __init__(self, image: NDArray[np.float32], n: int, dims: int, rng: np.random.Generator) -> None:
+        self.n = n
+        self.windows = image_windows(image, n)  # (M, 3 n^2), order (row, col, channel)
+        sample = self.windows[rng.choice(len(self.windows), min(len(self.windows), 6000), replace=False)]
+        self.mean = sample.mean(axis=0)
+        _, _, vt = np.linalg.svd(sample - self.mean, full_matrices=False)
+        self.basis = vt[: min(dims, vt.shape[0])].T.astype(np.float32)
+        self.tree = cKDTree((self.windows - self.mean) @ self.basis)
+
+    def nearest(self, queries: NDArray[np.float32]) -> tuple[NDArray[np.int64], NDArray[np.float32]]:
+        """Index of the nearest window and the true (full-dimensional) distance to it."""
+        _, idx = self.tree.query((queries - self.mean) @ self.basis, k=1, eps=0.5, workers=-1)
+        d = np.linalg.norm(self.windows[idx] - queries, axis=1)
+        return idx, d
+
+
+def slice_queries(volume: NDArray[np.float32], axis: int, n: int, stride: int, offset: int) -> NDArray[np.float32]:
+    """Windows on the slices perpendicular to ``axis``, centred on a grid with ``stride`` in the slice (periodic)."""
+    h = n // 2
+    vol = np.moveaxis(volume, axis, 0)  # (S, R, C, 3): slices, rows, columns
+    pad = np.pad(vol, ((0, 0), (h, h), (h, h), (0, 0)), mode="wrap")
+    rows = np.arange(offset, vol.shape[1], stride)
+    cols = np.arange(offset, vol.shape[2], stride)
+    r = rows[:, None] + np.arange(n)[None, :]  # padded coordinates of each window's rows
+    c = cols[:, None] + np.arange(n)[None, :]
+    w = pad[:, r[:, None, :, None], c[None, :, None, :]]  # (S, nr, nc, n, n, 3)
+    return w.reshape(-1, 3 * n * n)
+
+
+def histogram_penalty(volume: NDArray[np.float32], target: NDArray[np.float64]) -> NDArray[np.float32]:
+    """Per channel and bin, how much more of the volume falls in the bin than of the image (>= 0)."""
+    q = np.clip(volume.reshape(-1, 3) * (BINS / 256.0), 0, BINS - 1).astype(np.int64)
+    h = np.stack([np.bincount(q[:, c], minlength=BINS) for c in range(3)]) / len(q)
+    return np.maximum(h - target, 0.0).astype(np.float32) * BINS  # scaled: a fully doubled bin costs ~1
+
+
+def window_offsets(shape, axis, n, stride, offset):
+    """For each window offset (dy, dx): the voxels (in the volume moved so ``axis`` is first) it lands on."""
+    h = n // 2
+    moved = (shape[axis], *(shape[a] for a in range(3) if a != axis))
+    rows0, cols0 = np.arange(offset, moved[1], stride), np.arange(offset, moved[2], stride)
+    grid = (moved[0], len(rows0), len(cols0))
+    for dy in range(n):
+        for dx in range(n):
+            # each (row, col) pair appears once for a fixed offset: fancy-index updates are exact
+            yield dy, dx, grid, np.ix_(np.arange(moved[0]), (rows0 + dy - h) % moved[1], (cols0 + dx - h) % moved[2])
+
+
+def transfer_colours(volume: NDArray[np.float32], image: NDArray[np.float32], rounds: int, seed: int):
+    """Give the volume's colours the image's joint RGB distribution (sliced optimal transport).
+
+    Each round rotates the colour space at random and matches each rotated channel's
+    distribution exactly (rank by rank), after Pitie, Kokaram and Dawson (2005); a few rounds
+    match the joint distribution, which per-channel matching alone does not. Averaging proposals
+    narrows the colours; this restores them without moving any structure.
+    """
+    x = volume.reshape(-1, 3).astype(np.float64)
+    y = image.reshape(-1, 3).astype(np.float64)
+    ranks = (np.arange(len(x)) + 0.5) / len(x)
+    quantiles = (np.arange(len(y)) + 0.5) / len(y)
+    rng = np.random.default_rng(seed)
+    for _ in range(rounds):
+        rotation = special_ortho_group.rvs(3, random_state=rng)
+        px, py = x @ rotation, y @ rotation
+        for c in range(3):
+            px[np.argsort(px[:, c], kind="stable"), c] = np.interp(ranks, quantiles, np.sort(py[:, c]))
+        x = px @ rotation.T
+    return x.reshape(volume.shape).astype(np.float32)
