@@ -225,7 +225,9 @@ def exemplar_from_image(
         ``discrete_sweeps``.
     method : {"transport", "kopf"}
         ``"transport"`` (default): :func:`~ffd_notebook.solidtex.transport.exemplar_by_transport`
-        with its defaults and ``levels``; ``"kopf"``: the optimisation of this module.
+        with its defaults and ``levels``; ``"kopf"``: the optimisation of this module, whose options
+        are ``neighbourhood``, ``iterations``, ``pca_dims``, ``discrete_sweeps`` and ``vote`` (set
+        with the default method, they raise a :class:`ValueError` rather than do nothing).
     rng : int or numpy.random.Generator
         The result is the same for the same int. The optimisation needs an integer root seed (its
         colour transfers are seeded ``seed + iteration``): a Generator gives one 63-bit draw
@@ -255,6 +257,19 @@ def exemplar_from_image(
     if seed is not None:
         rng = renamed_keyword({"seed": seed}, "seed", "rng", rng, "exemplar_from_image")
     if method == "transport":
+        kopf_only = {
+            "neighbourhood": neighbourhood != 9,
+            "iterations": tuple(iterations) != (4, 3, 3),
+            "pca_dims": pca_dims != 16,
+            "discrete_sweeps": discrete_sweeps != 0,
+            "vote": vote != "best",
+        }
+        if any(kopf_only.values()):  # they would do nothing: say so rather than ignore them
+            given = ", ".join(name for name, changed in kopf_only.items() if changed)
+            raise ValueError(
+                f"{given}: options of method='kopf' (the default method is 'transport'; "
+                "exemplar_by_transport has its own options)"
+            )
         return exemplar_by_transport(image, size, levels=levels, rng=rng, progress=progress)
     img = as_rgb8(image).astype(np.float32)
     if vote not in ("best", "mean"):

@@ -44,6 +44,12 @@ def test_deterministic_and_checks_its_input(images):
         exemplar_from_image(image[:12, :12], 32, levels=3, neighbourhood=5, method="kopf")
     with pytest.raises(ValueError, match="vote"):
         exemplar_from_image(image, 16, vote="median", method="kopf")
+    with pytest.raises(ValueError, match="method"):
+        exemplar_from_image(image, 16, method="quilt")
+    # Kopf's options with the default method would do nothing: an error names them
+    with pytest.raises(ValueError, match=r"^discrete_sweeps, vote") as info:
+        exemplar_from_image(image, 16, vote="mean", discrete_sweeps=2)
+    assert "method='kopf'" in str(info.value)
 
 
 def test_discrete_sweeps_copy_image_colours(images):
