@@ -64,6 +64,7 @@ from .seeding import RNGLike, integer_seed
 from .slice_search import (
     BINS,
     ImageNeighbourhoods,
+    default_size,
     downsample,
     histogram_penalty,
     slice_queries,
@@ -202,7 +203,8 @@ def exemplar_from_image(
         voxels at the finest level, so features keep their size in pixels.
     size : int, optional
         Edge of the result; a multiple of ``2**(levels - 1)``. Default: the image's own size (its
-        smaller side, rounded down to that multiple), so a slice shows as much as the image.
+        smaller side, rounded down to that multiple), so a slice shows as much as the image; an
+        image over 160 px raises a ``ValueError`` (pass a crop of the texture, or ``size``).
     levels : int
         Pyramid levels (coarse to fine; each halves the size and the image).
     neighbourhood : int
@@ -275,7 +277,7 @@ def exemplar_from_image(
     if vote not in ("best", "mean"):
         raise ValueError(f"vote must be 'best' or 'mean', got {vote!r}")
     if size is None:
-        size = min(img.shape[:2]) // 2 ** (levels - 1) * 2 ** (levels - 1)
+        size = default_size(img.shape, 2 ** (levels - 1))
     if neighbourhood % 2 != 1 or neighbourhood < 3:
         raise ValueError(f"neighbourhood must be an odd number >= 3, got {neighbourhood}")
     scale = 2 ** (levels - 1)

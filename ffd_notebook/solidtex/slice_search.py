@@ -20,7 +20,9 @@ from .neighbourhoods import image_windows
 
 __all__ = [
     "BINS",
+    "LARGEST_DEFAULT",
     "ImageNeighbourhoods",
+    "default_size",
     "downsample",
     "histogram_penalty",
     "slice_queries",
@@ -110,3 +112,23 @@ def transfer_colours(volume: NDArray[np.float32], image: NDArray[np.float32], ro
             px[np.argsort(px[:, c], kind="stable"), c] = np.interp(ranks, quantiles, np.sort(py[:, c]))
         x = px @ rotation.T
     return x.reshape(volume.shape).astype(np.float32)
+
+
+LARGEST_DEFAULT = 160  # px: the largest image side taken as the default size (160^3 takes minutes here)
+
+
+def default_size(shape: tuple[int, ...], scale: int) -> int:
+    """The default edge of an exemplar: the image's smaller side, rounded down to a multiple of ``scale``.
+
+    An image larger than :data:`LARGEST_DEFAULT` on its smaller side raises a :class:`ValueError`
+    that says what to do: a whole photograph as the texture would make a 512^3 optimisation (hours
+    and gigabytes), where a crop a few features across is what the method needs.
+    """
+    side = min(shape[:2])
+    if side > LARGEST_DEFAULT:
+        raise ValueError(
+            f"the image is {shape[1]}x{shape[0]} px: by default the exemplar is as large as the image "
+            f"({side}^3 voxels, hours of work); pass a crop of the texture a few of its features across "
+            f"(64-128 px), or the size you want (size=...)"
+        )
+    return side // scale * scale

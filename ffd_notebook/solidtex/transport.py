@@ -73,6 +73,7 @@ from .seeding import RNGLike, integer_seed
 from .slice_search import (
     BINS,
     ImageNeighbourhoods,
+    default_size,
     downsample,
     histogram_penalty,
     slice_queries,
@@ -242,7 +243,7 @@ def exemplar_by_transport(
         voxels at the finest level.
     size : int, optional
         Edge of the result; a multiple of ``2**(levels - 1)``. Default: the image's smaller side,
-        rounded down to that multiple.
+        rounded down to that multiple (an image over 160 px raises a ``ValueError``: pass a crop).
     levels : int
         Pyramid levels, coarse to fine.
     patch : tuple of int
@@ -287,7 +288,7 @@ def exemplar_by_transport(
     img = as_rgb8(image).astype(np.float32)
     scale = 2 ** (levels - 1)
     if size is None:
-        size = min(img.shape[:2]) // scale * scale
+        size = default_size(img.shape, 2 ** (levels - 1))
     patches, counts, nrounds, nbhd = (_per_level(v, levels) for v in (patch, steps, rounds, neighbourhood))
     if any(k % 2 != 1 or k < 3 for k in nbhd):
         raise ValueError(f"neighbourhood sizes must be odd numbers >= 3, got {neighbourhood}")

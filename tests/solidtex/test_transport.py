@@ -70,3 +70,15 @@ def test_deterministic_and_checks_its_input():
         exemplar_by_transport(image, 16, **{**kw, "neighbourhood": (4,)})
     with pytest.raises(ValueError, match="too small"):
         exemplar_by_transport(image[:8, :8], 16, **kw)
+
+
+def test_a_whole_photograph_asks_for_a_crop():
+    # by default the exemplar is as large as the image: 512^3 would take hours, so the error says to crop
+    photo = np.zeros((512, 384, 3), np.uint8)
+    for method in ("transport", "kopf"):
+        with pytest.raises(ValueError, match=r"384x512 px.*crop of the texture"):
+            exemplar_from_image(photo, method=method)
+    small = exemplar_by_transport(
+        IMAGES["gravel"].repeat(4, axis=0).repeat(4, axis=1), 16, levels=2, steps=(1,), rounds=(0,), fine_steps=0
+    )  # a size given: a large image is fine
+    assert small.shape == (16, 16, 16, 3)
