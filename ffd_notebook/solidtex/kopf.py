@@ -52,7 +52,7 @@ on NumPy/SciPy because no maintained library implements the method.
 
 from __future__ import annotations
 
-from typing import Any, cast
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -62,11 +62,11 @@ from tqdm.auto import tqdm
 from .._util.deprecation import renamed_keyword
 from .seeding import RNGLike, integer_seed
 from .slice_search import (
-    BINS,
     ImageNeighbourhoods,
+    channel_histograms,
     default_size,
     downsample,
-    histogram_penalty,
+    optimise_step,
     slice_queries,
     transfer_colours,
     window_offsets,
@@ -75,57 +75,6 @@ from .slices import as_rgb8
 from .transport import exemplar_by_transport
 
 __all__ = ["exemplar_from_image"]
-
-
-def _proposals(volume, index, stride, offset):
-    """For each slice orientation: the matched image windows, their distances, and their IRLS weights."""
-    n = index.n
-    for axis in range(3):
-        queries = slice_queries(volume, axis, n, stride, offset)
-        idx, dist = index.nearest(queries)
-        weight = np.power(dist / np.sqrt(3 * n * n) + 0.05, 0.8 - 2.0).astype(np.float32)  # IRLS, r = 0.8
-        yield axis, index.windows[idx].reshape(-1, n, n, 3), dist.astype(np.float32), weight
-
-
-def _optimise(
-    volume: NDArray[np.float32],
-    index: ImageNeighbourhoods,
-    target_hist: NDArray[np.float64],
-    stride: int,
-    it: int,
-    vote: str = "best",
-) -> NDArray[np.float32]:
-    """One search + optimise step: each voxel takes the colour of its best window, or the weighted mean of all.
-
-    Every matched image window proposes colours for the voxels it covers (from all three slice
-    orientations). ``vote="mean"`` is Kopf's update: the IRLS-weighted mean of the proposals.
-    ``vote="best"``: the voxel takes the proposal of the window that matched best (least distance,
-    times the histogram over-use of the colour it brings): it follows its best neighbourhood
-    instead of averaging neighbourhoods that disagree, which is what blurs the mean.
-    """
-    shape = volume.shape[:3]
-    penalty = histogram_penalty(volume, target_hist)
-    offset = it % stride  # move the sparse grid between iterations so every voxel gets centred
-    num = np.zeros((*shape, 3), np.float32)
-    den = np.zeros(shape, np.float32) if vote == "mean" else np.full(shape, np.inf, np.float32)
-    for axis, patches, dist, weight in _proposals(volume, index, stride, offset):
-        numv, denv = np.moveaxis(num, axis, 0), np.moveaxis(den, axis, 0)
-        for dy, dx, grid, sub in window_offsets(shape, axis, index.n, stride, offset):
-            colour = patches[:, dy, dx]
-            bins = np.clip(colour * (BINS / 256.0), 0, BINS - 1).astype(np.int64)
-            over = penalty[0, bins[:, 0]] + penalty[1, bins[:, 1]] + penalty[2, bins[:, 2]]
-            if vote == "mean":
-                w = (weight / (1.0 + over)).reshape(grid)
-                numv[sub] += w[..., None] * colour.reshape(*grid, 3)
-                denv[sub] += w
-            else:
-                score = (dist * (1.0 + over)).reshape(grid)
-                better = score < denv[sub]
-                denv[sub] = np.where(better, score, denv[sub])
-                numv[sub] = np.where(better[..., None], colour.reshape(*grid, 3), numv[sub])
-    if vote == "mean":
-        return cast("NDArray[np.float32]", num / np.maximum(den, 1e-12)[..., None])  # float32 / float32
-    return np.where(np.isfinite(den)[..., None], num, volume)
 
 
 def _discrete_sweep(
@@ -138,8 +87,8 @@ def _discrete_sweep(
     the nearest covering window's match puts on it; it keeps the one with the least
     ``sum ||window - match||`` over the windows covering it, the matches fixed (the method's
     energy with ``r = 1``, the measure of :func:`~ffd_notebook.solidtex.neighbourhood_distance`,
-    rather than the weighted mean of :func:`_optimise`). A random half of the voxels moves per
-    sweep, so that neighbours do not all jump at once (iterated conditional modes).
+    rather than the weighted mean of :func:`~ffd_notebook.solidtex.slice_search.optimise_step`). A
+    random half of the voxels moves per sweep, so that neighbours do not all jump at once (iterated conditional modes).
     """
     n, h = index.n, index.n // 2
     shape = volume.shape[:3]
@@ -300,18 +249,11 @@ def exemplar_from_image(
             else:
                 volume = ndimage.zoom(volume, (2, 2, 2, 1), order=1, mode="grid-wrap", grid_mode=True)
             index = ImageNeighbourhoods(level_img, neighbourhood, pca_dims, rng)
-            target_hist = np.stack(
-                [
-                    np.bincount(
-                        np.clip(level_img[..., c] * (BINS / 256.0), 0, BINS - 1).astype(int).ravel(), None, BINS
-                    )
-                    for c in range(3)
-                ]
-            ) / (level_img.shape[0] * level_img.shape[1])
+            target_hist = channel_histograms(level_img)
             for it in range(iters[level]):
                 if it or level:  # the shuffled start already has the image's colours
                     volume = transfer_colours(volume, level_img, 5, seed + it)
-                volume = _optimise(volume.astype(np.float32), index, target_hist, 2, it, vote)
+                volume = optimise_step(volume.astype(np.float32), index, target_hist, 2, it, vote)
                 bar.update()
     assert volume is not None  # levels >= 1 (checked above)
     volume = transfer_colours(volume, img, 20, seed)

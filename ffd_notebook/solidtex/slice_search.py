@@ -22,9 +22,12 @@ __all__ = [
     "BINS",
     "LARGEST_DEFAULT",
     "ImageNeighbourhoods",
+    "channel_histograms",
     "default_size",
     "downsample",
     "histogram_penalty",
+    "optimise_step",
+    "proposals",
     "slice_queries",
     "transfer_colours",
     "window_offsets",
@@ -132,3 +135,64 @@ def default_size(shape: tuple[int, ...], scale: int) -> int:
             f"(64-128 px), or the size you want (size=...)"
         )
     return side // scale * scale
+
+
+def channel_histograms(image: NDArray[np.float32]) -> NDArray[np.float64]:
+    """Per channel, the share of the image's pixels in each of :data:`BINS` bins: ``(3, BINS)``, the target of
+    :func:`histogram_penalty`."""
+    q = np.clip(image * (BINS / 256.0), 0, BINS - 1).astype(np.int64).reshape(-1, 3)
+    return np.stack([np.bincount(q[:, c], minlength=BINS) for c in range(3)]) / len(q)
+
+
+def proposals(volume, index, stride, offset, r=0.8):
+    """For each slice orientation: the matched image windows, their distances and IRLS weights ``|s - e|^(r - 2)``."""
+    n = index.n
+    for axis in range(3):
+        queries = slice_queries(volume, axis, n, stride, offset)
+        idx, dist = index.nearest(queries)
+        weight = np.power(dist / np.sqrt(3 * n * n) + 0.05, r - 2.0).astype(np.float32)  # IRLS (Kopf: r = 0.8)
+        yield axis, index.windows[idx].reshape(-1, n, n, 3), dist.astype(np.float32), weight
+
+
+def optimise_step(
+    volume: NDArray[np.float32],
+    index: ImageNeighbourhoods,
+    target_hist: NDArray[np.float64],
+    stride: int,
+    it: int,
+    vote: str = "best",
+    r: float = 0.8,
+) -> NDArray[np.float32]:
+    """One search + optimise step: each voxel takes the colour of its best window, or the weighted mean of all.
+
+    Every matched image window proposes colours for the voxels it covers (from all three slice
+    orientations). ``vote="mean"`` is Kopf's update: the IRLS-weighted mean of the proposals
+    (exponent ``r``; Kopf's 0.8, lower follows the best windows more).
+    ``vote="best"``: the voxel takes the proposal of the window that matched best (least distance,
+    times the histogram over-use of the colour it brings): it follows its best neighbourhood
+    instead of averaging neighbourhoods that disagree, which is what blurs the mean.
+    """
+    shape = volume.shape[:3]
+    penalty = histogram_penalty(volume, target_hist)
+    offset = it % stride  # move the sparse grid between iterations so every voxel gets centred
+    num = np.zeros((*shape, 3), np.float32)
+    den = np.zeros(shape, np.float32) if vote == "mean" else np.full(shape, np.inf, np.float32)
+    for axis, patches, dist, weight in proposals(volume, index, stride, offset, r):
+        numv, denv = np.moveaxis(num, axis, 0), np.moveaxis(den, axis, 0)
+        for dy, dx, grid, sub in window_offsets(shape, axis, index.n, stride, offset):
+            colour = patches[:, dy, dx]
+            bins = np.clip(colour * (BINS / 256.0), 0, BINS - 1).astype(np.int64)
+            over = penalty[0, bins[:, 0]] + penalty[1, bins[:, 1]] + penalty[2, bins[:, 2]]
+            if vote == "mean":
+                w = (weight / (1.0 + over)).reshape(grid)
+                numv[sub] += w[..., None] * colour.reshape(*grid, 3)
+                denv[sub] += w
+            else:
+                score = (dist * (1.0 + over)).reshape(grid)
+                better = score < denv[sub]
+                denv[sub] = np.where(better, score, denv[sub])
+                numv[sub] = np.where(better[..., None], colour.reshape(*grid, 3), numv[sub])
+    if vote == "mean":  # a voxel no window covers keeps its colour
+        mean = (num / np.maximum(den, np.float32(1e-30))[..., None]).astype(np.float32, copy=False)
+        return np.where((den > 0)[..., None], mean, volume)
+    return np.where(np.isfinite(den)[..., None], num, volume)

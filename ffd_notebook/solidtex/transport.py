@@ -71,14 +71,12 @@ from tqdm.auto import tqdm
 from .neighbourhoods import image_windows
 from .seeding import RNGLike, integer_seed
 from .slice_search import (
-    BINS,
     ImageNeighbourhoods,
+    channel_histograms,
     default_size,
     downsample,
-    histogram_penalty,
-    slice_queries,
+    optimise_step,
     transfer_colours,
-    window_offsets,
 )
 from .slices import as_rgb8
 
@@ -172,32 +170,6 @@ def _transport_steps(
             np.moveaxis(count, axis, 0)[...] += cnt
         volume = (volume + rate * move / np.maximum(count, 1)[..., None]).astype(np.float32, copy=False)
     return volume
-
-
-def _robust_step(
-    volume: Array, index: ImageNeighbourhoods, target_hist: NDArray[np.float64], stride: int, it: int, r: float
-) -> Array:
-    """Kopf's update: the IRLS-weighted mean of the colours the matched image windows propose, histogram-weighted."""
-    shape = volume.shape[:3]
-    n = index.n
-    penalty = histogram_penalty(volume, target_hist)
-    offset = it % stride
-    num = np.zeros((*shape, 3), np.float32)
-    den = np.zeros(shape, np.float32)
-    for axis in range(3):
-        idx, dist = index.nearest(slice_queries(volume, axis, n, stride, offset))
-        weight = np.power(dist / np.sqrt(3 * n * n) + 0.05, r - 2.0).astype(np.float32)
-        patches = index.windows[idx].reshape(-1, n, n, 3)
-        numv, denv = np.moveaxis(num, axis, 0), np.moveaxis(den, axis, 0)
-        for dy, dx, grid, sub in window_offsets(shape, axis, n, stride, offset):
-            colour = patches[:, dy, dx]
-            bins = np.clip(colour * (BINS / 256.0), 0, BINS - 1).astype(np.int64)
-            over = penalty[0, bins[:, 0]] + penalty[1, bins[:, 1]] + penalty[2, bins[:, 2]]
-            w = (weight / (1.0 + over)).reshape(grid)
-            numv[sub] += w[..., None] * colour.reshape(*grid, 3)
-            denv[sub] += w
-    out: Array = (num / np.maximum(den, np.float32(1e-30))[..., None]).astype(np.float32, copy=False)
-    return np.where((den > 0)[..., None], out, volume)
 
 
 def _grey(volume: Array, image: Array) -> Array:
@@ -319,10 +291,9 @@ def exemplar_by_transport(
             volume = transfer_colours(volume, level_img, 5, seed + done)
         if nrounds[level]:
             index = ImageNeighbourhoods(level_img, nbhd[level], 16, gen)
-            q = np.clip(level_img * (BINS / 256.0), 0, BINS - 1).astype(np.int64).reshape(-1, 3)
-            target_hist = np.stack([np.bincount(q[:, c], minlength=BINS) for c in range(3)]) / len(q)
+            target_hist = channel_histograms(level_img)
             for it in range(nrounds[level]):
-                volume = _robust_step(volume.astype(np.float32), index, target_hist, 3, it, robustness)
+                volume = optimise_step(volume.astype(np.float32), index, target_hist, 3, it, "mean", robustness)
                 volume = _transport_steps(volume, windows, n, 3, gen, stride=stride, directions=directions)
                 volume = transfer_colours(volume, level_img, 5, seed + it)
     assert volume is not None
