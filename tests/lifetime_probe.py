@@ -8,6 +8,7 @@ reference to the Python wrapper would only say that the wrapper went).
 from __future__ import annotations
 
 import asyncio
+import ctypes
 import gc
 import os
 import weakref
@@ -21,7 +22,12 @@ _windows_deleted: set[int] = set()
 
 
 def rss_mb() -> float:
-    """The kernel's resident set size, MB (it sees VTK's C++ allocations too)."""
+    """The kernel's resident set size, MB (it sees VTK's C++ allocations too), after glibc's ``malloc_trim``
+    has handed freed heap pages back (on other C libraries the size as it is)."""
+    try:
+        ctypes.CDLL("libc.so.6").malloc_trim(0)
+    except (OSError, AttributeError):
+        pass
     with open("/proc/self/statm") as f:
         return int(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE") / 1e6
 

@@ -7,7 +7,9 @@ object's DeleteEvent), PyVista's open plotters, and the live objects of the view
 run's may remain. As in the drag soak test (tests/view/editor/test_soak.py), memory is measured after a
 warm-up (the first run and :data:`WARMUP` re-runs), so that one-off allocations (the view server's first
 pages, OpenGL and shader caches, malloc arenas) are not counted: without it the first few re-runs add 15-30 MB
-once, after which the size stays flat.
+once, after which the size stays flat. The size is read after glibc's ``malloc_trim`` (:func:`lifetime_probe.rss_mb`):
+without it freed heap pages that glibc keeps made 20-23 MB of the editor's growth over 50 re-runs (30.4 MB once in
+CI, over its 30 MB bound), with it 4-6 MB, so a leak (an editor kept per run is megabytes) stands out.
 """
 
 from __future__ import annotations
