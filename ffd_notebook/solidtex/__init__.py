@@ -11,6 +11,7 @@ from .blocks import box_mean, choose_block_size, classify_blocks, feature_inclus
 from .kopf import exemplar_from_image
 from .lazy import LazySolidTexture
 from .neighbourhoods import neighbourhood_distance, seam_error
+from .optimisation import synthesize_by_optimisation
 from .quality import color_histogram, colour_histogram, gradient_energy, histogram_distance, seam_energy
 from .sampling import SolidTexture, TextureSampler
 from .similarity import likeness, self_similarity, self_similarity_figure, volume_slices
@@ -47,6 +48,7 @@ __all__ = [
     "self_similarity_figure",
     "sliding_crops",
     "synthesize",
+    "synthesize_by_optimisation",
     "volume_from_slices",
     "volume_slices",
 ]

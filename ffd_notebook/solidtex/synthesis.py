@@ -356,6 +356,12 @@ def synthesize(
     numpy.ndarray
         ``(Z, Y, X, 3)`` uint8.
 
+    See Also
+    --------
+    synthesize_by_optimisation : Slower, but without the blocks: on a cellular texture whose cells are
+        as large as a block, block synthesis is a mosaic of cell fragments up close, the optimisation
+        keeps cells whole.
+
     Examples
     --------
     >>> rng = np.random.default_rng(1)

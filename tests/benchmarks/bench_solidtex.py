@@ -21,8 +21,9 @@ and the time, on three textures (a 64 px crop of the histology image's gland cut
 * ``exemplar_from_image(crop)`` (the crop's size, 64^3 or 96^3; targets 0.8-1.6 in every orientation,
   96^3 in <= 120 s, histogram no worse than the older defaults', which ``--baseline`` runs too: Kopf's
   optimisation with the mean vote and 5x5 neighbourhoods, and with the best vote and 9x9);
-* ``synthesize`` 192^3 from it, cut and feathered seams (targets >= 0.8 and >= 0.7), and the lazy
-  texture's 192^3 volume.
+* ``synthesize`` 192^3 from it (128^3 from the honeycomb's), cut and feathered seams (targets >= 0.8
+  and >= 0.7), ``synthesize_by_optimisation`` (no mosaic of block fragments; target 0.8-1.6), and the
+  lazy texture's volume.
 
 Issue 14 adds, each measured against its baseline in the same run:
 
@@ -70,6 +71,7 @@ from ffd_notebook.solidtex import (
     self_similarity_figure,
     sliding_crops,
     synthesize,
+    synthesize_by_optimisation,
     volume_from_slices,
 )
 from ffd_notebook.solidtex.neighbourhoods import image_windows
@@ -345,6 +347,8 @@ def likeness_section(quick):
         for seams, floor in (("cut", 0.8), ("feather", 0.7)):
             t, out = timed(lambda s=seams, e=ex, n=size: synthesize(e, n, rng=0, seams=s, progress=False), 1)
             _judge(f"  synthesize {size}^3, {seams}", out, crop, figure, t, floor, 99)
+        t, out = timed(lambda e=ex, n=size: synthesize_by_optimisation(e, n, rng=0, progress=False), 1)
+        _judge(f"  synthesize_by_optimisation {size}^3", out, crop, figure, t)
         t, lazy_volume = timed(lambda e=ex, n=size: LazySolidTexture(e, n, rng=0).volume(), 1)
         _judge(f"  LazySolidTexture {size}^3 (whole)", lazy_volume, crop, figure, t, 0.7, 99)
         if quick:
