@@ -43,6 +43,7 @@ __all__ = ["synthesize_by_optimisation"]
 
 _CANDIDATE_ROUNDS = 4  # rounds of neighbour propagation per iteration
 _RANDOM_TRIES = 4  # random-search tries (halving windows) per round
+_COLOUR_SAMPLE = 200_000  # voxels the colour transfer estimates a larger volume's quantiles on
 
 
 def _halve(volume: NDArray[np.float32]) -> NDArray[np.float32]:
@@ -216,14 +217,14 @@ def synthesize_by_optimisation(
 
     Notes
     -----
-    Measured here (2 cores) at 128^3 from the 64^3 exemplar of the notebook's histology crop
-    (``immunohistochemistry()[340:404, 290:354]``): 21 s; self-similarity 0.93/0.98/0.98 and likeness
-    0.93-0.94 in the three orientations, colour-histogram distance 0.013. Up close its slices show
-    whole cells, brown walls round blue nuclei, with a few short straight edges where two copied
-    regions meet. Block synthesis with cut seams scores 1.14-1.17 in 13 s, but up close it is a mosaic
-    of cell fragments with straight edges (the windows of the measure are too small to see it). The
-    cost grows with the volume (about 8x for 256^3); for 512^3 and beyond use the block synthesis or
-    :class:`~ffd_notebook.solidtex.LazySolidTexture`.
+    Measured here (2 cores, one BLAS thread) from the 64^3 exemplar of the notebook's histology crop
+    (``immunohistochemistry()[340:404, 290:354]``): 128^3 in 12 s, self-similarity 0.94/0.98/0.98 and
+    likeness 0.93 in the three orientations, colour-histogram distance 0.013; 256^3 in 145 s at a peak
+    of 2.6 GB (0.96 in every orientation). Up close its slices show whole cells, brown walls round blue
+    nuclei, with a few short straight edges where two copied regions meet. Block synthesis with cut
+    seams scores 1.14-1.17 in 12 s, but up close it is a mosaic of cell fragments with straight edges
+    (the windows of the measure are too small to see it). For 512^3 and beyond use the block synthesis
+    or :class:`~ffd_notebook.solidtex.LazySolidTexture`.
 
     Examples
     --------
@@ -289,7 +290,7 @@ def synthesize_by_optimisation(
                 matches, distance = _patchmatch(source, queries, source.clamp(matches), step, rng)
                 weights = np.maximum(distance, 1e-6) ** ((robust - 2) / 2)  # d^(r-2), d the distance (not squared)
                 rolled = _aggregate(source, matches, weights.astype(np.float32), size, step)
-                rolled = transfer_colours(rolled, pyramid[level], 2, int(rng.integers(2**31)))
+                rolled = transfer_colours(rolled, pyramid[level], 2, int(rng.integers(2**31)), sample=_COLOUR_SAMPLE)
                 out = np.roll(rolled, tuple(int(v) for v in shift), axis=(0, 1, 2))
                 bar.update()
     assert out is not None  # levels >= 1

@@ -95,24 +95,58 @@ def window_offsets(shape, axis, n, stride, offset):
             yield dy, dx, grid, np.ix_(np.arange(moved[0]), (rows0 + dy - h) % moved[1], (cols0 + dx - h) % moved[2])
 
 
-def transfer_colours(volume: NDArray[np.float32], image: NDArray[np.float32], rounds: int, seed: int):
+_TABLE = 4096  # segments of the piecewise-linear quantile maps of transfer_colours(sample=...)
+
+
+def _on_grid(values: NDArray[np.float64], lo: float, hi: float, table: NDArray[np.float64]) -> NDArray[np.float64]:
+    """``np.interp(values, linspace(lo, hi, len(table)), table)`` by index arithmetic: O(n) for values in any
+    order (``np.interp``'s search is slow for millions of unsorted values)."""
+    t = (values - lo) * ((len(table) - 1) / max(hi - lo, 1e-12))
+    i = np.clip(t.astype(np.int64), 0, len(table) - 2)
+    f = np.clip(t - i, 0.0, 1.0)
+    return table[i] * (1.0 - f) + table[i + 1] * f
+
+
+def _quantile_map(values, some, ranks, quantiles, target) -> NDArray[np.float64]:
+    """Each value to the target's quantile at its rank, the ranks estimated on the sorted sample ``some``."""
+    lo, hi = float(values.min()), float(values.max())
+    cdf = np.interp(np.linspace(lo, hi, _TABLE + 1), some, ranks)
+    inverse = np.interp(np.linspace(0.0, 1.0, _TABLE + 1), quantiles, target)
+    return _on_grid(_on_grid(values, lo, hi, cdf), 0.0, 1.0, inverse)
+
+
+def transfer_colours(
+    volume: NDArray[np.float32], image: NDArray[np.float32], rounds: int, seed: int, sample: int | None = None
+):
     """Give the volume's colours the image's joint RGB distribution (sliced optimal transport).
 
     Each round rotates the colour space at random and matches each rotated channel's
     distribution exactly (rank by rank), after Pitie, Kokaram and Dawson (2005); a few rounds
     match the joint distribution, which per-channel matching alone does not. Averaging proposals
     narrows the colours; this restores them without moving any structure.
+
+    With ``sample``, a volume of more voxels than that is matched through its quantiles estimated
+    on ``sample`` random voxels (a monotone piecewise-linear map of each channel instead of a sort):
+    at 128^3 the exact ranks were two thirds of ``synthesize_by_optimisation``'s time.
     """
     x = volume.reshape(-1, 3).astype(np.float64)
     y = image.reshape(-1, 3).astype(np.float64)
-    ranks = (np.arange(len(x)) + 0.5) / len(x)
+    estimate = sample is not None and len(x) > sample
+    n = sample if estimate else len(x)
+    ranks = (np.arange(n) + 0.5) / n
     quantiles = (np.arange(len(y)) + 0.5) / len(y)
     rng = np.random.default_rng(seed)
+    picks = np.random.default_rng([seed, 1])  # the samples' own stream: the same rotations with or without them
     for _ in range(rounds):
         rotation = special_ortho_group.rvs(3, random_state=rng)
         px, py = x @ rotation, y @ rotation
         for c in range(3):
-            px[np.argsort(px[:, c], kind="stable"), c] = np.interp(ranks, quantiles, np.sort(py[:, c]))
+            target = np.sort(py[:, c])
+            if estimate:
+                some = np.sort(px[picks.integers(0, len(x), n), c])
+                px[:, c] = _quantile_map(px[:, c], some, ranks, quantiles, target)
+            else:
+                px[np.argsort(px[:, c], kind="stable"), c] = np.interp(ranks, quantiles, target)
         x = px @ rotation.T
     return x.reshape(volume.shape).astype(np.float32)
 

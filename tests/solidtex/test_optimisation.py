@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 
 from ffd_notebook.solidtex import self_similarity, self_similarity_figure, synthesize_by_optimisation
+from ffd_notebook.solidtex.slice_search import transfer_colours
 
 
 def test_twice_the_exemplar_is_as_varied_as_the_image(made):
@@ -44,3 +45,19 @@ def test_shapes_seeds_and_bad_input(exemplar, capsys):
         synthesize_by_optimisation(exemplar[..., 0], 32)
     with pytest.raises(ValueError, match="shape"):
         synthesize_by_optimisation(exemplar, (32, 32))
+
+
+def test_colour_transfer_through_estimated_quantiles_matches_the_exact_one():
+    # synthesize_by_optimisation's colour transfer on a large volume estimates each channel's quantiles on a
+    # sample (an exact sort of 2 million voxels was two thirds of its time at 128^3): every voxel must get
+    # the exact transfer's colour within a grey level or two (median 0.43, 99.9% within 3.1)
+    rng = np.random.default_rng(0)
+    volume = rng.gamma(2.0, 20.0, (64, 64, 64, 3)).astype(np.float32)
+    image = rng.uniform(0, 255, (48, 48, 3)).astype(np.float32) * [1.0, 0.6, 0.3]
+    exact = transfer_colours(volume, image, 2, seed=1)
+    estimated = transfer_colours(volume, image, 2, seed=1, sample=20_000)
+    error = np.abs(estimated - exact)
+    assert np.median(error) < 1.0 and np.quantile(error, 0.999) < 6.0, (np.median(error), error.max())
+    assert not np.array_equal(exact, estimated)
+    # below the sample size it is the exact transfer
+    assert np.array_equal(transfer_colours(volume, image, 2, seed=1, sample=10**6), exact)
