@@ -131,8 +131,8 @@ def transfer_colours(
     """
     x = volume.reshape(-1, 3).astype(np.float64)
     y = image.reshape(-1, 3).astype(np.float64)
-    estimate = sample is not None and len(x) > sample
-    n = sample if estimate else len(x)
+    n = sample if sample is not None and len(x) > sample else len(x)
+    estimate = n < len(x)
     ranks = (np.arange(n) + 0.5) / n
     quantiles = (np.arange(len(y)) + 0.5) / len(y)
     rng = np.random.default_rng(seed)
