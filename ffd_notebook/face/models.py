@@ -58,6 +58,12 @@ def _interpreter_class() -> Any:
     return Interpreter
 
 
+def _builtin_kernels() -> Any:
+    from ai_edge_litert.interpreter import OpResolverType
+
+    return OpResolverType.BUILTIN_WITHOUT_DEFAULT_DELEGATES
+
+
 @dataclass
 class Model:
     """One loaded ``.tflite`` model: ``model(x)`` runs it on one input array and returns its outputs."""
@@ -69,7 +75,13 @@ class Model:
 
     @classmethod
     def load(cls, path: Path) -> Model:
-        interpreter = _interpreter_class()(model_path=str(path), num_threads=1)
+        # LiteRT's default XNNPACK delegate prints "INFO: Created TensorFlow Lite XNNPACK delegate for CPU." on
+        # the process's stderr (no setting silences it; it stood in the face notebook's output). Without it a
+        # 512 px face takes 86 ms instead of 48 (detection 9 ms instead of 4, landmarks 26 instead of 11;
+        # tests/benchmarks/bench_face.py), against a target of 1 s.
+        interpreter = _interpreter_class()(
+            model_path=str(path), num_threads=1, experimental_op_resolver_type=_builtin_kernels()
+        )
         interpreter.allocate_tensors()
         (inp,) = interpreter.get_input_details()
         return cls(path, interpreter, tuple(int(n) for n in inp["shape"]))
