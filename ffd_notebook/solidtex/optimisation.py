@@ -37,7 +37,7 @@ from numpy.typing import ArrayLike, NDArray
 from tqdm.auto import tqdm
 
 from .seeding import RNGLike
-from .slice_search import transfer_colours
+from .slice_search import downsample, transfer_colours
 
 __all__ = ["synthesize_by_optimisation"]
 
@@ -46,22 +46,18 @@ _RANDOM_TRIES = 4  # random-search tries (halving windows) per round
 _COLOUR_SAMPLE = 200_000  # voxels the colour transfer estimates a larger volume's quantiles on
 
 
-def _halve(volume: NDArray[np.float32]) -> NDArray[np.float32]:
-    """Mean of 2x2x2 voxel cubes (odd sizes lose their last layer)."""
-    z, y, x = (s - s % 2 for s in volume.shape[:3])
-    v = volume[:z, :y, :x]
-    return v.reshape(z // 2, 2, y // 2, 2, x // 2, 2, -1).mean(axis=(1, 3, 5))
-
-
 def _box(volume: NDArray[np.float32], pool: int) -> NDArray[np.float32]:
-    """Mean of the ``pool^3`` cube starting at every voxel (periodic): the features' pooled colours."""
+    """Mean of the ``pool^3`` cube starting at every voxel, wrapping around: the features' pooled colours.
+
+    :func:`~ffd_notebook.solidtex.box_mean` of the volume padded by wrapping gives the same (to 1e-7), but
+    its float64 summed-area table takes 0.44 s at 128^3 against 0.05 s for these eight shifted sums (pool 2),
+    and this runs every iteration.
+    """
     if pool == 1:
         return volume
     out = np.zeros_like(volume)
-    for dz in range(pool):
-        for dy in range(pool):
-            for dx in range(pool):
-                out += np.roll(volume, (-dz, -dy, -dx), axis=(0, 1, 2))
+    for shift in np.ndindex(pool, pool, pool):
+        out += np.roll(volume, tuple(-d for d in shift), axis=(0, 1, 2))
     out *= 1.0 / pool**3
     return out
 
@@ -70,7 +66,6 @@ class _Blocks:
     """Flat-index arithmetic for the ``n^3`` blocks (features: every ``pool``-th voxel of the pooled block)."""
 
     def __init__(self, shape: tuple[int, ...], n: int, pool: int) -> None:
-        self.shape, self.n = shape, n
         self.strides = np.array([shape[1] * shape[2], shape[2], 1], dtype=np.int64)
         feat = np.arange(0, n, pool)
         grid = np.meshgrid(feat, feat, feat, indexing="ij")
@@ -90,7 +85,6 @@ class _Exemplar:
     """
 
     def __init__(self, exemplar: NDArray[np.float32], n: int, pool: int) -> None:
-        self.n = n
         self.limit = np.array([s - n for s in exemplar.shape[:3]], dtype=np.int64)  # largest corner per axis
         self.colours = exemplar
         self.blocks = _Blocks(exemplar.shape, n, pool)
@@ -152,18 +146,17 @@ def _patchmatch(exemplar: _Exemplar, queries, matches, step: int, rng: np.random
 
 def _aggregate(exemplar: _Exemplar, matches, weights, shape: tuple[int, ...], step: int) -> NDArray[np.float32]:
     """Weighted mean of the matched exemplar blocks at corners ``k * step`` (periodic, ``n = 2 step``)."""
-    _, ey, ex = exemplar.colours.shape[:3]
     colours = exemplar.colours.reshape(-1, 3)
     k = matches.shape[:3]
     local = np.stack(np.meshgrid(*[np.arange(step)] * 3, indexing="ij"), -1).reshape(-1, 3)
-    local_flat = local @ np.array([ey * ex, ex, 1])
+    local_flat = exemplar.blocks.flat(local)
     base = matches.reshape(-1, 3)
     w = weights.reshape(-1, 1, 1)
     acc = np.zeros((*shape, 3), dtype=np.float32)
     wsum = np.zeros(shape, dtype=np.float32)
     w_tiled = np.broadcast_to(weights[:, None, :, None, :, None], (k[0], step, k[1], step, k[2], step)).reshape(shape)
     for d in np.ndindex(2, 2, 2):  # the block's eight sub-cubes tile the volume, each shifted by d * step
-        start = (base + np.array(d) * step) @ np.array([ey * ex, ex, 1])
+        start = exemplar.blocks.flat(base + np.array(d) * step)
         sub = colours[start[:, None] + local_flat[None, :]] * w  # (corners, step^3, 3)
         sub = sub.reshape(*k, step, step, step, 3).transpose(0, 3, 1, 4, 2, 5, 6).reshape(*shape, 3)
         shift = tuple(int(v) * step for v in d)
@@ -258,7 +251,7 @@ def synthesize_by_optimisation(
     full = tuple(unit * math.ceil(t / unit) for t in target)  # the grid of blocks tiles every level
     pyramid = [ex.astype(np.float32)]
     for _ in range(levels - 1):
-        pyramid.append(_halve(pyramid[-1]))
+        pyramid.append(downsample(pyramid[-1], 2))
     pool = 2 if neighbourhood >= 8 else 1  # features: 2x2x2 means (192 numbers for 8^3 blocks)
     out: NDArray[np.float32] | None = None
     matches: NDArray[np.int64] | None = None

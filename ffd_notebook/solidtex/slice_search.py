@@ -37,11 +37,14 @@ BINS = 16  # per-channel histogram bins of the histogram matching
 
 
 def downsample(image: NDArray[np.float32], factor: int) -> NDArray[np.float32]:
-    """Mean of ``factor x factor`` pixel blocks (the image at a coarser pyramid level)."""
+    """Mean of ``factor``-wide pixel (or voxel) blocks: an image ``(H, W, C)`` or a volume ``(Z, Y, X, C)`` at a
+    coarser pyramid level (sides that do not divide lose their last pixels)."""
     if factor == 1:
         return image
-    h, w = (s - s % factor for s in image.shape[:2])
-    return image[:h, :w].reshape(h // factor, factor, w // factor, factor, 3).mean(axis=(1, 3))
+    kept = [s - s % factor for s in image.shape[:-1]]
+    split = [n for k in kept for n in (k // factor, factor)]
+    blocks = image[tuple(slice(0, k) for k in kept)].reshape(*split, image.shape[-1])
+    return blocks.mean(axis=tuple(range(1, 2 * len(kept), 2)))
 
 
 class ImageNeighbourhoods:
