@@ -37,4 +37,6 @@ INTERNAL: dict[str, str] = {
     "ffd_notebook.view.editor.scene": "the editor's layers: documented through ffd_notebook.view.editor",
     "ffd_notebook.view.editor.notebook": "the editor's layers: documented through ffd_notebook.view.editor",
     "ffd_notebook.view.editor.app": "the editor's layers: documented through ffd_notebook.view.editor",
+    "ffd_notebook.view.serving": "plumbing every view shares (Jupyter, the remote view, web security, the file root)",
+    "ffd_notebook.view.rendering": "plumbing every view shares: documented through ffd_notebook.view (new_plotter...)",
 }

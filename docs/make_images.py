@@ -48,7 +48,7 @@ def solid_texture_image(path: str | Path, window_size: tuple[int, int] = (900, 4
     from ffd_notebook.datasets import frog_liver
     from ffd_notebook.meshing.organ import tetrahedralize
     from ffd_notebook.solidtex import SolidTexture, exemplar_from_image, synthesize_by_optimisation
-    from ffd_notebook.view.camera import frame_camera, view_direction
+    from ffd_notebook.view import frame_camera, view_direction
     from ffd_notebook.view.solidtex import TexturedOrgan, add_cut
 
     exemplar = exemplar_from_image(skimage.data.immunohistochemistry()[340:404, 290:354], rng=0)

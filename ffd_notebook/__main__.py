@@ -81,7 +81,7 @@ def main(argv: Sequence[str] | None = None, *, setup: Callable[[Any], None] | No
             parser.error(f"no such {what}: {path}")
     if not os.path.isdir(args.root):
         parser.error(f"no such folder: {args.root}")
-    from .view.web_security import is_loopback  # standard library only
+    from .view.serving.web_security import is_loopback  # standard library only
 
     if not is_loopback(args.host):
         print(

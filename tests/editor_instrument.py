@@ -216,7 +216,7 @@ def instrument_notebook_editors(
             if isinstance(value, Editor) and id(value) not in seen:
                 from trame_pyvista.widgets import get_server
 
-                from ffd_notebook.view.jupyter import SERVER_NAME
+                from ffd_notebook.view.serving.jupyter import SERVER_NAME
 
                 seen[id(value)] = inst = Instrument(value, trace=trace)
                 inst.register_triggers(get_server(SERVER_NAME))

@@ -9,7 +9,7 @@ from hypothesis import strategies as st
 
 from ffd_notebook.ffd.basis import bspline
 from ffd_notebook.ffd.interpolation import (
-    INTERPOLATIONS,
+    LATTICE_INTERPOLATIONS,
     interpolation_derivative,
     interpolation_second_derivative,
     interpolation_weights,
@@ -19,7 +19,7 @@ fractions = st.floats(min_value=0.0, max_value=1.0, exclude_max=True)
 T = np.linspace(0.0, 1.0, 101)[:-1]
 
 
-@pytest.mark.parametrize("kind", INTERPOLATIONS)
+@pytest.mark.parametrize("kind", LATTICE_INTERPOLATIONS)
 @given(t=fractions)
 def test_partition_of_unity(kind, t):
     assert interpolation_weights(t, kind).sum() == pytest.approx(1.0, abs=1e-14)
@@ -41,7 +41,7 @@ def test_cardinal_does_not_reproduce_lines():
     assert np.allclose(error[[0, 50]], 0.0, atol=1e-14)  # at the points and, by symmetry, half-way
 
 
-@pytest.mark.parametrize("kind", INTERPOLATIONS)
+@pytest.mark.parametrize("kind", LATTICE_INTERPOLATIONS)
 def test_continuous_across_cells(kind):
     """Leaving a cell at t -> 1 is entering the next at t = 0: w_l(1) == w_{l+1}(0), and so for the slopes
     of every interpolation but linear, whose slope jumps at the points."""
@@ -61,7 +61,7 @@ def test_bspline_is_the_engine_bspline():
     assert np.allclose(interpolation_weights(T, "bspline"), bspline(T), atol=1e-15)
 
 
-@pytest.mark.parametrize("kind", INTERPOLATIONS)
+@pytest.mark.parametrize("kind", LATTICE_INTERPOLATIONS)
 def test_derivatives_match_finite_differences(kind):
     h = 1e-6
     t = np.linspace(0.05, 0.95, 19)

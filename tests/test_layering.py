@@ -104,3 +104,41 @@ def test_the_face_package_loads_pyvista_only_to_build_the_mesh():
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.split()
     assert out == ["-", "True"], out
+
+
+# names every command-line module or module with a logger defines for itself, by convention
+PER_MODULE_NAMES = {"main", "build_parser", "log"}
+
+
+def _top_level_names(path: Path) -> list[tuple[str, int]]:
+    """The public names a module defines at its top level (functions, classes, assignments), with their lines."""
+    found = []
+    for node in ast.parse(path.read_text(), filename=str(path)).body:
+        if isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef | ast.ClassDef):
+            found.append((node.name, node.lineno))
+        elif isinstance(node, ast.Assign):
+            found += [(t.id, node.lineno) for t in node.targets if isinstance(t, ast.Name)]
+        elif isinstance(node, ast.AnnAssign) and isinstance(node.target, ast.Name):
+            found.append((node.target.id, node.lineno))
+    return [(name, line) for name, line in found if not name.startswith("_") and name not in PER_MODULE_NAMES]
+
+
+def test_one_name_per_meaning():
+    """No public name is defined in two modules of the package: where two things differ their names say which,
+    where they are the same thing it is defined once and imported (DESIGN.md: one definition per idea)."""
+    where: dict[str, list[str]] = {}
+    for path in sorted(PACKAGE.rglob("*.py")):
+        for name, line in _top_level_names(path):
+            where.setdefault(name, []).append(f"{path.relative_to(PACKAGE.parent)}:{line}")
+    twice = {name: places for name, places in where.items() if len(places) > 1}
+    assert not twice, f"names defined in more than one module: {twice}"
+
+
+def test_the_view_folder_shows_products_and_plumbing_apart():
+    """``view/`` holds the products (editor, GP explorer, cut viewer) and two folders of shared plumbing
+    (serving a plotter to a browser; rendering): no loose modules beside them."""
+    view = PACKAGE / "view"
+    loose = sorted(p.name for p in view.glob("*.py") if p.name != "__init__.py")
+    folders = sorted(p.name for p in view.iterdir() if p.is_dir() and p.name != "__pycache__")
+    assert loose == [], loose
+    assert folders == ["editor", "gp", "rendering", "serving", "solidtex"], folders

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from ffd_notebook import FFD, Lattice
-from ffd_notebook.ffd.interpolation import INTERPOLATIONS, interpolation_weights
+from ffd_notebook.ffd.interpolation import LATTICE_INTERPOLATIONS, interpolation_weights
 from ffd_notebook.ffd.outside import outside_offsets
 
 COMBOS = [("bspline", "catmull-rom", "linear"), ("cardinal", "linear", "bspline"), ("linear",) * 3,
@@ -70,7 +70,7 @@ def test_one_shot_and_cached_equal_the_sum_written_out(basis, border, outside):
     np.testing.assert_allclose(deformer.current(), expected, atol=1e-12)
 
 
-@pytest.mark.parametrize("kind", INTERPOLATIONS)
+@pytest.mark.parametrize("kind", LATTICE_INTERPOLATIONS)
 def test_a_lattice_moved_as_a_whole_moves_everything_with_the_clamp_border(kind):
     """Partition of unity: with the clamp border the weights sum to one everywhere, outside the lattice too."""
     rng = np.random.default_rng(1)

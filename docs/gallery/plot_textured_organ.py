@@ -15,7 +15,7 @@ import skimage.data
 from ffd_notebook.datasets import frog_liver
 from ffd_notebook.meshing.organ import tetrahedralize
 from ffd_notebook.solidtex import SolidTexture, exemplar_from_image, synthesize_by_optimisation
-from ffd_notebook.view.camera import frame_camera, view_direction
+from ffd_notebook.view import frame_camera, view_direction
 from ffd_notebook.view.solidtex import TexturedOrgan, add_cut
 
 cells = skimage.data.immunohistochemistry()[340:388, 290:338]  # 48 px of a gland cut across

@@ -26,10 +26,10 @@ import numpy as np
 
 from .._util.blas import one_blas_thread
 from ..errors import BatchError
-from ..images import INTERPOLATIONS
+from ..images import IMAGE_INTERPOLATIONS
 from .files import LatticeFiles
 from .folding import FoldFree
-from .output import FORMATS, Layout
+from .output import MESH_OUTPUT_FORMATS, Layout
 from .sample import Job, context, deformed_mesh, job_layout, load_sample, mesh_sha256, run_samples, warped_image
 
 __all__ = ["BatchResult", "generate", "replay"]
@@ -272,14 +272,16 @@ def generate(
     """
     n = _check_model(model, n)
     rule = _rule(fold_free)
-    if format not in FORMATS:
-        raise ValueError(f"format must be one of {FORMATS}, got {format!r}")
+    if format not in MESH_OUTPUT_FORMATS:
+        raise ValueError(f"format must be one of {MESH_OUTPUT_FORMATS}, got {format!r}")
     if isinstance(seed, bool) or not isinstance(seed, int | np.integer) or seed < 0:
         raise ValueError(f"seed must be a non-negative integer, got {seed!r}")
     if scheduler is not None and client is not None:
         raise ValueError("give client= or scheduler=, not both")
-    if image_interpolation not in INTERPOLATIONS:
-        raise ValueError(f"image_interpolation must be one of {tuple(INTERPOLATIONS)}, got {image_interpolation!r}")
+    if image_interpolation not in IMAGE_INTERPOLATIONS:
+        raise ValueError(
+            f"image_interpolation must be one of {tuple(IMAGE_INTERPOLATIONS)}, got {image_interpolation!r}"
+        )
     mesh_path = Path(mesh).resolve()
     image_path, label_path = (None if path is None else str(Path(path).resolve()) for path in (image, label_image))
     job = Job(str(mesh_path), model.to_spec(), int(seed), rule, str(Path(out).resolve()), format, image_path,

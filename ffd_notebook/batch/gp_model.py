@@ -19,7 +19,7 @@ from ..gp import BSplineKernel, GaussianKernel, GaussianProcess, Kernel, LowRank
 
 __all__ = ["GPSample", "RandomGP"]
 
-KERNELS = ("gaussian", "bspline")
+BATCH_GP_KERNELS = ("gaussian", "bspline")
 
 
 @dataclass(frozen=True)
@@ -75,8 +75,8 @@ class RandomGP:
     name = "gp"
 
     def __post_init__(self) -> None:
-        if self.kernel not in KERNELS:
-            raise ValueError(f"kernel must be one of {KERNELS}, got {self.kernel!r}")
+        if self.kernel not in BATCH_GP_KERNELS:
+            raise ValueError(f"kernel must be one of {BATCH_GP_KERNELS}, got {self.kernel!r}")
         for field in ("scale", "sigma"):
             value = getattr(self, field)
             if not (isinstance(value, int | float) and np.isfinite(value) and value > 0):

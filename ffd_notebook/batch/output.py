@@ -31,15 +31,15 @@ from ..io._text import parse_float, read_lines
 
 __all__ = [
     "COLUMNS",
-    "FORMATS",
     "IMAGE_COLUMNS",
+    "MESH_OUTPUT_FORMATS",
     "Layout",
     "read_manifest",
     "read_parameters_txt",
     "write_parameters_txt",
 ]
 
-FORMATS = ("ply", "vtp", "obj")
+MESH_OUTPUT_FORMATS = ("ply", "vtp", "obj")
 COLUMNS = (
     "id",
     "seed",

@@ -35,7 +35,7 @@ from .photo import Photo
 
 __all__ = ["FaceDetection", "anchors", "detect_faces", "weighted_nms"]
 
-INPUT_SIZE = 128
+DETECTOR_INPUT_SIZE = 128
 STRIDES = (8, 16, 16, 16)
 ANCHORS_PER_LAYER = 2  # aspect ratio 1.0 + interpolated_scale_aspect_ratio 1.0
 SCORE_CLIP = 100.0
@@ -91,7 +91,7 @@ def anchors() -> np.ndarray:
         while merged < len(STRIDES) and STRIDES[merged] == STRIDES[layer]:
             merged += 1
         per_cell = ANCHORS_PER_LAYER * (merged - layer)
-        n = int(np.ceil(INPUT_SIZE / STRIDES[layer]))
+        n = int(np.ceil(DETECTOR_INPUT_SIZE / STRIDES[layer]))
         y, x = np.meshgrid((np.arange(n) + 0.5) / n, (np.arange(n) + 0.5) / n, indexing="ij")
         cells = np.stack([x.ravel(), y.ravel()], axis=1)
         out.append(np.repeat(cells, per_cell, axis=0))
@@ -103,7 +103,7 @@ def anchors() -> np.ndarray:
 
 def _decode(regressors: np.ndarray, logits: np.ndarray, min_score: float) -> list[tuple[np.ndarray, float]]:
     """Boxes ``(xmin, ymin, xmax, ymax)`` + 6 key points, all in [0, 1] of the 128x128 input, and scores."""
-    raw = regressors.reshape(-1, 16).astype(np.float64) / INPUT_SIZE
+    raw = regressors.reshape(-1, 16).astype(np.float64) / DETECTOR_INPUT_SIZE
     scores = 1.0 / (1.0 + np.exp(-np.clip(logits.reshape(-1).astype(np.float64), -SCORE_CLIP, SCORE_CLIP)))
     keep = np.flatnonzero(scores >= min_score)
     a = anchors()[keep]
@@ -181,7 +181,7 @@ def detect_faces(photo: str | os.PathLike[str] | np.ndarray | Photo, *, min_scor
     """
     photo = Photo.of(photo)
     letterbox = Square((photo.width / 2, photo.height / 2), float(max(photo.width, photo.height)))
-    tensor = letterbox.sample(photo.rgb, INPUT_SIZE, outside="zero") * (2.0 / 255.0) - 1.0
+    tensor = letterbox.sample(photo.rgb, DETECTOR_INPUT_SIZE, outside="zero") * (2.0 / 255.0) - 1.0
     outputs = detector()(tensor[None])
     regressors = next(o for o in outputs if o.shape[-1] == 16)
     logits = next(o for o in outputs if o.shape[-1] == 1)

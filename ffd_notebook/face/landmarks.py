@@ -43,7 +43,7 @@ __all__ = [
     "landmarks_of_face",
 ]
 
-INPUT_SIZE = 192
+LANDMARK_INPUT_SIZE = 192
 ROI_SCALE = 1.5
 MIN_PRESENCE = 0.5
 # MediaPipe's landmark numbers (the subject's sides): the outer eye corners and the tip of the nose (pronasale,
@@ -84,9 +84,9 @@ class FaceLandmarks:
 
 
 def _run(photo: Photo, crop: Square) -> tuple[np.ndarray, float]:
-    tensor = crop.sample(photo.rgb, INPUT_SIZE, outside="nearest") / 255.0
+    tensor = crop.sample(photo.rgb, LANDMARK_INPUT_SIZE, outside="nearest") / 255.0
     outputs = landmark_model()(tensor[None])
-    raw = next(o for o in outputs if o.size == 468 * 3).reshape(468, 3).astype(np.float64) / INPUT_SIZE
+    raw = next(o for o in outputs if o.size == 468 * 3).reshape(468, 3).astype(np.float64) / LANDMARK_INPUT_SIZE
     logit = float(next(o for o in outputs if o.size == 1).ravel()[0])
     points = np.empty((468, 3))
     points[:, :2] = crop.to_photo(raw[:, :2])

@@ -39,18 +39,18 @@ __all__ = [
     "AXIS_BASES",
     "CARDINAL_TENSION",
     "CATMULL_ROM_TENSION",
-    "INTERPOLATIONS",
     "INTERPOLATION_MATRICES",
+    "LATTICE_INTERPOLATIONS",
     "axis_bases",
     "check_basis",
-    "check_interpolation",
+    "check_lattice_interpolation",
     "interpolation_derivative",
     "interpolation_second_derivative",
     "interpolation_weights",
 ]
 
 #: Blender's interpolations of a lattice axis, in the order its interface lists them.
-INTERPOLATIONS = ("linear", "cardinal", "catmull-rom", "bspline")
+LATTICE_INTERPOLATIONS = ("linear", "cardinal", "catmull-rom", "bspline")
 
 #: The tension ``fc`` of Blender's cardinal spline (``key.cc``).
 CARDINAL_TENSION = 0.71
@@ -89,20 +89,20 @@ for _m in INTERPOLATION_MATRICES.values():
     _m.flags.writeable = False
 
 
-def check_interpolation(kind: str) -> str:
-    """``kind`` if it is one of :data:`INTERPOLATIONS`, else a ``ValueError`` naming them.
+def check_lattice_interpolation(kind: str) -> str:
+    """``kind`` if it is one of :data:`LATTICE_INTERPOLATIONS`, else a ``ValueError`` naming them.
 
     Examples
     --------
-    >>> check_interpolation("bspline")
+    >>> check_lattice_interpolation("bspline")
     'bspline'
-    >>> check_interpolation("cubic")
+    >>> check_lattice_interpolation("cubic")
     Traceback (most recent call last):
     ...
     ValueError: interpolation must be one of ('linear', 'cardinal', 'catmull-rom', 'bspline'), got 'cubic'
     """
     if kind not in INTERPOLATION_MATRICES:
-        raise ValueError(f"interpolation must be one of {INTERPOLATIONS}, got {kind!r}")
+        raise ValueError(f"interpolation must be one of {LATTICE_INTERPOLATIONS}, got {kind!r}")
     return kind
 
 
@@ -124,7 +124,7 @@ def interpolation_weights(t: ArrayLike, kind: str) -> NDArray[np.float64]:
     t : array_like
         Fractions in [0, 1), any shape.
     kind : {"linear", "cardinal", "catmull-rom", "bspline"}
-        The interpolation (:data:`INTERPOLATIONS`).
+        The interpolation (:data:`LATTICE_INTERPOLATIONS`).
 
     Returns
     -------
@@ -136,7 +136,7 @@ def interpolation_weights(t: ArrayLike, kind: str) -> NDArray[np.float64]:
     >>> interpolation_weights(0.25, "linear").tolist()
     [0.0, 0.75, 0.25, 0.0]
     """
-    return _powers(t, 0) @ INTERPOLATION_MATRICES[check_interpolation(kind)]
+    return _powers(t, 0) @ INTERPOLATION_MATRICES[check_lattice_interpolation(kind)]
 
 
 def interpolation_derivative(t: ArrayLike, kind: str) -> NDArray[np.float64]:
@@ -147,7 +147,7 @@ def interpolation_derivative(t: ArrayLike, kind: str) -> NDArray[np.float64]:
     >>> interpolation_derivative(0.5, "linear").tolist()
     [0.0, -1.0, 1.0, 0.0]
     """
-    return _powers(t, 1) @ INTERPOLATION_MATRICES[check_interpolation(kind)]
+    return _powers(t, 1) @ INTERPOLATION_MATRICES[check_lattice_interpolation(kind)]
 
 
 def interpolation_second_derivative(t: ArrayLike, kind: str) -> NDArray[np.float64]:
@@ -158,7 +158,7 @@ def interpolation_second_derivative(t: ArrayLike, kind: str) -> NDArray[np.float
     >>> interpolation_second_derivative(0.0, "bspline").tolist()
     [1.0, -2.0, 1.0, 0.0]
     """
-    return _powers(t, 2) @ INTERPOLATION_MATRICES[check_interpolation(kind)]
+    return _powers(t, 2) @ INTERPOLATION_MATRICES[check_lattice_interpolation(kind)]
 
 
 #: Each interpolation as a per-axis basis of the engine (:class:`~ffd_notebook.ffd.basis.AxisBasis`): the
@@ -174,7 +174,7 @@ AXIS_BASES: dict[str, AxisBasis] = {
         partial(interpolation_weights, kind=kind),
         partial(interpolation_derivative, kind=kind),
     )
-    for kind in INTERPOLATIONS
+    for kind in LATTICE_INTERPOLATIONS
 }
 
 
@@ -198,16 +198,16 @@ def check_basis(basis: Any) -> BasisName | tuple[str, str, str]:
     if isinstance(basis, str):
         if basis in BASES:
             return cast(BasisName, basis)
-        if basis in INTERPOLATIONS:
+        if basis in LATTICE_INTERPOLATIONS:
             basis = (basis,) * 3
     if not isinstance(basis, str) and isinstance(basis, (tuple, list)):
         kinds = tuple(basis)
-        if len(kinds) == 3 and all(isinstance(k, str) and k in INTERPOLATIONS for k in kinds):
+        if len(kinds) == 3 and all(isinstance(k, str) and k in LATTICE_INTERPOLATIONS for k in kinds):
             return "bspline" if kinds == ("bspline",) * 3 else kinds
         basis = kinds
     raise ValueError(
         "basis must be 'bspline', 'bernstein' or one interpolation per axis (three of "
-        f"{', '.join(repr(k) for k in INTERPOLATIONS)}), got {basis!r}"
+        f"{', '.join(repr(k) for k in LATTICE_INTERPOLATIONS)}), got {basis!r}"
     )
 
 

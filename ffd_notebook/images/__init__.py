@@ -18,12 +18,12 @@ from __future__ import annotations
 from .files import image_data_files, image_suffix, read_image, read_image_information, write_image
 from .geometry import ImageGrid
 from .inverse import invert_points
-from .pixels import INTERPOLATIONS
+from .pixels import IMAGE_INTERPOLATIONS
 from .slices import WarpedSlices
 from .warp import warp_image
 
 __all__ = [
-    "INTERPOLATIONS",
+    "IMAGE_INTERPOLATIONS",
     "ImageGrid",
     "WarpedSlices",
     "image_data_files",
@@ -34,3 +34,12 @@ __all__ = [
     "warp_image",
     "write_image",
 ]
+
+
+def __getattr__(name: str) -> object:
+    if name == "INTERPOLATIONS":  # renamed: ffd_notebook.ffd.interpolation has the lattice's interpolations
+        from .._util.deprecation import warn_renamed
+
+        warn_renamed("ffd_notebook.images.INTERPOLATIONS", "ffd_notebook.images.IMAGE_INTERPOLATIONS")
+        return IMAGE_INTERPOLATIONS
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

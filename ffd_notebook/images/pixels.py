@@ -22,24 +22,24 @@ from scipy import ndimage
 from .files import read_image
 from .geometry import ImageGrid, is_sitk_image
 
-__all__ = ["INTERPOLATIONS", "Interpolator", "as_pixels", "check_interpolation"]
+__all__ = ["IMAGE_INTERPOLATIONS", "Interpolator", "as_pixels", "check_image_interpolation"]
 
 #: Interpolation names and their spline orders.
-INTERPOLATIONS = {"nearest": 0, "linear": 1, "bspline": 3}
+IMAGE_INTERPOLATIONS = {"nearest": 0, "linear": 1, "bspline": 3}
 
 
-def check_interpolation(interpolation: str, default_value: float) -> None:
+def check_image_interpolation(interpolation: str, default_value: float) -> None:
     """A ``ValueError`` for an unknown interpolation or a default value that is not a finite number.
 
     Examples
     --------
-    >>> check_interpolation("cubic", 0)
+    >>> check_image_interpolation("cubic", 0)
     Traceback (most recent call last):
     ...
     ValueError: interpolation must be one of ('nearest', 'linear', 'bspline'), got 'cubic'
     """
-    if interpolation not in INTERPOLATIONS:
-        raise ValueError(f"interpolation must be one of {tuple(INTERPOLATIONS)}, got {interpolation!r}")
+    if interpolation not in IMAGE_INTERPOLATIONS:
+        raise ValueError(f"interpolation must be one of {tuple(IMAGE_INTERPOLATIONS)}, got {interpolation!r}")
     if not np.isfinite(float(default_value)):
         raise ValueError(f"default_value must be a finite number, got {default_value!r}")
 
@@ -111,9 +111,9 @@ class Interpolator:
     """
 
     def __init__(self, pixels: NDArray, grid: ImageGrid, interpolation: str, default_value: float) -> None:
-        check_interpolation(interpolation, default_value)
+        check_image_interpolation(interpolation, default_value)
         self.grid = grid
-        self.order = INTERPOLATIONS[interpolation]
+        self.order = IMAGE_INTERPOLATIONS[interpolation]
         self.default = float(default_value)
         vector = pixels.ndim == grid.dim + 1
         self.component_shape: tuple[int, ...] = (pixels.shape[-1],) if vector else ()

@@ -25,7 +25,7 @@ from numpy.typing import ArrayLike
 from .._util.blas import one_blas_thread
 from .files import read_image_information
 from .geometry import ImageGrid
-from .pixels import Interpolator, as_pixels, check_interpolation
+from .pixels import Interpolator, as_pixels, check_image_interpolation
 from .sample import Deformation, slab_rows
 from .separable import index_sampler
 
@@ -93,7 +93,7 @@ def warp_image(
     >>> warped.dtype.name, sorted(np.unique(warped).tolist())
     ('uint8', [0, 3])
     """
-    check_interpolation(interpolation, default_value)
+    check_image_interpolation(interpolation, default_value)
     pixels, source, sitk_image = as_pixels(image, spacing=spacing, origin=origin, direction=direction)
     if reference is None:
         grid = source

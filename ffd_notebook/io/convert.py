@@ -20,7 +20,7 @@ from typing import Any
 
 from ..errors import FileFormatError
 from ..ffd.deform import FFD
-from .deformation_files import DEFORMATION_SUFFIXES, FORMATS, load_deformation, save_deformation
+from .deformation_files import DEFORMATION_FORMATS, DEFORMATION_SUFFIXES, load_deformation, save_deformation
 from .displacement_field import DisplacementField, field_suffix, reference_grid, save_displacement_field
 from .elastix import ElastixTransform, load_elastix
 from .elastix_text import is_parameter_file
@@ -100,8 +100,8 @@ def convert(source: str, target: str, *, to: str | None = None, fit: str | None 
     >>> convert(str(folder / "a.ffd"), str(folder / "TransformParameters.0.txt"), to="elastix")
     []
     """
-    if to is not None and to not in FORMATS:
-        raise ValueError(f"--to must be one of {', '.join(FORMATS)}, got {to!r}")
+    if to is not None and to not in DEFORMATION_FORMATS:
+        raise ValueError(f"--to must be one of {', '.join(DEFORMATION_FORMATS)}, got {to!r}")
     deformation, ffd, why_not = _source(source)
     notes = []
     if source.lower().endswith(".ffd") and ffd is not None and ffd.lattice.metadata.get("placement") is None:
@@ -150,7 +150,7 @@ def convert_main(argv: Sequence[str]) -> int:
     )
     parser.add_argument("source", metavar="IN", help="file to read")
     parser.add_argument("target", metavar="OUT", help="file to write (replaced atomically)")
-    parser.add_argument("--to", choices=FORMATS,
+    parser.add_argument("--to", choices=DEFORMATION_FORMATS,
                         help="format of OUT when its extension does not say (.txt: elastix for an elastix IN, "
                         "else ITK)")  # fmt: skip
     parser.add_argument("--fit", metavar="SHAPE", help="fit a lattice of this shape (N or NXxNYxNZ) to IN")

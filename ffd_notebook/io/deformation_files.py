@@ -29,11 +29,11 @@ from .ffd_file import load_ffd, save_ffd
 from .itk import ITK_SUFFIXES, load_transform, save_transform
 from .prm import load_prm, save_prm
 
-__all__ = ["DEFORMATION_SUFFIXES", "FORMATS", "load_deformation", "save_deformation"]
+__all__ = ["DEFORMATION_FORMATS", "DEFORMATION_SUFFIXES", "load_deformation", "save_deformation"]
 
 DEFORMATION_SUFFIXES = (".ffd", *ITK_SUFFIXES, ".prm", *FIELD_SUFFIXES)
 #: The ``format=`` names of :func:`save_deformation` (``None``: by extension).
-FORMATS = ("ffd", "itk", "elastix", "prm", "field")
+DEFORMATION_FORMATS = ("ffd", "itk", "elastix", "prm", "field")
 
 
 def _suffix(path: str | os.PathLike[str]) -> str:
@@ -118,7 +118,7 @@ def _refuse(path: str | os.PathLike[str], what: str, why: str) -> ValueError:
 def save_deformation(path: str | os.PathLike[str], ffd: FFD | DisplacementField, *, format: str | None = None) -> None:
     """Write an FFD in the format its extension names, atomically, or refuse if it would not be exact.
 
-    ``format`` (one of :data:`FORMATS`) overrides the extension: ``"elastix"`` writes an elastix
+    ``format`` (one of :data:`DEFORMATION_FORMATS`) overrides the extension: ``"elastix"`` writes an elastix
     transform parameter file (:func:`~ffd_notebook.io.save_elastix`). Without it a ``.txt`` file is
     written in the format the FFD's lattice was read from: elastix for a lattice loaded from an
     elastix file (``lattice.metadata["elastix"]``; the editor saves it back so), ITK otherwise.
@@ -141,7 +141,7 @@ def save_deformation(path: str | os.PathLike[str], ffd: FFD | DisplacementField,
     ffd : FFD or DisplacementField
         The deformation to write.
     format : str, optional
-        One of :data:`FORMATS`, instead of what the extension says.
+        One of :data:`DEFORMATION_FORMATS`, instead of what the extension says.
 
     Raises
     ------
@@ -162,8 +162,10 @@ def save_deformation(path: str | os.PathLike[str], ffd: FFD | DisplacementField,
     ...
     ValueError: ...a.prm: a PyGeM .prm file cannot hold this FFD exactly: it has the 'bspline' basis; ...
     """
-    if format is not None and format not in FORMATS:
-        raise ValueError(f"format must be one of {', '.join(FORMATS)} (or None: by extension), got {format!r}")
+    if format is not None and format not in DEFORMATION_FORMATS:
+        raise ValueError(
+            f"format must be one of {', '.join(DEFORMATION_FORMATS)} (or None: by extension), got {format!r}"
+        )
     if isinstance(ffd, FFD) and ffd.weights is not None:
         raise _refuse(path, "deformation", "it has per-point weights, which belong to one mesh (save them with it)")
     from_elastix = isinstance(ffd, FFD) and "elastix" in ffd.lattice.metadata

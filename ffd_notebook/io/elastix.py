@@ -115,7 +115,7 @@ class BSplineStep:
         return out
 
 
-Step = LinearStep | BSplineStep
+ElastixStep = LinearStep | BSplineStep
 
 
 # ---------------------------------------------------------------------------------------- the chain
@@ -142,7 +142,7 @@ class ElastixTransform:
     [[3.0, 2.0, 2.0]]
     """
 
-    def __init__(self, steps: list[Step], combine: list[str], geometry: dict[str, list[float]] | None = None):
+    def __init__(self, steps: list[ElastixStep], combine: list[str], geometry: dict[str, list[float]] | None = None):
         if not steps or len(combine) != len(steps) - 1 or any(c not in ("Compose", "Add") for c in combine):
             raise ValueError("expected at least one step and 'Compose' or 'Add' for each step after the first")
         self.steps = list(steps)
@@ -360,7 +360,7 @@ def _bspline(params: ParameterMap, kind: str) -> BSplineStep:
     return BSplineStep(kind, direction, spacing, first, np.ascontiguousarray(coefficients), params.path)
 
 
-def _step(params: ParameterMap) -> Step:
+def _step(params: ParameterMap) -> ElastixStep:
     kind = params.word("Transform", why="it names the transform")
     for name in ("FixedImageDimension", "MovingImageDimension"):
         if name in params and params.word(name) != "3":

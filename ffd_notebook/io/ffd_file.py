@@ -45,7 +45,7 @@ from typing import Any, cast
 import numpy as np
 
 from ..errors import FileFormatError
-from ..ffd.interpolation import INTERPOLATIONS
+from ..ffd.interpolation import LATTICE_INTERPOLATIONS
 from ..ffd.lattice import Lattice
 from ..ffd.support import BORDERS, Border
 from ._atomic import atomic_open
@@ -296,9 +296,9 @@ def _parse_options(path, known: dict[str, _Section]) -> dict[str, Any]:
     if "interpolation" in known:
         section = known["interpolation"]
         words = _words(section)
-        if len(words) != 3 or any(w not in INTERPOLATIONS for w in words):
+        if len(words) != 3 or any(w not in LATTICE_INTERPOLATIONS for w in words):
             raise FileFormatError(path, _last_line(section), f"section #{section.header}# must hold three words, "
-                                  f"one per axis, each one of {', '.join(INTERPOLATIONS)}; got "
+                                  f"one per axis, each one of {', '.join(LATTICE_INTERPOLATIONS)}; got "
                                   f"{' '.join(words)[:60]!r}")  # fmt: skip
         options["basis"] = tuple(words)
     if "outside" in known:

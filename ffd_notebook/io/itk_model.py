@@ -41,7 +41,7 @@ from ..ffd.support import pad_offsets
 
 __all__ = ["RawTransform", "ffd_to_transforms", "strip_padding", "transforms_to_ffd"]
 
-BSPLINE = "BSplineTransform_double_3_3"
+ITK_BSPLINE_TRANSFORM = "BSplineTransform_double_3_3"
 AFFINE = "AffineTransform_double_3_3"
 COMPOSITE = "CompositeTransform_double_3_3"
 _AFFINE_LIKE = ("AffineTransform", "MatrixOffsetTransformBase")
@@ -256,7 +256,7 @@ def ffd_to_transforms(ffd: FFD) -> list[RawTransform]:
                              "ITK composite (affine after B-spline) do not exist")  # fmt: skip
         offsets = offsets @ np.linalg.inv(a).T
     fixed = np.concatenate([np.asarray(shape, dtype=np.float64), origin, lat.spacing, lat.rotation.ravel()])
-    bspline = RawTransform(BSPLINE, np.ascontiguousarray(offsets.transpose(3, 2, 1, 0)).ravel(), fixed)
+    bspline = RawTransform(ITK_BSPLINE_TRANSFORM, np.ascontiguousarray(offsets.transpose(3, 2, 1, 0)).ravel(), fixed)
     if plain and not b.any():
         return [bspline]
     affine = RawTransform(AFFINE, np.concatenate([a.ravel(), b]), np.zeros(3))

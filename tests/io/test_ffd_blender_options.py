@@ -11,7 +11,7 @@ from hypothesis import strategies as st
 
 from ffd_notebook import FFD, Lattice
 from ffd_notebook.errors import FileFormatError
-from ffd_notebook.ffd.interpolation import INTERPOLATIONS
+from ffd_notebook.ffd.interpolation import LATTICE_INTERPOLATIONS
 from ffd_notebook.io import load_deformation, load_ffd, save_deformation, save_ffd
 
 TINY = (
@@ -33,7 +33,7 @@ def _points(ffd, rng, n=60):
 @settings(max_examples=25, deadline=None)
 @given(
     seed=st.integers(0, 2**31),
-    basis=st.tuples(*[st.sampled_from(INTERPOLATIONS)] * 3),
+    basis=st.tuples(*[st.sampled_from(LATTICE_INTERPOLATIONS)] * 3),
     outside=st.booleans(),
     strength=st.floats(-2, 2, allow_nan=False),
     border=st.sampled_from(["zero", "clamp"]),

@@ -10,7 +10,7 @@ from __future__ import annotations
 import pytest
 
 from ffd_notebook.__main__ import main
-from ffd_notebook.view.web_security import AccessPolicy, is_loopback
+from ffd_notebook.view.serving.web_security import AccessPolicy, is_loopback
 
 LOOPBACK = ["localhost", "LocalHost", "localhost.", "app.localhost", "a.b.localhost", "127.0.0.1", "127.255.0.9",
             "::1", "[::1]", "::ffff:127.0.0.1"]  # fmt: skip

@@ -1,6 +1,6 @@
 """Attacks on the trame server the notebook views start (Editor, GPExplorer, CutViewer), direct and proxied.
 
-The server is started the way a kernel starts it (:func:`ffd_notebook.view.jupyter.serve_plotter`
+The server is started the way a kernel starts it (:func:`ffd_notebook.view.serving.jupyter.serve_plotter`
 inside a running event loop) in a child process, which prints the iframe's ``src`` and can switch
 PyVista's ``server_proxy_enabled`` on request. The proxied case goes through a real Jupyter server
 with jupyter-server-proxy, like ``/proxy/<port>/`` in JupyterLab.
@@ -24,7 +24,7 @@ VIEW_SERVER = r"""
 import asyncio, json, sys
 import pyvista as pv
 from ffd_notebook.view import Editor
-from ffd_notebook.view.jupyter import serve_plotter
+from ffd_notebook.view.serving.jupyter import serve_plotter
 
 async def main():
     editor = Editor(pv.Sphere(), shape=(4, 4, 4), window_size=(200, 150))

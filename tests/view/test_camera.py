@@ -7,7 +7,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import ffd_notebook.view  # noqa: F401  (headless settings before any plotter)
-from ffd_notebook.view.camera import frame_camera, view_direction
+from ffd_notebook.view.rendering.camera import frame_camera, view_direction
 
 
 def _ndc(plotter, points):

@@ -8,14 +8,14 @@ import pytest
 
 from ffd_notebook.errors import FileFormatError
 from ffd_notebook.io.mesh import MESH_SUFFIXES
-from ffd_notebook.view.file_root import (
+from ffd_notebook.view.serving.file_root import (
     FFD_SUFFIXES,
     FileRoot,
     PathRefused,
     client_message,
     refuse_special_or_oversize,
 )
-from ffd_notebook.view.web_security import AccessPolicy, url_with_token
+from ffd_notebook.view.serving.web_security import AccessPolicy, url_with_token
 
 
 @pytest.fixture

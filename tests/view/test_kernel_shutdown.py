@@ -21,7 +21,7 @@ import ffd_notebook as fn
 from ffd_notebook.view import CutViewer, GPExplorer, TexturedOrgan
 from ffd_notebook.meshing.organ import tetrahedralize
 from ffd_notebook.solidtex import SolidTexture
-from ffd_notebook.view.jupyter import jupyter_server
+from ffd_notebook.view.serving.jupyter import jupyter_server
 
 editor = fn.edit(pv.Sphere(radius=10), shape=(4, 4, 4), window_size=(320, 240))
 probe.drag_control_point(editor)

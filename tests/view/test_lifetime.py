@@ -14,7 +14,7 @@ import numpy as np
 import pyvista as pv
 from pyvista.plotting.plotter import _ALL_PLOTTERS
 
-from ffd_notebook.view.lifetime import Lifetime, weak_call, weak_method
+from ffd_notebook.view.serving.lifetime import Lifetime, weak_call, weak_method
 
 
 def _watch(owner, plotter) -> tuple[weakref.ref, weakref.ref, list[str]]:

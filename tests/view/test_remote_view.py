@@ -1,5 +1,5 @@
 """The remote view's frame scheduler: coalesced requests, each image pushed before the next render, a sharp
-frame once requests stop (ffd_notebook.view.remote_view.FrameScheduler), on a real editor's render window."""
+frame once requests stop (ffd_notebook.view.serving.remote_view.FrameScheduler), on a real editor's render window."""
 
 from __future__ import annotations
 
@@ -12,7 +12,7 @@ import pyvista as pv
 from PIL import Image
 
 from ffd_notebook.view import Editor
-from ffd_notebook.view.remote_view import ENCODER, FrameScheduler
+from ffd_notebook.view.serving.remote_view import ENCODER, FrameScheduler
 
 
 async def _drive(editor: Editor, n_bursts: int, burst: int, every_s: float) -> tuple[list, list]:
@@ -125,7 +125,7 @@ def _mouse(kind: str, action: str) -> dict:
 async def _interaction_sizes(editor: Editor) -> list[tuple[int, int]]:
     from trame_rca.rca import window_wrapper
 
-    from ffd_notebook.view.remote_view import InteractiveSizeAdapter
+    from ffd_notebook.view.serving.remote_view import InteractiveSizeAdapter
 
     window = window_wrapper(editor.plotter.render_window)
     scheduler = FrameScheduler(window)
@@ -253,7 +253,7 @@ class RecordingArea:
 
 
 async def _coalesced(area: RecordingArea) -> list[tuple[str, int]]:
-    from ffd_notebook.view.remote_view import InteractiveSizeAdapter
+    from ffd_notebook.view.serving.remote_view import InteractiveSizeAdapter
 
     scheduler = FrameScheduler(area, still_after=1000)
     adapter = InteractiveSizeAdapter(area, "test_area", scheduler=scheduler)
@@ -298,7 +298,7 @@ def test_mouse_moves_are_coalesced_into_the_newest_before_each_frame_in_order():
 
 
 async def _two_tabs(area: RecordingArea) -> None:
-    from ffd_notebook.view.remote_view import InteractiveSizeAdapter
+    from ffd_notebook.view.serving.remote_view import InteractiveSizeAdapter
 
     scheduler = FrameScheduler(area, still_after=1000)
     adapter = InteractiveSizeAdapter(area, "test_area", scheduler=scheduler)

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 
-from ffd_notebook.view.rendering import WINDOW_VARIABLE, headless_settings_apply, is_headless, new_plotter
+from ffd_notebook.view.rendering.plotters import WINDOW_VARIABLE, headless_settings_apply, is_headless, new_plotter
 
 ROOT = Path(__file__).resolve().parents[2]
 PACKAGE = ROOT / "ffd_notebook"
@@ -83,7 +83,8 @@ def test_plotters_the_package_makes_get_the_headless_settings():
 def test_the_settings_can_be_turned_off_and_a_users_window_choice_is_kept():
     assert headless_settings_apply(force=False) is False and headless_settings_apply(force=True) is True
     code = (
-        "import os\nfrom ffd_notebook.view.rendering import headless_settings_apply\nprint(headless_settings_apply())\n"
+        "import os\nfrom ffd_notebook.view.rendering.plotters import headless_settings_apply\n"
+        "print(headless_settings_apply())\n"
     )
     assert _fresh_python(code, {"FFD_NOTEBOOK_NO_HEADLESS": "1"}).strip() == "False"
     import pyvista as pv

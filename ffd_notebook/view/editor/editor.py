@@ -31,12 +31,13 @@ import pyvista as pv
 from numpy.typing import ArrayLike, NDArray
 
 from ..._util.deprecation import renamed, warn_renamed
+from ..._util.paths import StrPath
 from ...ffd.basis import BasisName
 from ...ffd.deform import FFD
 from ...ffd.lattice import Lattice
 from ...io import write_mesh
 from ...meshing import as_surface, color_array_name, decimate_keeping_colors, deformed_copy
-from ..lifetime import Lifetime, weak_method
+from ..serving.lifetime import Lifetime, weak_method
 from .scene.proxy import INTERACTIVE_CELLS
 from .scene.scene import EditorScene
 from .session.message_log import MessageLog
@@ -44,10 +45,8 @@ from .session.session import EditingSession, Field, MeshIO, PointsShown
 
 __all__ = ["PYVISTA_MESH_IO", "Editor", "edit", "face_surface"]
 
-Path = str | os.PathLike[str]
 
-
-def read_surface(path: Path) -> pv.PolyData:
+def read_surface(path: StrPath) -> pv.PolyData:
     """A mesh file's surface, checked (:func:`ffd_notebook.io.read_mesh` + :func:`ffd_notebook.meshing.as_surface`)."""
     from ...io import read_mesh
 
@@ -426,7 +425,7 @@ class Editor:
         """
         self.session.show_points(which)
 
-    def load_deformation(self, path: Path) -> FFD:
+    def load_deformation(self, path: StrPath) -> FFD:
         """Load a deformation file (.ffd, ITK .tfm/.txt/.h5/.hdf5, PyGeM .prm; one undo step) and return the FFD.
 
         A bad file raises and changes nothing (:meth:`.session.files.SessionFiles.load_deformation`).
@@ -460,7 +459,7 @@ class Editor:
         """
         return self.session.files.load_deformation(path)
 
-    def save_deformation(self, path: Path) -> None:
+    def save_deformation(self, path: StrPath) -> None:
         """Save the FFD to a deformation file (format by extension), atomically.
 
         Parameters
@@ -486,7 +485,7 @@ class Editor:
         """
         self.session.files.save_deformation(path)
 
-    def load_ffd(self, path: Path) -> Lattice:
+    def load_ffd(self, path: StrPath) -> Lattice:
         """Deprecated: :meth:`load_deformation` (which returns the FFD); this returns its lattice.
 
         .. deprecated:: 0.2.0
@@ -497,7 +496,7 @@ class Editor:
 
     save_ffd = renamed(save_deformation, "save_ffd")
 
-    def load_mesh(self, path: Path) -> pv.PolyData:
+    def load_mesh(self, path: StrPath) -> pv.PolyData:
         """Load a mesh (OBJ with colours, or anything PyVista reads; a new undo history). A bad file changes nothing.
 
         Parameters
@@ -525,7 +524,7 @@ class Editor:
         """
         return self.session.files.load_mesh(path)
 
-    def save_mesh(self, path: Path) -> None:
+    def save_mesh(self, path: StrPath) -> None:
         """Save the deformed mesh (OBJ with colours, PLY, VTP, ... by extension), atomically.
 
         Parameters
@@ -583,7 +582,7 @@ class Editor:
         """
         return self.session.files.load_face(photo)
 
-    def screenshot(self, path: Path | None = None) -> NDArray[np.uint8]:
+    def screenshot(self, path: StrPath | None = None) -> NDArray[np.uint8]:
         """Render and return the image ``(h, w, 3)`` uint8; also write a PNG if ``path`` is given.
 
         Parameters
@@ -637,7 +636,7 @@ class Editor:
         """
         from IPython.display import display
 
-        from ..jupyter import execution_count, keep_while_shown
+        from ..serving.jupyter import execution_count, keep_while_shown
         from .notebook.output import EditorOutput
 
         cell = execution_count()
@@ -667,7 +666,7 @@ class Editor:
         >>> editor.lifetime.alive
         False
         """
-        from ..jupyter import forget_shown
+        from ..serving.jupyter import forget_shown
 
         forget_shown(self)
         self.lifetime.close()

@@ -30,9 +30,9 @@ from numpy.typing import ArrayLike, NDArray
 from ..._util.deprecation import renamed_keyword
 from ...gp import ExponentialKernel, GaussianKernel, GaussianProcess, Kernel, LowRankGP, grid_points
 from ...meshing import as_surface
-from ..jupyter import forget_shown, keep_while_shown, release_views, show_changes, show_plotter
-from ..lifetime import Lifetime, weak_call
-from ..rendering import new_plotter
+from ..rendering.plotters import new_plotter
+from ..serving.jupyter import forget_shown, keep_while_shown, release_views, show_changes, show_plotter
+from ..serving.lifetime import Lifetime, weak_call
 from .model_modes import (
     VARIANCE_ARRAY,
     ModelModes,
@@ -41,10 +41,10 @@ from .model_modes import (
     resolve_model,
 )
 
-__all__ = ["KERNELS", "VARIANCE_ARRAY", "GPExplorer"]
+__all__ = ["EXPLORER_KERNELS", "VARIANCE_ARRAY", "GPExplorer"]
 
 #: Kernel families the explorer offers: name -> class taking ``(sigma, scale)``.
-KERNELS = {"gaussian": GaussianKernel, "exponential": ExponentialKernel}
+EXPLORER_KERNELS = {"gaussian": GaussianKernel, "exponential": ExponentialKernel}
 VECTORS_ARRAY = "gp_displacement"
 
 
@@ -61,7 +61,7 @@ class GPExplorer(ModelModes):
         Standard deviation of each displacement component (sets the colour range); default 3% of
         the diagonal for a kernel, the model's own for a shape model.
     kernel : {"gaussian", "exponential"}
-        Kernel family (:data:`KERNELS`).
+        Kernel family (:data:`EXPLORER_KERNELS`).
     grid_shape : int or three ints
         Arrows per axis.
     n_inducing, rank : int
@@ -118,8 +118,8 @@ class GPExplorer(ModelModes):
         n_modes: int = 5,
         **plotter_kwargs: Any,
     ) -> None:
-        if kernel not in KERNELS:
-            raise ValueError(f"kernel must be one of {sorted(KERNELS)}, got {kernel!r}")
+        if kernel not in EXPLORER_KERNELS:
+            raise ValueError(f"kernel must be one of {sorted(EXPLORER_KERNELS)}, got {kernel!r}")
         if (mesh is None) == (model is None):
             raise ValueError("give either a mesh (for a kernel model) or a shape model, not both")
         self.kernel_name = kernel
@@ -194,7 +194,7 @@ class GPExplorer(ModelModes):
         if self.model_name is not None:
             return None
         assert self.sigma is not None  # a kernel model has a width
-        return KERNELS[self.kernel_name](sigma=self.sigma, scale=self.scale)
+        return EXPLORER_KERNELS[self.kernel_name](sigma=self.sigma, scale=self.scale)
 
     @property
     def process(self) -> LowRankGP:
@@ -426,9 +426,9 @@ class GPExplorer(ModelModes):
     def show(self, **kwargs: Any) -> Any:
         """Show the explorer: in Jupyter the server-rendered trame view its widgets need.
 
-        See :func:`ffd_notebook.view.jupyter.show_plotter`; outside a kernel, ``plotter.show(**kwargs)``.
+        See :func:`ffd_notebook.view.serving.jupyter.show_plotter`; outside a kernel, ``plotter.show(**kwargs)``.
         The output showing it keeps the explorer alive until its cell runs again
-        (:func:`~ffd_notebook.view.jupyter.keep_while_shown`).
+        (:func:`~ffd_notebook.view.serving.jupyter.keep_while_shown`).
 
         Parameters
         ----------

@@ -21,7 +21,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ...gp import LowRankGP, load_model
 from ...gp.noise import observation_noise
-from ..lifetime import weak_call
+from ..serving.lifetime import weak_call
 
 __all__ = [
     "MODE_RANGE",

@@ -8,7 +8,7 @@ positions that the section interpolates from the tetrahedra's point data ``"rest
 the organ (:meth:`TexturedOrgan.deform`) only moves points, so the texture follows the tissue.
 
 :func:`add_cut` draws one cut (or the intact organ) into a plotter or subplot, for static figures
-(with :func:`~ffd_notebook.view.camera.frame_camera` to face the cut and fill the frame).
+(with :func:`~ffd_notebook.view.rendering.camera.frame_camera` to face the cut and fill the frame).
 :class:`CutViewer` puts it in a PyVista plotter with a plane widget; dragging the plane recuts in
 place (the actors are never re-created).
 """
@@ -26,10 +26,10 @@ from vtkmodules.vtkCommonCore import vtkUnsignedCharArray
 
 from ...meshing.organ import REST, organ_surface, rest_points, texture_surface
 from ...solidtex.sampling import SolidTexture, TextureSampler  # noqa: F401  (SolidTexture: the doctests)
-from ..camera import frame_camera, unit_vector, view_direction
-from ..jupyter import forget_shown, keep_while_shown, release_views, show_changes, show_plotter
-from ..lifetime import Lifetime, weak_method
-from ..rendering import new_plotter
+from ..rendering.camera import frame_camera, unit_vector, view_direction
+from ..rendering.plotters import new_plotter
+from ..serving.jupyter import forget_shown, keep_while_shown, release_views, show_changes, show_plotter
+from ..serving.lifetime import Lifetime, weak_method
 
 __all__ = ["CutViewer", "TexturedOrgan", "add_cut"]
 
@@ -475,8 +475,8 @@ class CutViewer:
     def look_at_cut(self, elevation: float = 0.4, margin: float = 1.04) -> None:
         """Face the cut (from the side that was cut away), the organ filling the picture.
 
-        The camera looks along :func:`~ffd_notebook.view.camera.view_direction` and is fitted to
-        the organ's meshes with :func:`~ffd_notebook.view.camera.frame_camera`, not to the
+        The camera looks along :func:`~ffd_notebook.view.rendering.camera.view_direction` and is fitted to
+        the organ's meshes with :func:`~ffd_notebook.view.rendering.camera.frame_camera`, not to the
         widget's box.
 
         Parameters
@@ -509,13 +509,13 @@ class CutViewer:
     def show(self, **kwargs: Any) -> Any:
         """Show the viewer: in Jupyter the server-rendered trame view its plane widget needs.
 
-        See :func:`ffd_notebook.view.jupyter.show_plotter`; with the static backend, a picture.
+        See :func:`ffd_notebook.view.serving.jupyter.show_plotter`; with the static backend, a picture.
 
         The picture is of the current cut: PyVista's static backend would otherwise show the
         picture of an earlier ``show``.
 
         The output showing it keeps the viewer alive until its cell runs again
-        (:func:`~ffd_notebook.view.jupyter.keep_while_shown`).
+        (:func:`~ffd_notebook.view.serving.jupyter.keep_while_shown`).
 
         Parameters
         ----------

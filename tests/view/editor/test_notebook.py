@@ -119,7 +119,7 @@ import numpy as np
 import pyvista as pv
 from ffd_notebook.solidtex import SolidTexture
 from ffd_notebook.view import CutViewer, GPExplorer, TexturedOrgan
-from ffd_notebook.view.jupyter import views_of
+from ffd_notebook.view.serving.jupyter import views_of
 from ffd_notebook.meshing.organ import tetrahedralize
 
 explorer = GPExplorer(pv.Sphere(radius=10, theta_resolution=16, phi_resolution=12), sigma=8.0, rank=20,

@@ -50,7 +50,7 @@ def test_sample_moves_mesh_and_arrows_in_place(explorer, liver):
 
 
 def test_a_change_from_code_is_rendered_once_with_a_browser_view(explorer):
-    from ffd_notebook.view.jupyter import views_of
+    from ffd_notebook.view.serving.jupyter import views_of
 
     explorer.screenshot()  # shown once: plotter.render() renders from now on
     renders = []

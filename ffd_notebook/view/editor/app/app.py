@@ -1,6 +1,6 @@
 """The standalone FFD editor: an :class:`~ffd_notebook.view.editor.Editor` in a trame web page.
 
-The page is a Vuetify 3 layout: the plotter's :class:`~ffd_notebook.view.remote_view.RemoteView` (server-side
+The page is a Vuetify 3 layout: the plotter's :class:`~ffd_notebook.view.serving.remote_view.RemoteView` (server-side
 rendering, which the drag handle needs) and a side panel drawn from the same list of controls as the
 notebook panel. The panel only calls session commands (:func:`..session.controls.run`); the session
 tells the page what changed (:meth:`EditingSession.subscribe <..session.EditingSession.subscribe>`), so
@@ -25,8 +25,8 @@ from collections.abc import Callable
 from typing import Any
 
 from ....ffd.basis import BasisName
-from ...file_root import DEFAULT_MAX_FILE_BYTES, FileRoot
-from ...web_security import AccessPolicy, new_token, protect, url_with_token
+from ...serving.file_root import DEFAULT_MAX_FILE_BYTES, FileRoot
+from ...serving.web_security import AccessPolicy, new_token, protect, url_with_token
 from ..editor import Editor
 from ..session import controls as panel_controls
 from ..session.changes import Change, DragSync

@@ -1,9 +1,9 @@
 """The standalone app's file actions and lattice rebuilds: paths inside its root folder, browser uploads and
 downloads, slow work off the event loop.
 
-Every typed path goes through :class:`~ffd_notebook.view.file_root.FileRoot` (inside the root,
+Every typed path goes through :class:`~ffd_notebook.view.serving.file_root.FileRoot` (inside the root,
 regular files of bounded size, the right extension to write) and every message the page shows goes
-through :func:`~ffd_notebook.view.file_root.client_message` (no file content, the root-relative
+through :func:`~ffd_notebook.view.serving.file_root.client_message` (no file content, the root-relative
 name). A remote user needs no server path at all: lattice files (.ffd, ITK .tfm/.txt/.h5/.hdf5,
 PyGeM .prm), meshes and photos of a face (the mesh upload makes the face in a photo) can be uploaded
 from the browser, and the lattice and the deformed mesh downloaded to it.
@@ -28,7 +28,7 @@ from typing import Any
 from ...._util.deprecation import renamed
 from ....face.photo import PHOTO_SUFFIXES
 from ....io.mesh import MESH_SUFFIXES
-from ...file_root import (
+from ...serving.file_root import (
     FFD_SUFFIXES,
     FileRoot,
     PathRefused,

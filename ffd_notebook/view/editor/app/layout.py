@@ -14,7 +14,7 @@ from typing import Any
 
 from ....face.photo import PHOTO_SUFFIXES
 from ....io import MESH_SUFFIXES
-from ...file_root import FFD_SUFFIXES
+from ...serving.file_root import FFD_SUFFIXES
 from ..session.controls import Control
 
 __all__ = ["build_layout"]
@@ -206,7 +206,7 @@ def build_layout(app: Any) -> tuple[Any, Any]:
     from trame.widgets import client, html
     from trame.widgets import vuetify3 as v
 
-    from ...remote_view import RemoteView
+    from ...serving.remote_view import RemoteView
 
     toolbar = [c for c in app.controls if c.section == "toolbar"]
     app.server.state[TAB_ID] = "anonymous"  # (trame-rca's default origin) until the tab sets its own

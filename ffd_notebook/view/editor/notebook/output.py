@@ -1,6 +1,6 @@
 """The editor in Jupyter: the plotter's trame view (server-side rendering) next to the control panel.
 
-How the view is served (token, Origin checks, proxies) is :mod:`ffd_notebook.view.jupyter`'s business,
+How the view is served (token, Origin checks, proxies) is :mod:`ffd_notebook.view.serving.jupyter`'s business,
 shared with the other products. With the ``"static"`` (or ``"none"``) Jupyter backend, e.g. when
 notebooks run headless in CI, the view is a picture that the panel's actions refresh instead; either
 way the output also carries a PNG of the scene so a saved notebook shows it where widgets cannot run.
@@ -11,8 +11,8 @@ from __future__ import annotations
 import base64
 from typing import TYPE_CHECKING, Any
 
-from ...jupyter import STATIC_BACKENDS, backend, png_bytes, serve_plotter
-from ...lifetime import weak_call
+from ...serving.jupyter import STATIC_BACKENDS, backend, png_bytes, serve_plotter
+from ...serving.lifetime import weak_call
 from ..session.changes import Change
 
 if TYPE_CHECKING:
@@ -41,7 +41,7 @@ def _static_view(editor: Editor) -> Any:
 def editor_widget(editor: Editor) -> Any:
     """A new notebook widget for ``editor``: ``ipywidgets.HBox([view, ControlPanel(editor)])``.
 
-    The trame view joins the scene's browser views (:func:`~ffd_notebook.view.jupyter.serve_plotter`),
+    The trame view joins the scene's browser views (:func:`~ffd_notebook.view.serving.jupyter.serve_plotter`),
     so the scene pushes a frame to it after every change made from code or the panel.
     Use :attr:`Editor.widget <ffd_notebook.view.editor.editor.Editor.widget>`: it makes one per editor.
     """

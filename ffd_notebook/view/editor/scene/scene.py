@@ -8,7 +8,7 @@ dragging. A loaded mesh's plotted copy and normals may come ready-made from a wo
 (:func:`prepare_display`, :meth:`EditorScene.offer_display`). While a mouse button is held, a large
 mesh is drawn from a lighter copy (:mod:`.proxy`).
 After every change except drag events and messages the scene asks its browser views
-(:class:`~ffd_notebook.view.jupyter.BrowserViews`) for a new frame, or renders itself when none is
+(:class:`~ffd_notebook.view.serving.jupyter.BrowserViews`) for a new frame, or renders itself when none is
 attached; during a drag, the view renders when it sends the image.
 """
 
@@ -23,9 +23,9 @@ import pyvista as pv
 from numpy.typing import ArrayLike, NDArray
 
 from ....meshing import color_array_name
-from ...camera import frame_camera
-from ...jupyter import release_views, views_of
-from ...rendering import new_plotter
+from ...rendering.camera import frame_camera
+from ...rendering.plotters import new_plotter
+from ...serving.jupyter import release_views, views_of
 from ..session.changes import Change
 from ..session.session import EditingSession
 from . import coloring
@@ -332,7 +332,7 @@ class EditorScene:
     def render(self) -> None:
         """Show the change: the browser views render it and send a new image (each view's scheduler renders
         once for any number of changes); with no browser view, render now
-        (:meth:`~ffd_notebook.view.jupyter.BrowserViews.show_changes`)."""
+        (:meth:`~ffd_notebook.view.serving.jupyter.BrowserViews.show_changes`)."""
         self.views.show_changes(self.plotter.render_window.Render)
 
     def shown_points(self) -> NDArray[np.float64]:

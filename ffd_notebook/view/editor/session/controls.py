@@ -22,7 +22,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ....ffd.basis import BASES
-from ....ffd.interpolation import INTERPOLATIONS
+from ....ffd.interpolation import LATTICE_INTERPOLATIONS
 from .surface_drag import MODES
 
 if TYPE_CHECKING:
@@ -170,7 +170,7 @@ FIELD_CHOICES = (
     ("weights", "vertex weights"),
 )
 MODE_CHOICES = tuple(zip(MODES, ("control points", "the mesh surface", "paint weights"), strict=True))
-INTERPOLATION_CHOICES = tuple((k, k) for k in INTERPOLATIONS)
+INTERPOLATION_CHOICES = tuple((k, k) for k in LATTICE_INTERPOLATIONS)
 BRUSH_CHOICES = (("raise", "raise"), ("lower", "lower"))
 _INTERPOLATION = ("interp_x", "interp_y", "interp_z")
 POINTS_CHOICES = (("auto", "all (hull above 1000)"), ("all", "all"), ("near", "near the selected"), ("hull", "hull"))

@@ -34,6 +34,7 @@ from pathlib import Path as _PathType
 from typing import TYPE_CHECKING, Any, cast
 
 from ...._util.deprecation import renamed, warn_renamed
+from ...._util.paths import StrPath
 from ....ffd.deform import FFD
 from ....ffd.deformer import Deformer
 from ....ffd.lattice import Lattice
@@ -46,8 +47,6 @@ if TYPE_CHECKING:
     from .session import EditingSession
 
 __all__ = ["SessionFiles", "photo_name"]
-
-Path = str | os.PathLike[str]
 
 
 _PLACES = {
@@ -91,7 +90,7 @@ class SessionFiles:
     def __init__(self, session: EditingSession) -> None:
         self.session = session
 
-    def read_deformation(self, path: Path) -> tuple[FFD, str]:
+    def read_deformation(self, path: StrPath) -> tuple[FFD, str]:
         """Read and check a deformation file for ``session`` without changing anything: ``(ffd, source)``.
 
         ``source`` is how the lattice is placed: ``"ffd-placed"`` (a .ffd with its own placement),
@@ -120,7 +119,7 @@ class SessionFiles:
             return
         self.session.info(f"loaded a {shape} lattice from {name} ({ffd.basis}, at {_PLACES[source]})")
 
-    def load_deformation(self, path: Path) -> FFD:
+    def load_deformation(self, path: StrPath) -> FFD:
         """Load a deformation file (.ffd, ITK, PyGeM .prm; undoable) and return the FFD now in use.
 
         A bad file raises and changes nothing."""
@@ -132,7 +131,7 @@ class SessionFiles:
         self.use_deformation(ffd, source, os.fspath(path))
         return self.session.ffd
 
-    def save_deformation(self, path: Path) -> None:
+    def save_deformation(self, path: StrPath) -> None:
         """Save the session's FFD to a deformation file (format by extension), atomically; with an image shown,
         the image warped by it too, beside it (:meth:`~.image.SessionImage.beside`).
 
@@ -154,7 +153,7 @@ class SessionFiles:
                 self.session.error(f"could not save the warped image to {os.fspath(target)!r}: {exc}")
                 raise
 
-    def read_mesh(self, path: Path) -> tuple[Any, Deformer]:
+    def read_mesh(self, path: StrPath) -> tuple[Any, Deformer]:
         """Read a mesh and bind the lattice it will get, without changing anything: ``(surface, deformer)``.
 
         Safe to run in a worker thread: the file is read into new objects, and the slow part of
@@ -187,7 +186,7 @@ class SessionFiles:
         self.session.replace_mesh(mesh, deformer, label="load mesh", new_document=True)
         self.session.info(f"loaded {name}: {mesh.n_points} vertices, {mesh.n_cells} faces")
 
-    def load_mesh(self, path: Path) -> Any:
+    def load_mesh(self, path: StrPath) -> Any:
         """Load a mesh (OBJ with colors, or anything PyVista reads); starts a new undo history.
 
         A bad file raises and changes nothing.
@@ -232,7 +231,7 @@ class SessionFiles:
             raise
         return self.load_face(photo)
 
-    def save_mesh(self, path: Path) -> None:
+    def save_mesh(self, path: StrPath) -> None:
         """Save the deformed mesh (OBJ with colors, PLY, VTP, ... by extension), atomically."""
         try:
             self.session.mesh_io.write(path, self.session.deformed_mesh)
@@ -246,7 +245,7 @@ class SessionFiles:
     use_lattice = renamed(use_deformation, "use_lattice")
     save_lattice = renamed(save_deformation, "save_lattice")
 
-    def load_lattice(self, path: Path) -> Lattice:
+    def load_lattice(self, path: StrPath) -> Lattice:
         """Deprecated: :meth:`load_deformation` (which returns the FFD); this returns its lattice.
 
         .. deprecated:: 0.2.0

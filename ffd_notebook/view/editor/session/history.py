@@ -24,7 +24,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["History", "LatticeSwap", "OffsetEdit", "Step"]
+__all__ = ["History", "HistoryStep", "LatticeSwap", "OffsetEdit"]
 
 
 @dataclass
@@ -50,7 +50,7 @@ class LatticeSwap:
 
 
 #: one undo step (not to be confused with :class:`~.changes.Change`, what a command tells the views)
-Step = OffsetEdit | LatticeSwap
+HistoryStep = OffsetEdit | LatticeSwap
 
 
 class History:
@@ -77,8 +77,8 @@ class History:
         if limit < 1:
             raise ValueError(f"limit must be at least 1, got {limit}")
         self.limit = int(limit)
-        self._done: list[Step] = []
-        self._undone: list[Step] = []
+        self._done: list[HistoryStep] = []
+        self._undone: list[HistoryStep] = []
         self._open_key: Any = None
 
     def __len__(self) -> int:
@@ -129,12 +129,12 @@ class History:
         """End the open step: the next change starts a new one even for the same key."""
         self._open_key = None
 
-    def peek(self, forward: bool = False) -> Step | None:
+    def peek(self, forward: bool = False) -> HistoryStep | None:
         """The step :meth:`undo` (or, ``forward``, :meth:`redo`) would pop next, left in place; None if none."""
         steps = self._undone if forward else self._done
         return steps[-1] if steps else None
 
-    def undo(self) -> Step | None:
+    def undo(self) -> HistoryStep | None:
         """Pop the last step (to be reverted by the caller); ``None`` if there is none."""
         self._open_key = None
         if not self._done:
@@ -143,7 +143,7 @@ class History:
         self._undone.append(change)
         return change
 
-    def redo(self) -> Step | None:
+    def redo(self) -> HistoryStep | None:
         """Pop the last undone step (to be re-applied by the caller); ``None`` if there is none."""
         self._open_key = None
         if not self._undone:
@@ -158,7 +158,7 @@ class History:
         self._undone.clear()
         self._open_key = None
 
-    def _push(self, step: Step) -> None:
+    def _push(self, step: HistoryStep) -> None:
         self._done.append(step)
         if len(self._done) > self.limit:
             del self._done[: len(self._done) - self.limit]

@@ -270,7 +270,7 @@ def show_plotter(plotter: pv.Plotter, **kwargs: Any) -> Any:
     Examples
     --------
     >>> import pyvista as pv
-    >>> from ffd_notebook.view.jupyter import show_plotter
+    >>> from ffd_notebook.view.serving.jupyter import show_plotter
     >>> pl = pv.Plotter(off_screen=True, window_size=(120, 90))
     >>> _ = pl.add_mesh(pv.Sphere())
     >>> show_plotter(pl, screenshot=False) is None      # outside a kernel: plotter.show()

@@ -347,7 +347,7 @@ class RemoteView:
     """A trame-rca remote view of ``plotter``'s render window, made inside a trame layout.
 
     The view's element fills its parent; the render window follows its size. ``update()`` asks for a
-    new frame (coalesced with any pending one): :class:`~ffd_notebook.view.jupyter.BrowserViews` calls it
+    new frame (coalesced with any pending one): :class:`~ffd_notebook.view.serving.jupyter.BrowserViews` calls it
     after changes made from code.
 
     Parameters

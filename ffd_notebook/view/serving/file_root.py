@@ -21,9 +21,9 @@ import shutil
 import tempfile
 from pathlib import Path
 
-from ..errors import FileFormatError, NoFaceError, PathRefused
-from ..io import check_regular_file
-from ..io.deformation_files import DEFORMATION_SUFFIXES
+from ...errors import FileFormatError, NoFaceError, PathRefused
+from ...io import check_regular_file
+from ...io.deformation_files import DEFORMATION_SUFFIXES
 
 __all__ = [
     "DEFAULT_MAX_FILE_BYTES",
