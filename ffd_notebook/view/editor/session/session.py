@@ -119,6 +119,12 @@ class Decimation:
     deformer: Deformer | None  # None: bound when used (the lattice had vertex weights)
 
 
+def _inside(ijk: NDArray[Any], shape: tuple[int, ...]) -> bool:
+    """Whether every row of ``ijk`` (whole numbers) indexes a control point of a lattice of ``shape``."""
+    return bool(np.all(np.isfinite(ijk)) and np.all(ijk == np.round(ijk)) and np.all(ijk >= 0)
+                and np.all(ijk < shape))  # fmt: skip
+
+
 class EditingSession:
     """The editor's state and commands, without rendering (see the module docstring).
 
@@ -337,9 +343,48 @@ class EditingSession:
         """
         arr = np.asarray(ijk)
         shape = self.lattice.shape
-        if arr.shape != (3,) or not np.all(arr == np.round(arr)) or np.any(arr < 0) or np.any(arr >= shape):
+        if arr.shape != (3,) or not _inside(arr, shape):
             raise ValueError(f"control point index must be (i, j, k) within the lattice {shape}, got {ijk!r}")
         return tuple(int(v) for v in arr)  # type: ignore[return-value]
+
+    def check_points(self, points: ArrayLike) -> NDArray[np.int64]:
+        """``points`` (a list of ``(i, j, k)``) as an ``(n, 3)`` int array inside the lattice; a ValueError otherwise.
+
+        Commands check their control points with it before they change anything.
+
+        Parameters
+        ----------
+        points : array_like
+            Rows of three whole numbers, each within the lattice's shape on its axis (may be empty).
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(n, 3)`` int64.
+
+        Examples
+        --------
+        >>> import pyvista as pv
+        >>> from ffd_notebook.view.editor.editor import PYVISTA_MESH_IO
+        >>> sphere = pv.Sphere(theta_resolution=8, phi_resolution=8)
+        >>> session = EditingSession(sphere, mesh_io=PYVISTA_MESH_IO, shape=(4, 4, 4))
+        >>> session.check_points([(1, 2, 3), (0, 0, 0)]).tolist()
+        [[1, 2, 3], [0, 0, 0]]
+        >>> session.check_points([(-1, 0, 0)])
+        Traceback (most recent call last):
+        ...
+        ValueError: control points must be (i, j, k) rows within the lattice (4, 4, 4), got [(-1, 0, 0)]
+        """
+        shape = self.lattice.shape
+        try:
+            arr = np.asarray(points if points is not None else [], dtype=np.float64)
+        except (TypeError, ValueError):  # ragged rows, or not numbers
+            arr = np.empty((0, 0))
+        if arr.size == 0 and arr.ndim <= 2 and arr.shape[-1:] in ((0,), (3,)):
+            return np.empty((0, 3), dtype=np.int64)
+        if arr.ndim != 2 or arr.shape[1] != 3 or not _inside(arr, shape):
+            raise ValueError(f"control points must be (i, j, k) rows within the lattice {shape}, got {points!r}")
+        return arr.astype(np.int64)
 
     # ------------------------------------------------------------------ notification and messages
     def subscribe(self, callback: Callable[[Change], None]) -> Callable[[], None]:
@@ -609,17 +654,17 @@ class EditingSession:
         >>> len(session.history), float(abs(session.deformed_points - session.rest_points).max()) > 0
         (1, True)
         """
-        self.history.close()
         lat = self.lattice
         if lat.shape != self._committed.shape[:3]:
             raise ValueError("the lattice's shape changed: assign a new lattice with set_lattice(...)")
+        hint = self.check_points(changed)  # before anything changes
+        self.history.close()
         self._rest_control = lat.control_points().reshape(-1, 3)
         moved = np.argwhere(np.any(lat.offsets != self._committed, axis=-1))  # the one comparison of copies
         if len(moved):
             idx = tuple(moved.T)
             self.history.record(moved, self._committed[idx], lat.offsets[idx], label="code")
             self._committed[idx] = lat.offsets[idx]
-        hint = np.asarray(changed if changed is not None else np.empty((0, 3)), dtype=np.int64).reshape(-1, 3)
         todo = np.unique(np.vstack([moved, hint]), axis=0)
         if changed is None and not len(todo):
             self.deformed_points = self.deformer.update(None)
@@ -708,11 +753,19 @@ class EditingSession:
         >>> session.lattice.offsets[0, 0, 1:3].tolist(), session.undo()
         ([[0.0, 0.0, 0.1], [0.0, 0.0, 0.2]], True)
         """
+        ijk = self.check_points(points)  # everything is checked before anything is written
+        try:
+            rows = np.broadcast_to(np.asarray(values, dtype=np.float64), (len(ijk), 3))
+        except (TypeError, ValueError):
+            raise ValueError(f"offsets must be one row of three numbers or one per control point ({len(ijk)}), "
+                             f"got {values!r}") from None  # fmt: skip
+        if not np.all(np.isfinite(rows)):
+            raise ValueError(f"offsets must be finite numbers, got {values!r}")
         self.history.close()
-        idx = tuple(np.array(points).reshape(-1, 3).T)
+        idx = tuple(ijk.T)
         before = self.lattice.offsets[idx].copy()
-        self.lattice.offsets[idx] = values
-        self.history.record(points, before, self.lattice.offsets[idx], label=label)
+        self.lattice.offsets[idx] = rows
+        self.history.record(ijk, before, self.lattice.offsets[idx], label=label)
         self.commit_rows(idx, label)
 
     def commit_rows(
