@@ -313,8 +313,8 @@ class AppFiles:
         target = self._typed(path, lambda p: self.root.for_writing(p, IMAGE_WRITE_SUFFIXES), "save")
         if target is not None:
             shown = self.root.shown(target)
-            image = self.session.image
-            self.in_background(f"writing {shown}", lambda: image.save(target, announce=False),
+            image, ffd = self.session.image, copy_ffd(self.session.ffd)  # the deformation as it is now
+            self.in_background(f"writing {shown}", lambda: image.save(target, announce=False, ffd=ffd),
                                 lambda _: self.session.messages.append(f"saved the warped image to {shown}"),
                                 shown, "save")  # fmt: skip
 
