@@ -108,6 +108,107 @@ def stroke(session, vertex):
     return session.attempt(session.paint.stroke, session.rest_points[vertex])
 
 
+def test_a_brush_stroke_across_a_decimation_paints_the_mesh_it_ends_on(app, monkeypatch, tmp_path):
+    session = app.editor.session
+    session.move_control_point((1, 2, 1), (0.0, 0.0, 0.3))
+    gate = WorkerGate()
+    monkeypatch.setattr(session, "decimation", gate.around(session.decimation))
+    n_before = len(session.rest_points)
+
+    async def scenario():
+        session.paint.begin()  # the mouse is pressed in "paint weights" mode
+        assert stroke(session, 0)
+        app.run("decimate", [0.5])
+        await until(gate.holding.is_set, "the decimation")
+        assert stroke(session, 5)  # painting on while the worker decimates
+        gate.open()
+        await until(lambda: len(session.rest_points) < n_before and not app.state.busy, "installing the decimation")
+        assert stroke(session, 3), list(session.messages)  # the mouse is still down: it paints the new mesh
+        session.paint.end()
+
+    asyncio.run(scenario())
+    assert_consistent(session)
+    assert session.weights is not None and session.weights.max() > 0  # what was painted after the decimation
+    app.run("strength", [0.5])  # the slider and saving work from then on
+    assert session.ffd.strength == 0.5 and not app.state.messages[0]["error"]
+    assert_consistent(session)
+    session.files.save_mesh(tmp_path / "painted.ply")
+    np.testing.assert_allclose(pv.read(tmp_path / "painted.ply").points, session.deformed_points, atol=1e-5)
+    while session.undo():  # every step of the history fits the mesh it is undone on
+        assert_consistent(session)
+
+
+def test_a_brush_stroke_across_a_rebuild_is_undone_on_the_lattice_it_ended_on(app, monkeypatch):
+    session = app.editor.session
+    gate = WorkerGate()
+    monkeypatch.setattr(FFD, "bind", gate.around(FFD.bind))
+
+    async def scenario():
+        session.paint.begin()
+        assert stroke(session, 0)
+        app.run("rebuild", [5, 5, 6])
+        await until(gate.holding.is_set, "the rebuild")
+        assert stroke(session, 10)
+        gate.open()
+        await until(lambda: session.lattice.shape == (5, 5, 6) and not app.state.busy, "installing the rebuild")
+        assert stroke(session, 20)
+        session.paint.end()
+
+    asyncio.run(scenario())
+    assert_consistent(session)
+    painted = session.weights
+    assert painted is not None and painted[[0, 10, 20]].min() > 0  # every part of the stroke is kept
+    assert session.undo()  # the stroke's last part: on the new lattice
+    assert session.lattice.shape == (5, 5, 6), "an undo step holding the old lattice"
+    assert session.weights is not None and session.weights[0] > 0 and session.weights[10] > 0
+    assert_consistent(session)
+    while session.undo():
+        assert_consistent(session)
+    assert session.lattice.shape == (4, 5, 4) and session.weights is None
+
+
+def test_a_rebuild_keeps_a_strength_interpolation_or_weights_change_made_while_it_runs(app, monkeypatch):
+    session = app.editor.session
+    gate = WorkerGate()
+    monkeypatch.setattr(FFD, "bind", gate.around(FFD.bind))
+    weights = np.linspace(0.0, 1.0, len(session.rest_points))
+
+    async def scenario():
+        app.run("rebuild", [5, 5, 6])
+        await until(gate.holding.is_set, "the rebuild")
+        app.run("strength", [0.5])
+        app.run("interpolation", ["bspline", "catmull-rom", "linear"])
+        session.paint.set(weights)
+        gate.open()
+        await until(lambda: session.lattice.shape == (5, 5, 6) and not app.state.busy, "installing the rebuild")
+
+    asyncio.run(scenario())
+    assert session.ffd.strength == 0.5 and session.interpolation == ("bspline", "catmull-rom", "linear")
+    np.testing.assert_array_equal(session.weights, weights)
+    assert app.state.strength == 0.5 and app.state.interp_y == "catmull-rom" and app.state.has_weights
+    session.lattice.offsets[2, 2, 3] = (0.0, 0.0, 0.4)
+    session.update()
+    assert_consistent(session)
+    assert [step.label for step in session.history._done][-2:] == ["shape", "code"]
+
+
+def test_a_basis_change_keeps_a_strength_change_made_while_it_runs(app, monkeypatch):
+    session = app.editor.session
+    gate = WorkerGate()
+    monkeypatch.setattr(FFD, "bind", gate.around(FFD.bind))
+
+    async def scenario():
+        app.run("basis", ["bernstein"])
+        await until(gate.holding.is_set, "the basis change")
+        app.run("strength", [0.25])
+        gate.open()
+        await until(lambda: session.basis == "bernstein" and not app.state.busy, "installing the basis")
+
+    asyncio.run(scenario())
+    assert session.ffd.strength == 0.25 and app.state.strength == 0.25
+    assert_consistent(session)
+
+
 @pytest.fixture
 def ct(tmp_path):
     """A small CT-like volume around the unit sphere."""
@@ -177,3 +278,26 @@ def test_save_image_writes_the_lattice_of_the_click(app, ct, monkeypatch):
     saved = sitk.GetArrayFromImage(read_image(ct.parent / "warped.mha"))
     np.testing.assert_allclose(saved, sitk.GetArrayFromImage(warp_image(ct, at_click)), atol=1e-4)
 
+
+def test_a_decimation_error_is_one_message_posted_on_the_loop(app):
+    session = app.editor.session
+    threads = []
+    session.subscribe(lambda change: threads.append(threading.current_thread()))
+    n_points = len(session.rest_points)
+
+    def errors():
+        return [m for m in session.messages if m.startswith("Error")]
+
+    async def scenario():
+        # not a number, out of range (both refused at once), nothing left (the worker's own error)
+        for reduction in ("abc", 1.5, 0.999999):
+            before = len(errors())
+            app.run("decimate", [reduction])
+            await until(lambda: not app.state.busy, "the decimation")
+            await asyncio.sleep(0.05)  # anything posted late would be seen
+            assert len(errors()) == before + 1, errors()[before:]
+            assert "decimate" in errors()[-1] and app.state.messages[0]["text"] == errors()[-1]
+
+    asyncio.run(scenario())
+    assert all(thread is threading.main_thread() for thread in threads), "a change posted from a worker thread"
+    assert len(session.rest_points) == n_points

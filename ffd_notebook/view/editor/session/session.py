@@ -37,12 +37,23 @@ from .changes import Change, Subscribers
 from .files import SessionFiles
 from .history import History, LatticeSwap
 from .image import SessionImage
-from .lattices import copy_ffd, fitted_lattice
+from .lattices import copy_ffd, fitted_lattice, refitted
 from .message_log import MessageLog
 from .surface_drag import SurfaceDrag
 from .weights import WeightPaint
 
-__all__ = ["FIELDS", "POINTS_SHOWN", "Decimation", "EditingSession", "Field", "MeshIO", "PointsShown", "PreparedStep"]
+__all__ = [
+    "FIELDS",
+    "POINTS_SHOWN",
+    "WEIGHTS_CLEARED",
+    "ChangedMeanwhile",
+    "Decimation",
+    "EditingSession",
+    "Field",
+    "MeshIO",
+    "PointsShown",
+    "PreparedStep",
+]
 
 #: what the mesh can be colored by: nothing (its own colors), |displacement|, folding (det J <= 0), the
 #: vertices' weights (how much of the deformation each follows, see :mod:`.weights`)
@@ -53,6 +64,15 @@ Field = Literal["displacement", "jacobian", "weights"]
 POINTS_SHOWN = ("auto", "all", "near", "hull")
 #: The type of a choice of control points shown: one of :data:`POINTS_SHOWN`.
 PointsShown = Literal["auto", "all", "near", "hull"]
+#: what the editor says when painted weights go with the vertices they were painted on (a decimation, a new mesh)
+WEIGHTS_CLEARED = "the vertex weights were cleared: the mesh has other vertices now"
+
+
+class ChangedMeanwhile(ValueError):
+    """Work prepared from the session (in a worker thread, say) no longer fits it: the session changed meanwhile.
+
+    The app then does the work again from the session as it is now, or says so.
+    """
 
 
 @dataclass(frozen=True)
@@ -123,6 +143,13 @@ def _inside(ijk: NDArray[Any], shape: tuple[int, ...]) -> bool:
     """Whether every row of ``ijk`` (whole numbers) indexes a control point of a lattice of ``shape``."""
     return bool(np.all(np.isfinite(ijk)) and np.all(ijk == np.round(ijk)) and np.all(ijk >= 0)
                 and np.all(ijk < shape))  # fmt: skip
+
+
+def _same_weights(a: Any, b: Any) -> bool:
+    """Whether two FFDs' vertex weights (arrays or None) are the same."""
+    if a is None or b is None:
+        return a is None and b is None
+    return bool(np.array_equal(a, b))
 
 
 class EditingSession:
@@ -927,8 +954,9 @@ class EditingSession:
         return ffd
 
     def _apply(self, pop: Callable[[], Any], prepared: PreparedStep | None, forward: bool) -> bool:
+        self.paint.end()  # a brush stroke under way is a step: the one undone next
         if prepared is not None and (self.history.peek(forward) is not prepared.step or prepared.mesh is not self.mesh):
-            raise ValueError("the history or the mesh changed meanwhile; try again")
+            raise ChangedMeanwhile("the history or the mesh changed meanwhile; try again")
         step = pop()
         if step is None:
             return False
@@ -1034,6 +1062,7 @@ class EditingSession:
         """
         if not isinstance(ffd, FFD):
             raise TypeError(f"ffd must be an FFD, got {type(ffd).__name__}")
+        self.paint.end()  # a brush stroke under way is a step of the lattice it was painted on
         self.history.close()
         before = (copy_ffd(self.ffd), self.lattice_source)
         self.lattice_source = source
@@ -1068,9 +1097,7 @@ class EditingSession:
         ((5, 4, 4), (4, 4, 4))
         """
         try:
-            lattice = fitted_lattice(self.mesh, tuple(int(s) for s in np.ravel(shape)), self.basis)
-            # the per-axis interpolation, strength and vertex weights stay; the offsets start at zero
-            return copy_ffd(self.ffd, lattice, border=None, affine=None, only_inside=False)
+            return refitted(self.ffd, self.mesh, tuple(int(s) for s in np.ravel(shape)))
         except (ValueError, TypeError) as exc:
             self.error(f"cannot build a {shape!r} lattice: {exc}")
             raise
@@ -1095,10 +1122,13 @@ class EditingSession:
         >>> session.lattice.shape, list(session.messages)[-1]
         ((5, 4, 4), 'new 5x4x4 lattice around the mesh')
         """
+        self.paint.end()  # a brush stroke under way is a step of the lattice it was painted on
         if deformer is None:
             deformer = self.fitted_ffd(shape).bind(self.mesh.points)
         elif deformer.ffd.lattice.shape != tuple(np.ravel(shape)) or len(deformer.points) != len(self.rest_points):
             raise ValueError(f"the deformer is not a {shape!r} lattice bound to this mesh")
+        else:
+            self._adopt(deformer, "fitting the lattice", basis=True)
         self.swap_ffd(deformer.ffd, label="shape", source="fit", deformer=deformer)
         self.info(f"new {'x'.join(map(str, deformer.ffd.lattice.shape))} lattice around the mesh")
 
@@ -1116,7 +1146,8 @@ class EditingSession:
         Returns
         -------
         FFD
-            A lattice of the current shape fitted around the mesh for ``basis``, offsets at zero.
+            A lattice of the current shape fitted around the mesh for ``basis``, offsets at zero; the strength,
+            the "outside" rule and the vertex weights stay (as for a new size: :func:`.lattices.refitted`).
 
         Examples
         --------
@@ -1129,7 +1160,7 @@ class EditingSession:
         ('bernstein', (4, 4, 4), 'bspline')
         """
         try:
-            return FFD(fitted_lattice(self.mesh, self.lattice.shape, basis), basis)
+            return refitted(self.ffd, self.mesh, self.lattice.shape, basis)
         except ValueError as exc:
             self.error(f"cannot switch to the {basis!r} basis: {exc}")
             raise
@@ -1156,12 +1187,33 @@ class EditingSession:
         """
         if basis == self.basis:
             return
+        self.paint.end()  # a brush stroke under way is a step of the lattice it was painted on
         if deformer is None:
             deformer = self.basis_ffd(basis).bind(self.mesh.points)
         elif deformer.ffd.basis != basis or len(deformer.points) != len(self.rest_points):
             raise ValueError(f"the deformer is not a {basis!r} lattice bound to this mesh")
+        else:
+            self._adopt(deformer, f"switching to the {basis} basis", basis=False)
         self.swap_ffd(deformer.ffd, label="basis", source="fit", deformer=deformer)
         self.info(f"basis: {basis}")
+
+    def _adopt(self, deformer: Deformer, what: str, *, basis: bool) -> None:
+        """Bring ``deformer`` (made by :meth:`fitted_ffd` or :meth:`basis_ffd` from this session's FFD, bound in
+        a worker thread) up to the options changed while it was bound, so installing it overwrites none of them.
+
+        Weights painted or set meanwhile are weighed in (milliseconds); another strength, "outside" rule or
+        (``basis``) interpolation needs the binding done again: a :class:`ChangedMeanwhile` naming them.
+        """
+        ffd, current = deformer.ffd, self.ffd
+        changed = [name for name, differs in (("interpolation", basis and ffd.basis != current.basis),
+                                              ("strength", ffd.strength != current.strength),
+                                              ("outside rule", ffd.outside != current.outside)) if differs]  # fmt: skip
+        if changed:
+            raise ChangedMeanwhile(f"the {' and '.join(changed)} changed while {what}")
+        weights = self.paint.weights  # a copy
+        if not _same_weights(ffd.weights, weights):
+            ffd.weights = weights
+            deformer.weights = weights
 
     def set_interpolation(self, interpolation: Any) -> None:
         """Blender's interpolation per axis (``("bspline", "catmull-rom", "linear")``; one name: every axis).
@@ -1255,12 +1307,18 @@ class EditingSession:
         >>> session.decimate(0.5).n_cells, session.decimate(0.5).n_cells, session.decimate(0).n_cells
         (48, 48, 96)
         """
-        return self.use_decimated(self.decimation(reduction))
+        try:
+            done = self.decimation(reduction)
+        except (TypeError, ValueError) as exc:
+            self.error(f"could not decimate: {exc}")
+            raise
+        return self.use_decimated(done)
 
     def decimation(self, reduction: float) -> Decimation:
-        """The work of :meth:`decimate`, changing nothing (a worker thread may do it).
+        """The work of :meth:`decimate`, changing nothing and telling nobody (a worker thread may do it).
 
-        A message and a ValueError if it cannot be done.
+        A ValueError if it cannot be done (the caller says so: :meth:`decimate` in the messages, the app on
+        its page, each once and from its own thread).
 
         Parameters
         ----------
@@ -1282,15 +1340,11 @@ class EditingSession:
         >>> done.mesh.n_cells, session.mesh.n_cells
         (48, 96)
         """
-        try:
-            reduction = float(reduction)
-            source = self.source_mesh
-            mesh = source.copy(deep=True) if reduction == 0.0 else self.mesh_io.decimate(source, reduction)
-            if mesh.n_points == 0:
-                raise ValueError("nothing left after decimation")
-        except (TypeError, ValueError) as exc:
-            self.error(f"could not decimate: {exc}")
-            raise
+        reduction = float(reduction)
+        source = self.source_mesh
+        mesh = source.copy(deep=True) if reduction == 0.0 else self.mesh_io.decimate(source, reduction)
+        if mesh.n_points == 0:
+            raise ValueError("nothing left after decimation")
         ffd = self.ffd
         # vertex weights belong to the mesh as it was: they are cleared when the result is used, and the lattice
         # is bound then (the weights would not fit the new vertices)
@@ -1321,10 +1375,11 @@ class EditingSession:
         (48, 'decimated by 50%: 26 vertices, 48 faces')
         """
         if done.source is not self.source_mesh or done.ffd is not self.ffd:
-            raise ValueError("the mesh or the lattice changed meanwhile; decimate again")
+            raise ChangedMeanwhile("the mesh or the lattice changed meanwhile; decimate again")
+        self.paint.end()  # a brush stroke under way is a step of the mesh it was painted on
         if self.ffd.weights is not None:  # one per vertex of the mesh as it was
             self.ffd.weights = None
-            self.info("the vertex weights were cleared: the mesh has other vertices now")
+            self.info(WEIGHTS_CLEARED)
         deformer = done.deformer
         if deformer is None or not np.array_equal(done.offsets, self.ffd.lattice.offsets):  # (edited meanwhile)
             deformer = self.ffd.bind(done.mesh.points)
@@ -1449,7 +1504,9 @@ class EditingSession:
         >>> [change.kind for change in changes], session.mesh.n_points
         (['mesh'], 8)
         """
+        self.paint.end()  # a brush stroke under way is a step of the mesh it was painted on
         new_lattice, selected = deformer.ffd is not self.ffd, self.selected
+        weights_cleared = new_lattice and self.ffd.weights is not None and deformer.ffd.weights is None
         if new_document:
             self.history.clear()
             self.surface.drop_pins()  # pins are points of the old mesh
@@ -1459,6 +1516,8 @@ class EditingSession:
         self.notify("mesh", None, label)
         if new_lattice:
             self.notify("lattice", None, label)
+        if weights_cleared:
+            self.info(WEIGHTS_CLEARED)
 
     def _bind_mesh(self, mesh: Any, deformer: Deformer, source: Any = None) -> None:
         """Use ``mesh`` (rest shape) with ``deformer`` (its FFD bound to ``mesh.points``)."""
