@@ -22,6 +22,7 @@ from browser.helpers import (
     free_port,
     launch_browser,
     open_app_page,
+    open_panel_section,
     record_metrics,
     server_env,
     settled_drag_state,
@@ -38,6 +39,7 @@ def save_mesh(page, path: Path):
     """Save the deformed mesh through the panel (path typed into its field, then the button) and read it."""
     import pyvista as pv
 
+    open_panel_section(page, "Files")
     page.fill("#ffd-mesh-save-path", str(path))
     page.click("#ffd-save-mesh")
     wait_for(path.exists, 20, f"the app to write {path.name}")
@@ -172,12 +174,14 @@ def test_open_the_real_registration_lattice_and_drag(app, tmp_path: Path, shared
         context = launch_browser(pw, tmp_path / "profile")
         try:
             page, view, errors = open_app_page(context, url)
+            open_panel_section(page, "Files")
             page.fill("#ffd-path", "registration.ffd")  # relative to the app's root folder
             page.click("#ffd-load")
             wait_for(lambda: len(trigger(page, "ffd_widget_px")["widgets"]) == 1452 - 9 * 10 * 9, 60,
                      "the 11x12x11 lattice, its hull drawn")  # fmt: skip
             loaded = trigger(page, "ffd_state")
             assert loaded["offsets_abs_sum"] > 0  # a registration result: its offsets came with it
+            open_panel_section(page, "Display")
             page.click(".v-select:has(#ffd-points-shown) .v-field")  # open the select, pick the option
             page.get_by_role("option", name="all", exact=True).click()
             wait_for(lambda: len(trigger(page, "ffd_widget_px")["widgets"]) == 1452, 30, "every control point drawn")

@@ -26,6 +26,7 @@ from browser.helpers import (
     free_port,
     launch_browser,
     open_app_page,
+    open_panel_section,
     record_metrics,
     server_env,
     settled_drag_state,
@@ -116,6 +117,7 @@ def test_upload_a_photo_in_the_app_and_drag_the_face(tmp_path: Path):
                     assert trigger(page, "ffd_state")["n_points"] == 6393  # the sample face
 
                     t0 = time.monotonic()
+                    open_panel_section(page, "Files")
                     page.set_input_files("#ffd-mesh-upload", str(photo))  # the app's own upload takes photos
                     state0 = wait_for_face(page, "the face of the uploaded photo")
                     metrics["upload_to_face_s"] = round(time.monotonic() - t0, 1)
