@@ -435,7 +435,8 @@ PANEL_FIT_JS = r"""
     const node = walker.currentNode;
     const text = node.textContent.trim();
     const el = node.parentElement;
-    if (!text || !shown(el)) continue;
+    // (a box the user scrolls on purpose, e.g. lines of code, is marked .ffd-scroll: its lines may be wider)
+    if (!text || !shown(el) || el.closest('.ffd-scroll')) continue;
     const range = document.createRange();
     range.selectNodeContents(node);
     const r = range.getBoundingClientRect();
