@@ -18,6 +18,7 @@ import contextlib
 import json
 import math
 import os
+import re
 import shutil
 import socket
 import statistics
@@ -106,6 +107,28 @@ def stop_process(proc: subprocess.Popen, grace_s: float = 15.0) -> None:
     except subprocess.TimeoutExpired:
         proc.kill()
         proc.wait(5)
+
+
+@contextlib.contextmanager
+def app_server(args: list[str], cwd: Path, timeout: float = 90) -> Iterator[str]:
+    """``python ARGS`` (``["-m", "ffd_notebook", "--port", P, ...]`` or ``serve_instrumented_app.py``) run in ``cwd``,
+    its output in ``cwd/app.log``; yields the URL it prints once listening (with its token); stopped on exit."""
+    log_path = Path(cwd) / "app.log"
+    with open(log_path, "w") as log:
+        proc = subprocess.Popen(
+            [sys.executable, *args], cwd=cwd, stdout=log, stderr=subprocess.STDOUT, env=server_env()
+        )
+        try:
+
+            def started() -> str | None:
+                if proc.poll() is not None:
+                    raise RuntimeError(f"the app exited with {proc.returncode}:\n{log_path.read_text()}")
+                found = re.search(r"running at (http://\S+)", log_path.read_text())
+                return found.group(1) if found else None
+
+            yield wait_for(started, timeout, "the app to print its URL")
+        finally:
+            stop_process(proc)
 
 
 def read_jsonl(path: str | os.PathLike[str]) -> list[dict[str, Any]]:

@@ -14,22 +14,18 @@ from __future__ import annotations
 
 import json
 import os
-import re
-import subprocess
-import sys
 import time
 from pathlib import Path
 
 import pytest
 from browser.helpers import (
     ARTIFACTS,
+    app_server,
     cut_texts,
     free_port,
     launch_browser,
     open_app_page,
     open_panel_section,
-    server_env,
-    stop_process,
     wait_for,
 )
 from playwright.sync_api import sync_playwright
@@ -58,21 +54,8 @@ def app_url(tmp_path_factory):
     # a root folder whose name is longer than the panel is wide: the panel shows it, wrapped
     folder = tmp_path_factory.mktemp("panel_fit") / ("a_folder_of_registration_results_" * 3 + "2024")
     folder.mkdir()
-    port, log_path = free_port(), folder / "app.log"
-    with open(log_path, "w") as log:
-        proc = subprocess.Popen([sys.executable, "-m", "ffd_notebook", "--port", str(port)], cwd=folder, stdout=log,
-                                stderr=subprocess.STDOUT, env=server_env())  # fmt: skip
-        try:
-
-            def started() -> str | None:
-                if proc.poll() is not None:
-                    raise RuntimeError(f"the app exited with {proc.returncode}:\n{log_path.read_text()}")
-                found = re.search(r"running at (http://\S+)", log_path.read_text())
-                return found.group(1) if found else None
-
-            yield wait_for(started, 120, "the app to print its URL")
-        finally:
-            stop_process(proc)
+    with app_server(["-m", "ffd_notebook", "--port", str(free_port())], folder, timeout=120) as url:
+        yield url
 
 
 def section_open(page, section: str) -> bool:
