@@ -41,6 +41,7 @@ from ..serving.lifetime import Lifetime, weak_method
 from .scene.proxy import INTERACTIVE_CELLS
 from .scene.scene import EditorScene
 from .session.message_log import MessageLog
+from .session.script import MeshOrigin
 from .session.session import EditingSession, Field, MeshIO, PointsShown
 
 __all__ = ["PYVISTA_MESH_IO", "Editor", "edit", "face_surface"]
@@ -106,6 +107,20 @@ def _surface_of(mesh_or_path: Any, image: Any = None) -> pv.PolyData:
     if isinstance(mesh_or_path, (str, os.PathLike)):
         return read_surface(mesh_or_path)
     return as_surface(mesh_or_path)
+
+
+def _origin_of(mesh_or_path: Any, image: Any = None) -> MeshOrigin:
+    """Where the editor's mesh came from, for its script (:meth:`Editor.to_code`)."""
+    from ...face import is_photo
+
+    if mesh_or_path is None:
+        return MeshOrigin("image") if image is not None else MeshOrigin("sample")
+    path = os.fspath(mesh_or_path) if isinstance(mesh_or_path, (str, os.PathLike)) else None
+    if is_photo(mesh_or_path):
+        return MeshOrigin("photo", path or "")
+    if path is not None:
+        return MeshOrigin("file", path)
+    return MeshOrigin("given", surface=not isinstance(mesh_or_path, pv.PolyData))
 
 
 def _end_drag(session: EditingSession) -> Any:
@@ -179,6 +194,7 @@ class Editor:
         self.session = EditingSession(
             _surface_of(mesh_or_path, image), mesh_io=PYVISTA_MESH_IO, lattice=lattice, shape=shape, basis=basis
         )
+        self.session.script.origin = _origin_of(mesh_or_path, image)
         if image is not None and mesh_or_path is None:
             self.session.image.box = self.session.mesh  # the image's box stands in for a mesh
         if image is not None:
@@ -581,6 +597,46 @@ class Editor:
         >>> editor.close()
         """
         return self.session.files.load_face(photo)
+
+    def to_code(self) -> str:
+        """Python that rebuilds the lattice from what the editor started with: every edit as code.
+
+        The mesh read again (the file the editor opened, the photo, the bundled sample; a variable ``mesh`` when
+        the editor was given an object), the lattice's creation, one statement per step of the undo history as
+        it stands (one drag is one step; undone steps are absent), the deformed mesh and the saves made. Run in
+        a fresh interpreter on the same mesh it gives these offsets bit for bit
+        (:class:`~.session.script.SessionScript`).
+
+        Returns
+        -------
+        str
+            The script; it defines ``mesh``, ``lattice``, ``ffd`` and ``deformed``.
+
+        Examples
+        --------
+        >>> import pyvista as pv
+        >>> from ffd_notebook.view import Editor
+        >>> editor = Editor(pv.Sphere(theta_resolution=8, phi_resolution=8), shape=(4, 4, 4), window_size=(64, 48))
+        >>> editor.lattice.offsets[1, 2, 1] = (0.0, 0.0, 0.25)
+        >>> editor.update()
+        >>> print(editor.to_code())  # doctest: +ELLIPSIS
+        # What the editor did, as code (1 step of its undo history; editor.to_code()).
+        import ffd_notebook as fn
+        <BLANKLINE>
+        # mesh: the mesh the editor was given, 50 points
+        lattice = fn.Lattice.around(mesh, (4, 4, 4), border="clamp")
+        ffd = fn.FFD(lattice)
+        <BLANKLINE>
+        # an edit from code (editor.update())
+        lattice.offsets[1, 2, 1] = (0.0, 0.0, 0.25)
+        <BLANKLINE>
+        # the deformed mesh
+        deformed = mesh.copy()
+        deformed.points = ffd.deform(mesh.points)
+        <BLANKLINE>
+        >>> editor.close()
+        """
+        return self.session.script.to_code()
 
     def screenshot(self, path: StrPath | None = None) -> NDArray[np.uint8]:
         """Render and return the image ``(h, w, 3)`` uint8; also write a PNG if ``path`` is given.

@@ -43,6 +43,7 @@ from ....io import DisplacementField, fit_lattice, place_at_mesh_minimum
 from ....io import load_deformation as _load_deformation
 from ....io import save_deformation as _save_deformation
 from .lattices import copy_ffd, refitted
+from .script import LoadedFile, MeshOrigin
 
 if TYPE_CHECKING:
     from .session import EditingSession
@@ -109,11 +110,14 @@ class SessionFiles:
             return ffd, "ffd-placed"
         return copy_ffd(ffd, place_at_mesh_minimum(ffd.lattice, self.session.mesh)), "ffd-min"
 
-    def use_deformation(self, ffd: FFD, source: str, name: str) -> None:
-        """Install an FFD from :meth:`read_deformation` (one undo step); ``name`` is what messages call the file."""
-        self.session.swap_ffd(ffd, label="load lattice", source=source)
-        shape = "x".join(map(str, ffd.lattice.shape))
+    def use_deformation(self, ffd: FFD, source: str, name: str, *, path: str | None = None) -> None:
+        """Install an FFD from :meth:`read_deformation` (one undo step); ``name`` is what messages call the file,
+        ``path`` what the session's script reads again (``name`` by default)."""
         fit = ffd.lattice.metadata.get("fit")
+        fitted = ffd.lattice.shape if isinstance(fit, dict) else None
+        how = LoadedFile(name if path is None else path, source, fitted)
+        self.session.swap_ffd(ffd, label="load lattice", source=source, how=how)
+        shape = "x".join(map(str, ffd.lattice.shape))
         if isinstance(fit, dict):
             self.session.info(f"loaded a {shape} lattice fitted to the displacement field {name} (residual RMS "
                               f"{fit['rms']:.3g}, max {fit['max']:.3g})")  # fmt: skip
@@ -145,6 +149,7 @@ class SessionFiles:
             self.session.error(f"could not save the lattice to {os.fspath(path)!r}: {exc}")
             raise
         self.session.info(f"saved the lattice to {os.fspath(path)}")
+        self.session.script.saved("lattice", path)
         image = self.session.image
         if image.loaded:  # the image warped by that lattice, beside it: lattice.warped.nii.gz
             target = image.beside(path)
@@ -182,9 +187,11 @@ class SessionFiles:
             ffd = refitted(self.session.ffd, mesh, self.session.lattice.shape, weights=None)
         return mesh, ffd.bind(mesh.points)
 
-    def use_mesh(self, mesh: Any, deformer: Deformer, name: str) -> None:
-        """Use a mesh from :meth:`read_mesh` (a new undo history); ``name`` is what messages call the file."""
+    def use_mesh(self, mesh: Any, deformer: Deformer, name: str, *, path: str | None = None) -> None:
+        """Use a mesh from :meth:`read_mesh` (a new undo history); ``name`` is what messages call the file, ``path``
+        what the session's script reads again (``name`` by default)."""
         self.session.replace_mesh(mesh, deformer, label="load mesh", new_document=True)
+        self.session.script.origin = MeshOrigin("file", name if path is None else path)
         self.session.info(f"loaded {name}: {mesh.n_points} vertices, {mesh.n_cells} faces")
 
     def load_mesh(self, path: StrPath) -> Any:
@@ -200,9 +207,11 @@ class SessionFiles:
         self.use_mesh(mesh, deformer, os.fspath(path))
         return mesh
 
-    def use_face(self, mesh: Any, deformer: Deformer, name: str) -> None:
-        """Use a face from :meth:`read_face` as the mesh (a new undo history, as a loaded mesh)."""
+    def use_face(self, mesh: Any, deformer: Deformer, name: str, *, path: str | None = None) -> None:
+        """Use a face from :meth:`read_face` as the mesh (a new undo history, as a loaded mesh); ``path`` is the
+        photo file the session's script reads again (none: the script's variable ``photo``)."""
         self.session.replace_mesh(mesh, deformer, label="face from photo", new_document=True)
+        self.session.script.origin = MeshOrigin("photo", path or "")
         self.session.info(f"made the face in {name}: {mesh.n_points} vertices, {mesh.n_cells} faces")
 
     def load_face(self, photo: Any) -> Any:
@@ -218,7 +227,7 @@ class SessionFiles:
             detail = getattr(exc, "problem", None) or str(exc)  # NoFaceError, FileFormatError name the photo
             self.session.error(f"could not make a face from {name}: {detail}")
             raise
-        self.use_face(mesh, deformer, name)
+        self.use_face(mesh, deformer, name, path=os.fspath(photo) if isinstance(photo, (str, os.PathLike)) else None)
         return mesh
 
     def load_face_upload(self, name: str, content: bytes) -> Any:
@@ -240,6 +249,7 @@ class SessionFiles:
             self.session.error(f"could not save the mesh to {os.fspath(path)!r}: {exc}")
             raise
         self.session.info(f"saved the deformed mesh to {os.fspath(path)}")
+        self.session.script.saved("mesh", path)
 
     # the names of 0.1 (a lattice file is a deformation file of any format), kept until 0.3
     read_lattice = renamed(read_deformation, "read_lattice")

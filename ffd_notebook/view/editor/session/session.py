@@ -39,6 +39,7 @@ from .history import History, LatticeSwap
 from .image import SessionImage
 from .lattices import copy_ffd, fitted_lattice, refitted
 from .message_log import MessageLog
+from .script import SessionScript
 from .surface_drag import SurfaceDrag
 from .weights import WeightPaint
 
@@ -196,7 +197,7 @@ class EditingSession:
     ) -> None:
         self.mesh_io = mesh_io
         self.messages = MessageLog()  # bounded: the newest MAX_MESSAGES, newest last
-        self.history = History()
+        self.history = History(on_drop=self._dropped)
         self.field: str | None = None
         self.colors_shown = True
         self.points_shown = "auto"
@@ -214,6 +215,7 @@ class EditingSession:
             self.lattice_source = "given"
         self._bind_mesh(mesh, FFD(lattice, basis).bind(mesh.points))
         self.paint = WeightPaint(self)  # the vertices' weights and the brush that paints them
+        self.script = SessionScript(self)  # the undo history as code (editor.to_code())
 
     # ------------------------------------------------------------------ state
     @property
@@ -750,8 +752,9 @@ class EditingSession:
         >>> float(abs(session.lattice.offsets).sum()), len(session.history)
         (0.0, 4)
         """
-        if ijk is None:
-            points = [tuple(v) for v in np.argwhere(np.any(self.lattice.offsets != 0, axis=-1))]
+        if ijk is None:  # (an offset of -0.0 too: afterwards every offset is the same +0.0 double)
+            offsets = self.lattice.offsets
+            points = [tuple(v) for v in np.argwhere(np.any((offsets != 0) | np.signbit(offsets), axis=-1))]
         else:
             point = self.check_ijk(ijk)
             points = [point] if np.any(self.lattice.offsets[point] != 0) else []  # an unmoved point: no undo step
@@ -1033,7 +1036,7 @@ class EditingSession:
         # validates (e.g. a B-spline lattice needs 4 points per axis) before any change
         self.swap_ffd(FFD(lattice, self.basis if basis is None else basis), label=label, source=source)
 
-    def swap_ffd(self, ffd: FFD, *, label: str, source: str, deformer: Deformer | None = None) -> None:
+    def swap_ffd(self, ffd: FFD, *, label: str, source: str, deformer: Deformer | None = None, how: Any = None) -> None:
         """Install ``ffd`` (its lattice, basis, border, affine part, ``only_inside``) as one undo step.
 
         Parameters
@@ -1046,6 +1049,8 @@ class EditingSession:
             How the lattice was made: decides what loading a mesh does with it, and is undone with it.
         deformer : Deformer, optional
             ``ffd`` already bound to the mesh's points (e.g. in a worker thread); bound here if omitted.
+        how : object, optional
+            How it was made, for :attr:`script` (e.g. a :class:`~.script.LoadedFile`).
 
         Examples
         --------
@@ -1066,7 +1071,7 @@ class EditingSession:
         self.history.close()
         before = (copy_ffd(self.ffd), self.lattice_source)
         self.lattice_source = source
-        self.history.record_lattice(before, (copy_ffd(ffd), source), label=label)
+        self.history.record_lattice(before, (copy_ffd(ffd), source), label=label, how=how)
         self._bind_lattice(ffd.bind(self.mesh.points) if deformer is None else deformer, label)
 
     def fitted_ffd(self, shape: ArrayLike) -> FFD:
@@ -1384,6 +1389,7 @@ class EditingSession:
         if deformer is None or not np.array_equal(done.offsets, self.ffd.lattice.offsets):  # (edited meanwhile)
             deformer = self.ffd.bind(done.mesh.points)
         self.replace_mesh(done.mesh, deformer, label="decimate", new_document=False)
+        self.script.reduction = done.reduction
         self.info(f"decimated by {done.reduction:.0%}: {done.mesh.n_points} vertices, {done.mesh.n_cells} faces")
         return done.mesh
 
@@ -1511,6 +1517,8 @@ class EditingSession:
             self.history.clear()
             self.surface.drop_pins()  # pins are points of the old mesh
         self._bind_mesh(mesh, deformer, source=None if new_document else self.source_mesh)
+        if new_document:
+            self.script.new_document()  # (the caller says where the mesh came from: script.origin)
         if not new_lattice:
             self.selected = selected
         self.notify("mesh", None, label)
@@ -1518,6 +1526,10 @@ class EditingSession:
             self.notify("lattice", None, label)
         if weights_cleared:
             self.info(WEIGHTS_CLEARED)
+
+    def _dropped(self, step: Any) -> None:
+        """A step fell off the history's oldest end: the script starts after it."""
+        self.script.fold(step)
 
     def _bind_mesh(self, mesh: Any, deformer: Deformer, source: Any = None) -> None:
         """Use ``mesh`` (rest shape) with ``deformer`` (its FFD bound to ``mesh.points``)."""

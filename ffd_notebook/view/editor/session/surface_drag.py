@@ -25,6 +25,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ....ffd.fit import control_weights
+from .script import SurfaceFit
 
 if TYPE_CHECKING:
     from .session import EditingSession
@@ -180,7 +181,8 @@ class SurfaceDrag:
         session.ffd.fit_points(drag.point, goal[None, :], pinned=self._pins if len(self._pins) else None)
         after = offsets[drag.idx]
         ijk = np.column_stack(drag.idx)
-        session.history.record(ijk, drag.start, after, key=drag.key, label="surface drag")
+        how = SurfaceFit(drag.point[0].copy(), goal.copy(), self._pins.copy())  # what the script does likewise
+        session.history.record(ijk, drag.start, after, key=drag.key, label="surface drag", how=how)
         session.commit_rows(drag.idx, "surface drag", kind="drag", started=started)
 
     def end(self) -> None:
