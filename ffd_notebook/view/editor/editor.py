@@ -24,7 +24,9 @@ from __future__ import annotations
 import functools
 import os
 import time
-from typing import Any
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pyvista as pv
@@ -40,9 +42,13 @@ from ...meshing import as_surface, color_array_name, decimate_keeping_colors, de
 from ..serving.lifetime import Lifetime, weak_method
 from .scene.proxy import INTERACTIVE_CELLS
 from .scene.scene import EditorScene
+from .session.lattices import copy_ffd
 from .session.message_log import MessageLog
 from .session.script import MeshOrigin
 from .session.session import EditingSession, Field, MeshIO, PointsShown
+
+if TYPE_CHECKING:
+    from .animation import Recording
 
 __all__ = ["PYVISTA_MESH_IO", "Editor", "edit", "face_surface"]
 
@@ -637,6 +643,81 @@ class Editor:
         >>> editor.close()
         """
         return self.session.script.to_code()
+
+    def recording(
+        self,
+        *,
+        frames: int = 24,
+        fps: float = 12.0,
+        orbit: float | bool = False,
+        lattice: bool = True,
+        states: Sequence[FFD] | None = None,
+    ) -> Recording:
+        """A :class:`~.animation.Recording` of the deformation as the editor shows it (see :meth:`animate`), to
+        write frame by frame (the panels do, with a progress bar)."""
+        from .animation import Recording
+
+        session = self.session
+        chosen = [copy_ffd(session.ffd)] if states is None else list(states)
+        size = tuple(self.plotter.window_size)
+        return Recording(session.mesh, chosen, frames=frames, fps=fps, orbit=orbit, lattice=lattice, window_size=size,
+                         camera=self.plotter.camera, field=session.field, colors=session.colors_shown,
+                         points_shown=session.points_shown)  # fmt: skip
+
+    def animate(
+        self,
+        path: StrPath,
+        *,
+        frames: int = 24,
+        fps: float = 12.0,
+        orbit: float | bool = False,
+        lattice: bool = True,
+        states: Sequence[FFD] | None = None,
+        progress: Callable[[int, int], None] | None = None,
+    ) -> Path:
+        """Write a GIF or MP4 of the mesh going from rest to the deformation (or through saved ``states``).
+
+        As the editor shows it: its camera, window size, colours or field and control points; drawn in a
+        scene of its own, so the editor is not touched while it records (:func:`~.animation.animate`).
+
+        Parameters
+        ----------
+        path : str or path-like
+            ``.gif`` or a movie (``.mp4``...); written whole or not at all.
+        frames : int, default 24
+            Frames in all: the first at rest, the last at the deformation.
+        fps : float, default 12
+            Frames a second.
+        orbit : float or bool, default False
+            Turn the camera around the mesh by this many degrees over the animation (True: a whole turn).
+        lattice : bool, default True
+            Draw the lattice.
+        states : sequence of FFD, optional
+            States to go through instead (``copy_ffd(editor.session.ffd)`` saved along a lesson, say): from rest
+            to the first, then on to each next one; they share the lattice and options, only offsets differ.
+        progress : callable, optional
+            ``progress(done, total)`` after each frame.
+
+        Returns
+        -------
+        pathlib.Path
+            The file written.
+
+        Examples
+        --------
+        >>> import os, tempfile
+        >>> import imageio.v3 as iio
+        >>> import pyvista as pv
+        >>> from ffd_notebook.view import Editor
+        >>> editor = Editor(pv.Sphere(theta_resolution=8, phi_resolution=8), shape=(4, 4, 4), window_size=(64, 48))
+        >>> editor.lattice.offsets[3, 3, 3] = (0.0, 0.0, 0.5)
+        >>> editor.update()
+        >>> path = editor.animate(os.path.join(tempfile.mkdtemp(), "bulge.gif"), frames=4)
+        >>> iio.imread(path).shape
+        (4, 48, 64, 3)
+        >>> editor.close()
+        """
+        return self.recording(frames=frames, fps=fps, orbit=orbit, lattice=lattice, states=states).run(path, progress)
 
     def screenshot(self, path: StrPath | None = None) -> NDArray[np.uint8]:
         """Render and return the image ``(h, w, 3)`` uint8; also write a PNG if ``path`` is given.

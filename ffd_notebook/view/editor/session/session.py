@@ -44,6 +44,7 @@ from .surface_drag import SurfaceDrag
 from .weights import WeightPaint
 
 __all__ = [
+    "EDITS",
     "FIELDS",
     "POINTS_SHOWN",
     "WEIGHTS_CLEARED",
@@ -65,6 +66,8 @@ Field = Literal["displacement", "jacobian", "weights"]
 POINTS_SHOWN = ("auto", "all", "near", "hull")
 #: The type of a choice of control points shown: one of :data:`POINTS_SHOWN`.
 PointsShown = Literal["auto", "all", "near", "hull"]
+#: the changes that edit the deformation: the blend (:meth:`EditingSession.set_blend`) goes back to 1 before them
+EDITS = ("drag", "offsets", "lattice", "mesh")
 #: what the editor says when painted weights go with the vertices they were painted on (a decimation, a new mesh)
 WEIGHTS_CLEARED = "the vertex weights were cleared: the mesh has other vertices now"
 
@@ -201,6 +204,8 @@ class EditingSession:
         self.field: str | None = None
         self.colors_shown = True
         self.points_shown = "auto"
+        #: how much of the deformation is shown: 1 all of it, 0 the rest mesh (:meth:`set_blend`)
+        self.blend = 1.0
         self.selected: tuple[int, ...] | None = None
         self._subscribers = Subscribers(self.messages.append)
         self._dragged: int | None = None
@@ -286,6 +291,73 @@ class EditingSession:
         """
         return self._rest_control + self.lattice.offsets.reshape(-1, 3)
 
+    def shown_points(self) -> NDArray[np.float64]:
+        """The mesh as shown: the deformed points, or with a :attr:`blend` below 1 ``rest + blend * (deformed -
+        rest)`` (a new array then).
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(N, 3)``: :attr:`deformed_points` itself at blend 1 (exactly the deformation).
+
+        Examples
+        --------
+        >>> import pyvista as pv
+        >>> from ffd_notebook.view.editor.editor import PYVISTA_MESH_IO
+        >>> sphere = pv.Sphere(theta_resolution=8, phi_resolution=8)
+        >>> session = EditingSession(sphere, mesh_io=PYVISTA_MESH_IO, shape=(4, 4, 4))
+        >>> session.move_control_point((3, 3, 3), (0.0, 0.0, 0.4))
+        >>> session.set_blend(0.5)
+        >>> half = session.shown_points() - session.rest_points
+        >>> bool(np.allclose(half, (session.deformed_points - session.rest_points) / 2))
+        True
+        """
+        if self.blend == 1.0:
+            return self.deformed_points
+        rest = self.rest_points
+        return rest + self.blend * (np.asarray(self.deformed_points, dtype=np.float64) - rest)
+
+    def shown_control_points(self) -> NDArray[np.float64]:
+        """Control points as shown: :meth:`control_points`, or with a :attr:`blend` below 1 ``rest + blend *
+        offsets``, flat ``(M, 3)``."""
+        if self.blend == 1.0:
+            return self.control_points()
+        return self._rest_control + self.blend * self.lattice.offsets.reshape(-1, 3)
+
+    def set_blend(self, t: float) -> None:
+        """Show ``t`` of the deformation: ``rest + t * (deformed - rest)`` (0 the rest mesh, 1 all of it); no undo step.
+
+        A teacher shows a deformation growing, and where it folds first: the folding colours follow ``t`` (the
+        Jacobian of ``x + t (T(x) - x)``). Nothing is edited: below 1 the mouse grabs nothing in the view (the
+        spheres are where ``t`` puts them), and any edit (a typed displacement, undo, code...) applies to the
+        whole deformation and brings the blend back to 1.
+
+        Parameters
+        ----------
+        t : float
+            In [0, 1].
+
+        Examples
+        --------
+        >>> import pyvista as pv
+        >>> from ffd_notebook.view.editor.editor import PYVISTA_MESH_IO
+        >>> sphere = pv.Sphere(theta_resolution=8, phi_resolution=8)
+        >>> session = EditingSession(sphere, mesh_io=PYVISTA_MESH_IO, shape=(4, 4, 4))
+        >>> session.move_control_point((3, 3, 3), (0.0, 0.0, 0.4))
+        >>> session.set_blend(0.0)
+        >>> bool(np.array_equal(session.shown_points(), session.rest_points)), len(session.history)
+        (True, 1)
+        >>> session.move_control_point((0, 0, 0), (0.1, 0.0, 0.0))
+        >>> session.blend
+        1.0
+        """
+        value = float(t)
+        if not 0.0 <= value <= 1.0:  # (NaN too)
+            raise ValueError(f"the blend must be in [0, 1], got {t!r}")
+        if value != self.blend:
+            self.blend = value
+            self.notify("display", None, "blend")
+
     def field_values(self) -> NDArray[np.float32] | None:
         """The shown field per vertex: ``|displacement|``, folding (1 where det J <= 0), or None.
 
@@ -310,11 +382,13 @@ class EditingSession:
         ((50,), 'float32', True)
         """
         if self.field == "displacement":
-            diff = np.asarray(self.deformed_points, dtype=np.float64) - self.rest_points
+            diff = np.asarray(self.shown_points(), dtype=np.float64) - self.rest_points
             return np.sqrt(np.einsum("ij,ij->i", diff, diff)).astype(np.float32)
         if self.field == "jacobian":
-            # the deformer reuses its cached grouping of points by cell (~20 ms on 53k points)
-            return (self.deformer.jacobian_determinant() <= 0.0).astype(np.float32)
+            # the deformer reuses its cached grouping of points by cell (~20 ms on 53k points); with a blend t the
+            # map is x + t s (T(x) - x): the strength s times t
+            strength = None if self.blend == 1.0 else self.deformer.strength * self.blend
+            return (self.deformer.jacobian_determinant(strength=strength) <= 0.0).astype(np.float32)
         if self.field == "weights":
             weights = self.deformer.weights  # during a brush stroke: the stroke's, not yet the FFD's
             return np.ones(len(self.rest_points), np.float32) if weights is None else weights.astype(np.float32)
@@ -489,6 +563,9 @@ class EditingSession:
         >>> changes[0].kind, changes[0].points.tolist(), changes[0].label
         ('offsets', [3, 7], 'code')
         """
+        if kind in EDITS and self.blend != 1.0:  # an edit applies to the whole deformation: show all of it first
+            self.blend = 1.0
+            self.notify("display", None, "blend")
         change = Change(kind, points, label) if started is None else Change(kind, points, label, started)
         self.image.follow(change)  # the warped slices first: every view then sees them up to date
         self._subscribers.emit(change)
