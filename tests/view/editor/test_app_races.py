@@ -19,10 +19,10 @@ import numpy as np
 import pytest
 import pyvista as pv
 import SimpleITK as sitk
-from editor_testing import colored_sphere
+from editor_testing import colored_sphere, full_slices
 
 from ffd_notebook import FFD
-from ffd_notebook.images import ImageGrid, read_image, warp_image, write_image
+from ffd_notebook.images import read_image, warp_image
 from ffd_notebook.view import Editor
 from ffd_notebook.view.editor.app import EditorApp
 from ffd_notebook.view.editor.session.image import SessionImage
@@ -209,24 +209,6 @@ def test_a_basis_change_keeps_a_strength_change_made_while_it_runs(app, monkeypa
     assert_consistent(session)
 
 
-@pytest.fixture
-def ct(tmp_path):
-    """A small CT-like volume around the unit sphere."""
-    grid = ImageGrid((30, 28, 24), spacing=(0.08, 0.085, 0.095), origin=(-1.2, -1.15, -1.1))
-    points = grid.physical_points()
-    values = np.where(np.linalg.norm(points, axis=1) < 0.6, 300.0, -200.0) + 100.0 * np.sin(6.0 * points[:, 0])
-    path = tmp_path / "ct.nii.gz"
-    write_image(path, grid.to_sitk(sitk.GetImageFromArray(values.reshape(grid.shape).astype(np.float32))))
-    return path
-
-
-def fresh_slices(image_path, ffd, positions):
-    """The three slices of a fresh warp of the whole image (what "Save image" writes) at ``positions``."""
-    full = sitk.GetArrayFromImage(warp_image(image_path, ffd))
-    i, j, k = positions
-    return {0: full[:, :, i], 1: full[:, j, :], 2: full[k]}
-
-
 def test_control_points_moved_while_an_image_loads_reach_the_slices(app, ct, monkeypatch):
     session = app.editor.session
     gate = WorkerGate()
@@ -244,7 +226,7 @@ def test_control_points_moved_while_an_image_loads_reach_the_slices(app, ct, mon
 
     asyncio.run(scenario())
     slices = session.image.slices
-    expected = fresh_slices(ct, session.ffd, slices.positions)
+    expected = full_slices(ct, session.ffd, slices.positions)
     for axis in slices.axes:
         np.testing.assert_allclose(slices.values[axis], expected[axis], atol=1e-3)
     app.run("save_image", ["warped.nii.gz"])  # what is shown is what is saved
