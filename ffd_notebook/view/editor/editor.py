@@ -644,6 +644,32 @@ class Editor:
         """
         return self.session.script.to_code()
 
+    def code_cell(self) -> None:
+        """Put :meth:`to_code` in a new cell below the cell that runs this (JupyterLab, Notebook 7 and VS Code do).
+
+        IPython's ``set_next_input`` answers the request that ran the cell: it works from a cell, not from a
+        click in the panel (a click runs no cell; JupyterLab would add the cell only after the next one runs),
+        so the panel's "Code" button shows the code to copy and this puts it in a cell. Outside IPython it
+        prints the code.
+
+        Examples
+        --------
+        >>> import pyvista as pv
+        >>> from ffd_notebook.view import Editor
+        >>> editor = Editor(pv.Sphere(theta_resolution=8, phi_resolution=8), shape=(4, 4, 4), window_size=(64, 48))
+        >>> editor.code_cell()  # doctest: +ELLIPSIS
+        # What the editor did, as code (0 steps of its undo history; editor.to_code()).
+        ...
+        >>> editor.close()
+        """
+        from IPython import get_ipython
+
+        shell, code = get_ipython(), self.to_code()
+        if shell is None:
+            print(code, end="")
+        else:
+            shell.set_next_input(code, replace=False)
+
     def recording(
         self,
         *,

@@ -214,6 +214,11 @@ def _common_delta(before: NDArray[np.float64], after: NDArray[np.float64]) -> ND
     return np.array(found)
 
 
+def _same_key(a: Sequence[Any], b: Sequence[Any]) -> bool:
+    """Whether two ``(step, after, how, mesh)`` keys are the same objects (and the same mesh)."""
+    return a[0] is b[0] and a[1] is b[1] and a[2] is b[2] and a[3] == b[3]
+
+
 def _moved_rows(offsets: NDArray[np.float64]) -> NDArray[np.int64]:
     """Control points whose offset is not +0.0 in every component (a -0.0 counts: it is another double)."""
     return np.argwhere(np.any((offsets != 0) | np.signbit(offsets), axis=-1))
@@ -249,13 +254,13 @@ def _same_options(a: FFD, b: FFD) -> bool:
             and a.only_inside == b.only_inside and a.outside == b.outside and a.strength == b.strength)  # fmt: skip
 
 
-def _lattice_lines(ffd: FFD, points: NDArray[np.float64]) -> list[str]:
+def _lattice_lines(ffd: FFD, points: NDArray[np.float64] | None) -> list[str]:
     """``lattice = ...``: :meth:`~ffd_notebook.Lattice.around` the mesh where it gives exactly this lattice's
     placement (what the editor fits), else the placement written out; then the offsets that are not zero."""
     lat = ffd.lattice
     shape = _vec(lat.shape)
-    try:
-        fitted = _same_placement(fitted_lattice(points, lat.shape, ffd.basis), lat)
+    try:  # (points None: the mesh is not known here)
+        fitted = points is not None and _same_placement(fitted_lattice(points, lat.shape, ffd.basis), lat)
     except ValueError:  # (no lattice of that shape fits around the mesh for this basis)
         fitted = False
     if fitted:
@@ -344,18 +349,17 @@ class SessionScript:
     def __init__(self, session: EditingSession) -> None:
         self.session = session
         self.origin = MeshOrigin()
-        #: the fraction of faces the shown mesh was decimated by (0: the mesh as loaded)
-        self.reduction = 0.0
         self._saves: list[tuple[Any, str, str]] = []  # (the last step done then, or None; what; path), in order
+        self._decimations: list[tuple[tuple[Any, ...], float]] = []  # (the steps done then, the reduction)
         self._start = copy_ffd(session.ffd)  # the state the kept history starts from
-        self._cache: dict[int, tuple[HistoryStep, Any, Any, Statement]] = {}
+        self._cache: dict[int, tuple[HistoryStep, Any, Any, Any, Statement]] = {}
+        self._last: tuple[Any, FFD, list[Statement]] | None = None  # the history's steps, the start, their code
 
     # ------------------------------------------------------------------ what the session tells it
     def new_document(self, origin: MeshOrigin | None = None) -> None:
         """A new mesh with a new history: the script starts again from the session's FFD now."""
         self.origin = MeshOrigin() if origin is None else origin
-        self.reduction = 0.0
-        self._saves = []
+        self._saves, self._decimations = [], []
         self._cache.clear()
         self._start = copy_ffd(self.session.ffd)
 
@@ -365,6 +369,7 @@ class SessionScript:
         self._start = self._advance(self._start, step)
         self._cache.pop(id(step), None)
         self._saves = [save for save in self._saves if save[0] is not None and save[0] is not step]
+        self._decimations = [(tuple(s for s in done if s is not step), r) for done, r in self._decimations]
 
     def saved(self, what: str, path: str | os.PathLike[str]) -> None:
         """The user saved ``what`` (``"lattice"`` or ``"mesh"``) to ``path``: the script saves it too, after the
@@ -372,25 +377,86 @@ class SessionScript:
         steps = self.session.history.steps
         self._saves = [*self._saves[-(MAX_SAVES - 1) :], (steps[-1] if steps else None, what, os.fspath(path))]
 
+    def decimated(self, reduction: float) -> None:
+        """The shown mesh was decimated by ``reduction`` (0: back to the mesh as loaded), after the last step done:
+        the script decimates its mesh there too (and drops painted weights, as the session did)."""
+        self._decimations = [*self._decimations[-(MAX_SAVES - 1) :], (self.session.history.steps, float(reduction))]
+
     # ------------------------------------------------------------------ the code
+    def _decimation_anchors(self) -> list[tuple[Any, float]]:
+        """Each decimation after the last step it shares with the history as it stands (steps undone since and
+        done again came after it), the last one again at the end if others would follow it (the shown mesh)."""
+        done = self.session.history.steps
+        out: list[tuple[Any, float]] = []
+        for then, reduction in self._decimations:
+            shared = 0
+            while shared < min(len(then), len(done)) and then[shared] is done[shared]:
+                shared += 1
+            out.append((done[shared - 1] if shared else None, reduction))
+        if out:
+            position = {id(step): k for k, step in enumerate(done)}
+            last = max(range(len(out)), key=lambda k: (-1 if out[k][0] is None else position[id(out[k][0])], k))
+            if last != len(out) - 1:
+                out.append((done[-1] if done else None, out[-1][1]))
+        return out
+
+    def _anchored(self, events: list[tuple[Any, Any]]) -> dict[int | None, list[Any]]:
+        """Events (``(step or None, event)``) by the step they follow: ``id(step)``, or None for the start (also
+        those whose step has been undone since: they came after every step still done before it)."""
+        done = {id(step) for step in self.session.history.steps}
+        out: dict[int | None, list[Any]] = {}
+        for at, event in events:
+            out.setdefault(id(at) if at is not None and id(at) in done else None, []).append(event)
+        return out
+
+    def _mesh_points(self) -> tuple[list[Any], list[NDArray[np.float64] | None]]:
+        """For each step (and the start, first): which mesh the script deforms there (``"loaded"`` or the number
+        of the decimation) and its points (None where they are not known: then nothing is computed from them)."""
+        steps = self.session.history.steps
+        anchors = self._decimation_anchors()
+        by_step = self._anchored(anchors)
+        last = len(anchors) - 1
+        loaded = np.asarray(self.session.source_mesh.points, dtype=np.float64)
+        tags: list[Any] = []
+        points: list[NDArray[np.float64] | None] = []
+        tag: Any = "loaded"
+        n = 0  # decimations passed
+        for anchor in [None, *(id(step) for step in steps)]:
+            for reduction in by_step.get(anchor, []):
+                tag = "loaded" if reduction == 0.0 else n
+                n += 1
+            tags.append(tag)
+            if tag == "loaded":
+                points.append(loaded)
+            else:
+                points.append(np.asarray(self.session.rest_points, dtype=np.float64) if tag == last else None)
+        return tags, points
+
     def statements(self) -> list[Statement]:
         """One :class:`Statement` per step of the undo history as it stands, oldest first."""
+        steps = self.session.history.steps
+        tags, meshes = self._mesh_points()  # (a step's statement follows the events before it: tags[k] precedes it)
+        key = [(step, step.after, step.how, tag) for step, tag in zip(steps, tags[:-1], strict=True)]
+        last = self._last
+        if last is not None and last[1] is self._start and len(last[0]) == len(key):
+            if all(_same_key(was, now) for was, now in zip(last[0], key, strict=True)):
+                return list(last[2])  # (the panels ask at every sync: nothing changed since)
         state = copy_ffd(self._start)
-        points = self._points()
         out, live = [], set()
-        for step in self.session.history.steps:
+        for (step, _, _, tag), points in zip(key, meshes[:-1], strict=True):
             live.add(id(step))
             cached = self._cache.get(id(step))
-            if cached is not None and cached[0] is step and cached[1] is step.after and cached[2] is step.how:
-                statement = cached[3]
+            if cached is not None and _same_key(cached[:4], (step, step.after, step.how, tag)):
+                statement = cached[4]
             else:
                 statement = self._statement(step, state, points)
-                self._cache[id(step)] = (step, step.after, step.how, statement)
+                self._cache[id(step)] = (step, step.after, step.how, tag, statement)
             out.append(statement)
             state = self._advance(state, step, in_place=True)
-        for key in set(self._cache) - live:
-            del self._cache[key]
-        return out
+        for gone in set(self._cache) - live:
+            del self._cache[gone]
+        self._last = (key, self._start, out)
+        return list(out)
 
     def recent(self, n: int = 5) -> list[str]:
         """The last ``n`` steps as code (a comment and its lines each), oldest first: the panels' running log."""
@@ -405,31 +471,45 @@ class SessionScript:
             A script defining ``mesh``, ``lattice``, ``ffd`` and ``deformed``.
         """
         steps = self.statements()
+        done = self.session.history.steps
         start, start_imports = self._start_lines()
         end = self._outside_history(steps)
         imports = set(start_imports).union(*(s.imports for s in steps), end.imports if end else set())
+        if self._decimations:
+            imports.add("ffd_notebook.meshing:decimate_keeping_colors")
         n = len(steps)
         body = [f"# What the editor did, as code ({n} step{'s' if n != 1 else ''} of its undo history; "
                 "editor.to_code()).", *self._import_lines(imports), "", *start]  # fmt: skip
-        done = self.session.history.steps
-        body += self._save_lines(None)
+        decimations = self._anchored(self._decimation_anchors())
+        saves = self._anchored([(at, (what, path)) for at, what, path in self._saves])
+        state = copy_ffd(self._start)
+        body += self._event_lines(decimations.get(None, []), saves.get(None, []), state)
         for step, statement in zip(done, steps, strict=True):
-            body += ["", statement.text, *self._save_lines(step)]
+            state = self._advance(state, step, in_place=True)
+            body += ["", statement.text, *self._event_lines(decimations.get(id(step), []), saves.get(id(step), []),
+                                                            state)]  # fmt: skip
         if end is not None:
             body += ["", end.text]
         body += ["", "# the deformed mesh", "deformed = mesh.copy()", "deformed.points = ffd.deform(mesh.points)"]
-        undone = [(what, path) for anchor, what, path in self._saves if anchor is not None and
-                  not any(anchor is step for step in done)]  # fmt: skip
+        undone = [(what, path) for at, what, path in self._saves
+                  if at is not None and not any(at is step for step in done)]  # fmt: skip
         if undone:
             body += ["", *(f"# ({what} saved to {path!r} after steps since undone)" for what, path in undone)]
         return "\n".join(body) + "\n"
 
-    def _save_lines(self, anchor: Any) -> list[str]:
-        """The saves the user made right after ``anchor`` (a step; None: before any)."""
+    @staticmethod
+    def _event_lines(decimations: list[float], saves: list[tuple[str, str]], state: FFD) -> list[str]:
+        """What the user did after a step besides undoable edits: decimations of the mesh, then saves."""
         lines = []
-        for at, what, path in self._saves:
-            if at is not anchor:
-                continue
+        for reduction in decimations:
+            if reduction == 0.0:
+                lines.append("mesh = loaded.copy()  # the mesh as loaded again (the editor's decimation undone)")
+            else:
+                lines.append(f"mesh = decimate_keeping_colors(loaded, {_num(reduction)})  # decimated in the editor")
+            if _weights_of(state) is not None:  # painted on the vertices that went
+                lines.append("ffd.weights = None  # the decimation dropped the painted weights")
+                state.weights = None
+        for what, path in saves:
             if what == "lattice":
                 lines.append(f"fn.save_deformation({path!r}, ffd)  # saved in the editor")
             else:
@@ -469,10 +549,9 @@ class SessionScript:
             if origin.surface:
                 lines.append("mesh = as_surface(mesh)  # its outer surface, as the editor shows")
                 imports.add("ffd_notebook.meshing:as_surface")
-        if self.session.mesh is not self.session.source_mesh:
-            lines.append(f"mesh = decimate_keeping_colors(mesh, {_num(self.reduction)})  # decimated in the editor")
-            imports.add("ffd_notebook.meshing:decimate_keeping_colors")
-        lines += _lattice_lines(self._start, self._points())
+        if self._decimations:
+            lines.append("loaded = mesh")
+        lines += _lattice_lines(self._start, np.asarray(self.session.source_mesh.points, dtype=np.float64))
         line, more = _ffd_line("lattice", self._start, None)
         weights = _weights_of(self._start)
         if weights is not None:
@@ -510,7 +589,7 @@ class SessionScript:
         state.lattice.offsets[tuple(step.ijk.T)] = step.after
         return state
 
-    def _statement(self, step: HistoryStep, state: FFD, points: NDArray[np.float64]) -> Statement:
+    def _statement(self, step: HistoryStep, state: FFD, points: NDArray[np.float64] | None) -> Statement:
         comment = _LABELS.get(step.label, step.label)
         if isinstance(step, OffsetEdit):
             return self._offsets_statement(step, state, comment)
@@ -542,7 +621,9 @@ class SessionScript:
                 return Statement(comment, [f"lattice.offsets[{box}] += {_vec(delta)}"])
         return Statement(comment, _rows_assignment(ijk, after, lat.shape))
 
-    def _swap_statement(self, step: LatticeSwap, state: FFD, points: NDArray[np.float64], comment: str) -> Statement:
+    def _swap_statement(
+        self, step: LatticeSwap, state: FFD, points: NDArray[np.float64] | None, comment: str
+    ) -> Statement:
         after: FFD = step.after[0]
         how = step.how
         if isinstance(how, LoadedFile):
@@ -595,12 +676,15 @@ class SessionScript:
         return Statement(comment, [*lines, "lattice = ffd.lattice"], imports)
 
     @staticmethod
-    def _stroke_statement(how: BrushStroke, state: FFD, after: FFD, points: NDArray[np.float64]) -> Statement | None:
+    def _stroke_statement(
+        how: BrushStroke, state: FFD, after: FFD, points: NDArray[np.float64] | None
+    ) -> Statement | None:
         """The brush's dabs as a loop, if running it gives the stroke's weights bit for bit (else None)."""
         target = _weights_of(after)
         start = _weights_of(state)
-        if target is None or len(target) != len(points) or not how.dabs:
-            return None
+        if points is None or target is None or len(target) != len(points) or not how.dabs or (start is not None and
+                                                                            len(start) != len(points)):  # fmt: skip
+            return None  # (painted on a mesh that has been decimated since)
         weights = np.zeros(len(points)) if start is None else start.copy()
         for centre, amount, radius in how.dabs:  # as the lines below do it (the brush's own steps, in order)
             d = np.linalg.norm(points - centre, axis=1)
