@@ -1,0 +1,81 @@
+"""JupyterLab reached through one port: the editor's view goes through Jupyter's proxy with no setting.
+
+JupyterLab runs under a base URL (``/lab-here/``) on 127.0.0.1, and headless Chromium may reach Lab's address
+only (every other request and WebSocket is refused, as for a browser that reaches a lab machine through an SSH
+tunnel, Docker's ``-p 8888:8888`` or VS Code's port forwarding): the kernel's trame server listens on a port
+the browser cannot reach. The quickstart notebook runs unmodified; its editor's iframe must find the page
+through ``/lab-here/proxy/<port>/`` (jupyter-server-proxy) by itself, and a drag of a control point must
+reach the kernel (checked from the kernel's side, as in test_jupyter_browser.py). The time from the iframe
+entering the page to its first image goes to ``test-artifacts/browser_metrics.json``.
+
+Run: ``python -m pytest tests/browser/test_jupyter_one_port_browser.py -m browser -s``
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+from browser.helpers import (
+    ARTIFACTS,
+    QUICKSTART,
+    Lab,
+    copy_notebook,
+    launch_browser,
+    quickstart_drag,
+    reach_only,
+    record_metrics,
+    start_lab,
+)
+from playwright.sync_api import sync_playwright
+
+pytestmark = [pytest.mark.browser, pytest.mark.slow]
+
+BASE_URL = "/lab-here/"
+
+
+@pytest.fixture(scope="module")
+def lab(tmp_path_factory: pytest.TempPathFactory):
+    """JupyterLab under :data:`BASE_URL` serving a copy of the quickstart notebook; yields (Lab, trace path)."""
+    tmp = tmp_path_factory.mktemp("one_port_lab")
+    work = tmp / "work"
+    work.mkdir()
+    copy_notebook(QUICKSTART, work)
+    trace = tmp / "trace.jsonl"
+    with start_lab(tmp, work, trace, base_url=BASE_URL) as running:
+        yield running, trace
+
+
+def test_quickstart_drag_through_labs_one_port(lab: tuple[Lab, Path], tmp_path: Path):
+    lab_, trace = lab
+    ARTIFACTS.mkdir(exist_ok=True)
+    metrics: dict = {}
+    with sync_playwright() as pw:
+        context = launch_browser(pw, tmp_path / "profile", width=1400, height=1000)
+        refused = reach_only(context, lab_.origin)
+        page = context.new_page()
+        try:
+            errors: list[str] = []
+            page.on("pageerror", lambda e: errors.append(str(e)))
+            iframe, frame, _ = quickstart_drag(lab_, page, trace, metrics)
+            # the view came through Lab's own address, under its base URL, by itself
+            assert frame.url.startswith(f"{lab_.origin}{BASE_URL}proxy/"), frame.url
+            metrics["iframe_to_first_image_s"] = Lab.first_image_s(iframe, frame)
+            # the token reached the page, and the reload cookie stays in the proxied view's folder
+            cookies = [c for c in context.cookies() if c["name"].startswith("ffd_notebook_")]
+            assert cookies and all(c["path"].startswith(f"{BASE_URL}proxy/") for c in cookies), cookies
+            page.screenshot(path=ARTIFACTS / "jupyter_one_port_after_drag.png")
+            # nothing tried the kernel's own port: the proxied address answered first
+            port = frame.url.split("/proxy/")[1].split("/")[0]
+            assert not [u for u in refused if f":{port}/" in u], refused
+            # and that port is out of this browser's reach indeed
+            direct = f"http://localhost:{port}/index.html"
+            fetched = page.evaluate(f"fetch('{direct}', {{mode: 'no-cors'}}).then(() => 'ok', () => 'refused')")
+            assert fetched == "refused" and direct in refused, (fetched, refused)
+            assert not errors, errors
+        except Exception:
+            page.screenshot(path=ARTIFACTS / "jupyter_one_port_failure.png")
+            raise
+        finally:
+            context.close()
+    record_metrics("jupyterlab_one_port", metrics)
