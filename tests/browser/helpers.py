@@ -625,16 +625,17 @@ def kernel_env(tmp_path: Path, trace: Path, frames_trace: Path | None = None,
 
 @contextlib.contextmanager
 def start_lab(tmp_path: Path, work: Path, trace: Path, frames_trace: Path | None = None,
-              pythonpath: Path = REPO, base_url: str = "/") -> Iterator[Lab]:  # fmt: skip
+              pythonpath: Path = REPO, base_url: str = "/",
+              options: tuple[str, ...] = ()) -> Iterator[Lab]:  # fmt: skip
     """JupyterLab on a free port serving ``work`` under ``base_url``, kernels instrumented (see
-    :func:`_instrumenting_ipython_dir`) and importing ffd_notebook from ``pythonpath``; its kernels and the
-    server are stopped on exit."""
+    :func:`_instrumenting_ipython_dir`) and importing ffd_notebook from ``pythonpath``, with more command-line
+    ``options``; its kernels and the server are stopped on exit."""
     port = free_port()
     env = kernel_env(tmp_path, trace, frames_trace, pythonpath)
     cmd = [
         sys.executable, "-m", "jupyter", "lab", "--no-browser", "--ip=127.0.0.1", f"--port={port}",
         f"--IdentityProvider.token={LAB_TOKEN}", f"--ServerApp.root_dir={work}",
-        f"--ServerApp.base_url={base_url}", *lab_options(tmp_path),
+        f"--ServerApp.base_url={base_url}", *lab_options(tmp_path), *options,
     ]  # fmt: skip
     if sys.platform.startswith("linux") and os.geteuid() == 0:
         cmd.append("--allow-root")

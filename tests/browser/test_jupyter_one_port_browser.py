@@ -8,6 +8,9 @@ through ``/lab-here/proxy/<port>/`` (jupyter-server-proxy) by itself, and a drag
 reach the kernel (checked from the kernel's side, as in test_jupyter_browser.py). The time from the iframe
 entering the page to its first image goes to ``test-artifacts/browser_metrics.json``.
 
+Without jupyter-server-proxy in the Jupyter server the view falls back to the kernel's own port, which a
+browser on the kernel's machine reaches (as before this route existed).
+
 Run: ``python -m pytest tests/browser/test_jupyter_one_port_browser.py -m browser -s``
 """
 
@@ -15,6 +18,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import nbformat
 import pytest
 from browser.helpers import (
     ARTIFACTS,
@@ -26,6 +30,7 @@ from browser.helpers import (
     reach_only,
     record_metrics,
     start_lab,
+    trigger,
 )
 from playwright.sync_api import sync_playwright
 
@@ -79,3 +84,36 @@ def test_quickstart_drag_through_labs_one_port(lab: tuple[Lab, Path], tmp_path: 
         finally:
             context.close()
     record_metrics("jupyterlab_one_port", metrics)
+
+
+EDIT_CELLS = ["import ffd_notebook as fn", "editor = fn.edit(window_size=(400, 300))", "open('ready.txt', 'w')"]
+
+
+@pytest.fixture(scope="module")
+def lab_without_proxy(tmp_path_factory: pytest.TempPathFactory):
+    """JupyterLab with jupyter-server-proxy turned off, serving a notebook that opens the editor."""
+    tmp = tmp_path_factory.mktemp("lab_without_proxy")
+    work = tmp / "work"
+    work.mkdir()
+    cells = [nbformat.v4.new_code_cell(c) for c in EDIT_CELLS]
+    nbformat.write(nbformat.v4.new_notebook(cells=cells), work / "edit.ipynb")
+    options = ("--ServerApp.jpserver_extensions=jupyter_server_proxy=False",)
+    with start_lab(tmp, work, tmp / "trace.jsonl", base_url=BASE_URL, options=options) as running:
+        yield running
+
+
+def test_without_jupyter_server_proxy_the_view_opens_the_kernels_port(lab_without_proxy: Lab, tmp_path: Path):
+    with sync_playwright() as pw:
+        context = launch_browser(pw, tmp_path / "profile")
+        page = context.new_page()
+        try:
+            lab_without_proxy.run_notebook(page, "edit.ipynb", (lab_without_proxy.work / "ready.txt").exists)
+            iframe, frame = lab_without_proxy.view_iframe(page, "editor = fn.edit(")
+            assert frame.url.startswith("http://localhost:"), frame.url  # Jupyter answered 404: the direct address
+            assert trigger(frame, "ffd_state")["n_callbacks"] == 0  # its websocket answers
+            record_metrics("jupyterlab_direct", {"iframe_to_first_image_s": Lab.first_image_s(iframe, frame)})
+        except Exception:
+            page.screenshot(path=ARTIFACTS / "jupyter_without_proxy_failure.png")
+            raise
+        finally:
+            context.close()
