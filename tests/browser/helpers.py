@@ -734,3 +734,44 @@ def reach_only(context: Any, origin: str) -> list[str]:
     context.route(re.compile(rf"^(?!https?://{host}/)"), request)
     context.route_web_socket(re.compile(rf"^(?!wss?://{host}/)"), socket)
     return refused
+
+
+def quickstart_through_one_address(pw: Any, lab: Lab, trace: Path, tmp_path: Path, name: str,
+                                   before: Callable[[Any], None] | None = None) -> dict[str, Any]:  # fmt: skip
+    """The quickstart's drag (:func:`quickstart_drag`) in a browser that reaches ``lab.origin`` only
+    (:func:`reach_only`; ``before(page)`` runs first, e.g. a hub's login). The view must come through Jupyter's
+    proxy under ``lab.base_url`` and never try the kernel's own port, which must be out of the browser's reach
+    indeed; the page's reload cookie must stay in the proxied view's folder. Screenshots go to
+    ``test-artifacts/<name>_after_drag.png`` (``<name>_failure.png``), the metrics under ``name``."""
+    metrics: dict[str, Any] = {}
+    ARTIFACTS.mkdir(exist_ok=True)
+    context = launch_browser(pw, tmp_path / "profile", width=1400, height=1000)
+    refused = reach_only(context, lab.origin)
+    page = context.new_page()
+    try:
+        errors: list[str] = []
+        page.on("pageerror", lambda e: errors.append(str(e)))
+        if before is not None:
+            before(page)
+        iframe, frame, _ = quickstart_drag(lab, page, trace, metrics)
+        proxied = f"{lab.origin}{lab.base_url}proxy/"
+        assert frame.url.startswith(proxied), frame.url
+        metrics["iframe_to_first_image_s"] = Lab.first_image_s(iframe, frame)
+        # the token reached the page, and the reload cookie stays in the proxied view's folder
+        cookies = [c for c in context.cookies() if c["name"].startswith("ffd_notebook_")]
+        assert cookies and all(c["path"].startswith(f"{lab.base_url}proxy/") for c in cookies), cookies
+        page.screenshot(path=ARTIFACTS / f"{name}_after_drag.png")
+        # nothing tried the kernel's own port, which is out of this browser's reach indeed
+        port = frame.url.removeprefix(proxied).split("/")[0]
+        assert not [u for u in refused if f":{port}/" in u], refused
+        direct = f"http://localhost:{port}/index.html"
+        fetched = page.evaluate(f"fetch('{direct}', {{mode: 'no-cors'}}).then(() => 'ok', () => 'refused')")
+        assert fetched == "refused" and direct in refused, (fetched, refused)
+        assert not errors, errors
+    except Exception:
+        page.screenshot(path=ARTIFACTS / f"{name}_failure.png")
+        raise
+    finally:
+        context.close()
+    record_metrics(name, metrics)
+    return metrics

@@ -46,6 +46,15 @@ def proxy_command() -> str:
     return found
 
 
+def log_in(page: Any, hub: Hub) -> None:
+    """The hub's login form, as a user fills it (the dummy authenticator takes any password)."""
+    page.goto(f"{hub.origin}/hub/login", wait_until="load")
+    page.locator("input[name=username]").fill(USER)
+    page.locator("input[name=password]").fill("any")
+    page.locator("form [type=submit]").first.click()
+    page.wait_for_url(lambda url: "/hub/login" not in url, timeout=60_000)
+
+
 class Hub:
     """A running hub: its public port, and its REST API with the service token."""
 

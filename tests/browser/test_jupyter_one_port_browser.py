@@ -26,8 +26,7 @@ from browser.helpers import (
     Lab,
     copy_notebook,
     launch_browser,
-    quickstart_drag,
-    reach_only,
+    quickstart_through_one_address,
     record_metrics,
     start_lab,
     trigger,
@@ -52,38 +51,8 @@ def lab(tmp_path_factory: pytest.TempPathFactory):
 
 
 def test_quickstart_drag_through_labs_one_port(lab: tuple[Lab, Path], tmp_path: Path):
-    lab_, trace = lab
-    ARTIFACTS.mkdir(exist_ok=True)
-    metrics: dict = {}
     with sync_playwright() as pw:
-        context = launch_browser(pw, tmp_path / "profile", width=1400, height=1000)
-        refused = reach_only(context, lab_.origin)
-        page = context.new_page()
-        try:
-            errors: list[str] = []
-            page.on("pageerror", lambda e: errors.append(str(e)))
-            iframe, frame, _ = quickstart_drag(lab_, page, trace, metrics)
-            # the view came through Lab's own address, under its base URL, by itself
-            assert frame.url.startswith(f"{lab_.origin}{BASE_URL}proxy/"), frame.url
-            metrics["iframe_to_first_image_s"] = Lab.first_image_s(iframe, frame)
-            # the token reached the page, and the reload cookie stays in the proxied view's folder
-            cookies = [c for c in context.cookies() if c["name"].startswith("ffd_notebook_")]
-            assert cookies and all(c["path"].startswith(f"{BASE_URL}proxy/") for c in cookies), cookies
-            page.screenshot(path=ARTIFACTS / "jupyter_one_port_after_drag.png")
-            # nothing tried the kernel's own port: the proxied address answered first
-            port = frame.url.split("/proxy/")[1].split("/")[0]
-            assert not [u for u in refused if f":{port}/" in u], refused
-            # and that port is out of this browser's reach indeed
-            direct = f"http://localhost:{port}/index.html"
-            fetched = page.evaluate(f"fetch('{direct}', {{mode: 'no-cors'}}).then(() => 'ok', () => 'refused')")
-            assert fetched == "refused" and direct in refused, (fetched, refused)
-            assert not errors, errors
-        except Exception:
-            page.screenshot(path=ARTIFACTS / "jupyter_one_port_failure.png")
-            raise
-        finally:
-            context.close()
-    record_metrics("jupyterlab_one_port", metrics)
+        quickstart_through_one_address(pw, *lab, tmp_path, "jupyter_one_port")
 
 
 EDIT_CELLS = ["import ffd_notebook as fn", "editor = fn.edit(window_size=(400, 300))", "open('ready.txt', 'w')"]

@@ -16,17 +16,8 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
-from browser.helpers import (
-    ARTIFACTS,
-    QUICKSTART,
-    Lab,
-    copy_notebook,
-    launch_browser,
-    quickstart_drag,
-    reach_only,
-    record_metrics,
-)
-from browser.hub import USER, Hub, start_hub
+from browser.helpers import QUICKSTART, Lab, copy_notebook, quickstart_through_one_address
+from browser.hub import USER, Hub, log_in, start_hub
 from playwright.sync_api import sync_playwright
 
 pytestmark = [pytest.mark.browser, pytest.mark.slow]
@@ -44,37 +35,8 @@ def hub(tmp_path_factory: pytest.TempPathFactory):
         yield running, running.user_lab(work), trace
 
 
-def log_in(page, hub: Hub) -> None:
-    """The hub's login form, as a user fills it (the dummy authenticator takes any password)."""
-    page.goto(f"{hub.origin}/hub/login", wait_until="load")
-    page.locator("input[name=username]").fill(USER)
-    page.locator("input[name=password]").fill("any")
-    page.locator("form [type=submit]").first.click()
-    page.wait_for_url(lambda url: "/hub/login" not in url, timeout=60_000)
-
-
 def test_quickstart_drag_through_jupyterhub(hub: tuple[Hub, Lab, Path], tmp_path: Path):
     hub_, lab, trace = hub
-    ARTIFACTS.mkdir(exist_ok=True)
-    metrics: dict = {}
+    assert lab.base_url == f"/user/{USER}/"  # the view must come through /user/<name>/proxy/<port>/
     with sync_playwright() as pw:
-        context = launch_browser(pw, tmp_path / "profile", width=1400, height=1000)
-        refused = reach_only(context, hub_.origin)
-        page = context.new_page()
-        try:
-            errors: list[str] = []
-            page.on("pageerror", lambda e: errors.append(str(e)))
-            log_in(page, hub_)
-            iframe, frame, _ = quickstart_drag(lab, page, trace, metrics)
-            assert frame.url.startswith(f"{hub_.origin}/user/{USER}/proxy/"), frame.url
-            metrics["iframe_to_first_image_s"] = Lab.first_image_s(iframe, frame)
-            port = frame.url.split("/proxy/")[1].split("/")[0]
-            assert not [u for u in refused if f":{port}/" in u], refused
-            page.screenshot(path=ARTIFACTS / "jupyterhub_after_drag.png")
-            assert not errors, errors
-        except Exception:
-            page.screenshot(path=ARTIFACTS / "jupyterhub_failure.png")
-            raise
-        finally:
-            context.close()
-    record_metrics("jupyterhub", metrics)
+        quickstart_through_one_address(pw, lab, trace, tmp_path, "jupyterhub", before=lambda page: log_in(page, hub_))

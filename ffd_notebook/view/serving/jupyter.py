@@ -20,12 +20,13 @@ logged into, and the token is sent only once the answer proves to come from this
 direct address first would hand the token to whatever listens on that port of the *browser's*
 machine, which is not the kernel's one in every case above, and the browser cannot check who
 answers there without being allowed to by the answer itself. The price of going through Jupyter is
-small (see the measures in the project's notes). When PyVista's
+small: the first image came no later (medians of 0.6-1.2 s on either route, on a loaded 2-core
+machine) and a drag's frames 1-6 % later (``tests/benchmarks/bench_first_image.py``). When PyVista's
 ``pyvista.global_theme.trame.server_proxy_enabled`` is set (JupyterHub's environment sets it), the
 iframe opens its ``server_proxy_prefix`` address directly, as ``plotter.show()`` does.
 
 The trame server is the package's own (not PyVista's shared one, which may already run unprotected):
-it requires a fresh random token, which the iframe's ``src`` carries, and refuses WebSockets from
+it requires a fresh random token, which the iframe's address carries, and refuses WebSockets from
 other sites' pages (:mod:`.web_security`). Behind jupyter-server-proxy the iframe comes from
 Jupyter's origin, which Jupyter has checked (see :mod:`.web_security`); the token is still required.
 
@@ -122,7 +123,7 @@ def jupyter_server() -> Any:
         backend = "jupyter" if pv.global_theme.trame.jupyter_extension_enabled else "aiohttp"
         host = os.environ.get("TRAME_DEFAULT_HOST", "127.0.0.1")
         proxied = lambda: bool(pv.global_theme.trame.server_proxy_enabled)  # noqa: E731 - asked per request
-        _policies[SERVER_NAME] = AccessPolicy(new_token(), bind_host=host, behind_proxy=proxied)
+        _policies[SERVER_NAME] = AccessPolicy(new_token(), bind_host=host, behind_proxy=proxied, forwarded=True)
         protect(server, _policies[SERVER_NAME])
 
         async def start() -> None:

@@ -21,7 +21,8 @@ Origin, those of Jupyter's page (same-origin with each other). Such a Host names
 not the one the connection reached this server on: a page that reaches this server directly (a
 DNS-rebinding page included) can only name the port it connected to, so a Host naming another port
 came through a forwarder and is accepted, whatever its name (a remote Jupyter, a hub); the Origin
-must still match it and the token is still required. With PyVista's
+must still match it and the token is still required. Only the notebook views' server accepts such a
+Host (``AccessPolicy(forwarded=True)``); the standalone app, reached directly, does not. With PyVista's
 ``pyvista.global_theme.trame.server_proxy_enabled`` (set by JupyterHub's environment) any Host is
 accepted, under the same two conditions.
 
@@ -160,6 +161,10 @@ class AccessPolicy:
     behind_proxy : callable returning bool
         Asked per request: is the server reached through jupyter-server-proxy now? Then any Host is
         accepted (Jupyter has checked the request), still same-origin with the Origin.
+    forwarded : bool
+        Whether the server may be reached through a forwarder (Jupyter's proxy, for the notebook views):
+        then a Host naming another port than the one the request's connection reached is accepted
+        (only a forwarder sends one). The standalone app, reached directly, leaves it off.
 
     Examples
     --------
@@ -173,20 +178,24 @@ class AccessPolicy:
     >>> policy.allows({"Host": "localhost:8080"})  # no Origin: not a browser; the token decides
     True
 
-    A request that reached port 8080 naming another port came through a forwarder (Jupyter's proxy);
-    one naming 8080 itself came straight from the page that names it:
+    A notebook view's server (``forwarded``): a request that reached port 8080 naming another port came
+    through a forwarder (Jupyter's proxy); one naming 8080 itself came straight from the page that names it:
 
-    >>> policy.allows({"Host": "lab.example:8888", "Origin": "http://lab.example:8888"}, arrived_port=8080)
+    >>> view = AccessPolicy("t", forwarded=True)
+    >>> view.allows({"Host": "lab.example:8888", "Origin": "http://lab.example:8888"}, arrived_port=8080)
     True
-    >>> policy.allows({"Host": "evil.example:8080", "Origin": "http://evil.example:8080"}, arrived_port=8080)
+    >>> view.allows({"Host": "evil.example:8080", "Origin": "http://evil.example:8080"}, arrived_port=8080)
     False
-    >>> policy.allows({"Host": "lab.example:8888", "Origin": "http://evil.example"}, arrived_port=8080)
+    >>> view.allows({"Host": "lab.example:8888", "Origin": "http://evil.example"}, arrived_port=8080)
+    False
+    >>> policy.allows({"Host": "lab.example:8888", "Origin": "http://lab.example:8888"}, arrived_port=8080)
     False
     """
 
     token: str
     bind_host: str = "127.0.0.1"
     behind_proxy: Callable[[], bool] = field(default=lambda: False)
+    forwarded: bool = False
 
     @property
     def server_id(self) -> str:
@@ -209,7 +218,7 @@ class AccessPolicy:
             return False
         if is_loopback(host) or self.behind_proxy():
             return True
-        if arrived_port is not None and port != arrived_port:
+        if self.forwarded and arrived_port is not None and port != arrived_port:
             return True  # named another port: a forwarder (Jupyter's proxy), which checked the Host itself
         if is_loopback(self.bind_host):
             return False
