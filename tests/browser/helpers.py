@@ -150,13 +150,15 @@ def wait_for(predicate: Callable[[], Any], timeout: float, what: str, interval: 
 
 
 # ---------------------------------------------------------------------- browser
-def launch_browser(playwright: Any, profile_dir: str | os.PathLike[str], width: int = 1280, height: int = 900) -> Any:
-    """A headless Chromium context (Debian's chromium, a fresh profile); the init script is installed."""
+def launch_browser(playwright: Any, profile_dir: str | os.PathLike[str], width: int = 1280, height: int = 900,
+                   args: tuple[str, ...] = ()) -> Any:  # fmt: skip
+    """A headless Chromium context (Debian's chromium, a fresh profile, more command-line ``args``); the init
+    script is installed."""
     context = playwright.chromium.launch_persistent_context(
         str(profile_dir),
         executable_path=CHROMIUM,
         headless=True,
-        args=CHROMIUM_ARGS,
+        args=[*CHROMIUM_ARGS, *args],
         viewport={"width": width, "height": height},
     )
     context.add_init_script(INIT_JS)
@@ -476,13 +478,15 @@ class Lab:
     (a hub's browser logs in instead)."""
 
     def __init__(self, port: int, work: Path, *, base_url: str = "/", token: str = LAB_TOKEN,
-                 token_in_url: bool = True) -> None:  # fmt: skip
+                 token_in_url: bool = True, host: str = "127.0.0.1") -> None:  # fmt: skip
         self.port, self.work, self.base_url, self.token, self.token_in_url = port, work, base_url, token, token_in_url
+        self.host = host
 
     @property
     def origin(self) -> str:
-        """The address the browser reaches the server at (scheme, host and port)."""
-        return f"http://127.0.0.1:{self.port}"
+        """The address the browser reaches the server at (scheme, host and port; the test's API calls use
+        127.0.0.1)."""
+        return f"http://{self.host}:{self.port}"
 
     def api(self, path: str, method: str = "GET") -> object:
         """Call the server's REST API (``path`` under its base URL)."""
@@ -625,11 +629,13 @@ def kernel_env(tmp_path: Path, trace: Path, frames_trace: Path | None = None,
 
 @contextlib.contextmanager
 def start_lab(tmp_path: Path, work: Path, trace: Path, frames_trace: Path | None = None,
-              pythonpath: Path = REPO, base_url: str = "/",
-              options: tuple[str, ...] = ()) -> Iterator[Lab]:  # fmt: skip
-    """JupyterLab on a free port serving ``work`` under ``base_url``, kernels instrumented (see
+              pythonpath: Path = REPO, base_url: str = "/", options: tuple[str, ...] = (),
+              host: str = "127.0.0.1") -> Iterator[Lab]:  # fmt: skip
+    """JupyterLab on a free port of 127.0.0.1 serving ``work`` under ``base_url``, kernels instrumented (see
     :func:`_instrumenting_ipython_dir`) and importing ffd_notebook from ``pythonpath``, with more command-line
-    ``options``; its kernels and the server are stopped on exit."""
+    ``options``; the browser reaches it as ``host`` (another name needs Chromium's
+    :func:`host_resolver_args` and Jupyter's ``--ServerApp.allow_remote_access=True``). Its kernels and the
+    server are stopped on exit."""
     port = free_port()
     env = kernel_env(tmp_path, trace, frames_trace, pythonpath)
     cmd = [
@@ -640,7 +646,7 @@ def start_lab(tmp_path: Path, work: Path, trace: Path, frames_trace: Path | None
     if sys.platform.startswith("linux") and os.geteuid() == 0:
         cmd.append("--allow-root")
     log_path = tmp_path / "jupyter.log"
-    lab = Lab(port, work, base_url=base_url)
+    lab = Lab(port, work, base_url=base_url, host=host)
     with open(log_path, "w") as log:
         proc = subprocess.Popen(cmd, cwd=work, stdout=log, stderr=subprocess.STDOUT, env=env)
         try:
@@ -736,6 +742,11 @@ def reach_only(context: Any, origin: str) -> list[str]:
     return refused
 
 
+def host_resolver_args(name: str) -> tuple[str, ...]:
+    """Chromium's arguments that make host ``name`` resolve to 127.0.0.1 (a remote machine's name, played here)."""
+    return (f"--host-resolver-rules=MAP {name} 127.0.0.1",)
+
+
 def quickstart_through_one_address(pw: Any, lab: Lab, trace: Path, tmp_path: Path, name: str,
                                    before: Callable[[Any], None] | None = None) -> dict[str, Any]:  # fmt: skip
     """The quickstart's drag (:func:`quickstart_drag`) in a browser that reaches ``lab.origin`` only
@@ -745,7 +756,8 @@ def quickstart_through_one_address(pw: Any, lab: Lab, trace: Path, tmp_path: Pat
     ``test-artifacts/<name>_after_drag.png`` (``<name>_failure.png``), the metrics under ``name``."""
     metrics: dict[str, Any] = {}
     ARTIFACTS.mkdir(exist_ok=True)
-    context = launch_browser(pw, tmp_path / "profile", width=1400, height=1000)
+    names = host_resolver_args(lab.host) if lab.host != "127.0.0.1" else ()
+    context = launch_browser(pw, tmp_path / "profile", width=1400, height=1000, args=names)
     refused = reach_only(context, lab.origin)
     page = context.new_page()
     try:

@@ -3,10 +3,15 @@
 JupyterLab runs under a base URL (``/lab-here/``) on 127.0.0.1, and headless Chromium may reach Lab's address
 only (every other request and WebSocket is refused, as for a browser that reaches a lab machine through an SSH
 tunnel, Docker's ``-p 8888:8888`` or VS Code's port forwarding): the kernel's trame server listens on a port
-the browser cannot reach. The quickstart notebook runs unmodified; its editor's iframe must find the page
-through ``/lab-here/proxy/<port>/`` (jupyter-server-proxy) by itself, and a drag of a control point must
-reach the kernel (checked from the kernel's side, as in test_jupyter_browser.py). The time from the iframe
-entering the page to its first image goes to ``test-artifacts/browser_metrics.json``.
+the browser cannot reach. The browser knows Lab by a name, ``lab-machine.test`` (resolved to 127.0.0.1 by
+Chromium itself), as a remote Jupyter: the Host the view's server gets through Jupyter's proxy is then not a
+loopback one, which only the forwarded-Host rule admits (:mod:`ffd_notebook.view.serving.web_security`); a
+tunnel's ``localhost`` passes more easily.
+
+The quickstart notebook runs unmodified; its editor's iframe must find the page through
+``/lab-here/proxy/<port>/`` (jupyter-server-proxy) by itself, and a drag of a control point must reach the
+kernel (checked from the kernel's side, as in test_jupyter_browser.py). The time from the iframe entering the
+page to its first image goes to ``test-artifacts/browser_metrics.json``.
 
 Without jupyter-server-proxy in the Jupyter server the view falls back to the kernel's own port, which a
 browser on the kernel's machine reaches (as before this route existed).
@@ -36,6 +41,7 @@ from playwright.sync_api import sync_playwright
 pytestmark = [pytest.mark.browser, pytest.mark.slow]
 
 BASE_URL = "/lab-here/"
+NAME = "lab-machine.test"  # the name the browser reaches Lab by
 
 
 @pytest.fixture(scope="module")
@@ -46,7 +52,9 @@ def lab(tmp_path_factory: pytest.TempPathFactory):
     work.mkdir()
     copy_notebook(QUICKSTART, work)
     trace = tmp / "trace.jsonl"
-    with start_lab(tmp, work, trace, base_url=BASE_URL) as running:
+    # Jupyter itself refuses a Host that is not its own unless it may be reached remotely
+    options = ("--ServerApp.allow_remote_access=True",)
+    with start_lab(tmp, work, trace, base_url=BASE_URL, options=options, host=NAME) as running:
         yield running, trace
 
 
