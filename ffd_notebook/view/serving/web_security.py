@@ -26,7 +26,7 @@ Host (``AccessPolicy(forwarded=True)``); the standalone app, reached directly, d
 ``pyvista.global_theme.trame.server_proxy_enabled`` (set by JupyterHub's environment) any Host is
 accepted, under the same two conditions.
 
-Every page of the server carries the header :data:`SERVER_ID_HEADER`: a public fingerprint of the
+The page (``index.html``) carries the header :data:`SERVER_ID_HEADER`: a public fingerprint of the
 token (:attr:`AccessPolicy.server_id`), by which the notebook's view checks that an address answers
 with *this* server before it sends the token there (:mod:`.jupyter`). The reload cookie (see
 :func:`_guard_middleware`) is scoped to the page's own folder as the browser sees it: through
