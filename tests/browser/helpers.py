@@ -673,6 +673,15 @@ QUICKSTART_SHAPE = (5, 5, 5)  # the editor's lattice at the end of the quickstar
 QUICKSTART_LAST_FILE = "face_deformed.obj"  # what the notebook's last cell writes
 
 
+def quickstart_folder(tmp: Path) -> tuple[Path, Path]:
+    """``(work, trace)``: a folder ``tmp/work`` holding a fresh copy of the quickstart notebook, and the drag
+    trace's path beside it."""
+    work = tmp / "work"
+    work.mkdir()
+    copy_notebook(QUICKSTART, work)
+    return work, tmp / "trace.jsonl"
+
+
 def copy_notebook(name: str, work: Path) -> None:
     """Copy ``notebooks/<name>`` into ``work`` with its outputs cleared, as a user would open it first."""
     import nbformat

@@ -19,10 +19,9 @@ import numpy as np
 import pytest
 from browser.helpers import (
     ARTIFACTS,
-    QUICKSTART,
-    copy_notebook,
     launch_browser,
     quickstart_drag,
+    quickstart_folder,
     record_metrics,
     start_lab,
     wait_for,
@@ -35,10 +34,7 @@ pytestmark = [pytest.mark.browser, pytest.mark.slow]
 @pytest.fixture
 def lab(tmp_path: Path):
     """JupyterLab serving a copy of the quickstart notebook (outputs cleared); yields (Lab, trace path)."""
-    work = tmp_path / "work"
-    work.mkdir()
-    copy_notebook(QUICKSTART, work)
-    trace = tmp_path / "trace.jsonl"
+    work, trace = quickstart_folder(tmp_path)
     with start_lab(tmp_path, work, trace) as running:
         yield running, trace
 

@@ -27,10 +27,9 @@ import nbformat
 import pytest
 from browser.helpers import (
     ARTIFACTS,
-    QUICKSTART,
     Lab,
-    copy_notebook,
     launch_browser,
+    quickstart_folder,
     quickstart_through_one_address,
     record_metrics,
     start_lab,
@@ -48,10 +47,7 @@ NAME = "lab-machine.test"  # the name the browser reaches Lab by
 def lab(tmp_path_factory: pytest.TempPathFactory):
     """JupyterLab under :data:`BASE_URL` serving a copy of the quickstart notebook; yields (Lab, trace path)."""
     tmp = tmp_path_factory.mktemp("one_port_lab")
-    work = tmp / "work"
-    work.mkdir()
-    copy_notebook(QUICKSTART, work)
-    trace = tmp / "trace.jsonl"
+    work, trace = quickstart_folder(tmp)
     # Jupyter itself refuses a Host that is not its own unless it may be reached remotely
     options = ("--ServerApp.allow_remote_access=True",)
     with start_lab(tmp, work, trace, base_url=BASE_URL, options=options, host=NAME) as running:

@@ -16,7 +16,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
-from browser.helpers import QUICKSTART, Lab, copy_notebook, quickstart_through_one_address
+from browser.helpers import Lab, quickstart_folder, quickstart_through_one_address
 from browser.hub import USER, Hub, log_in, start_hub
 from playwright.sync_api import sync_playwright
 
@@ -27,10 +27,7 @@ pytestmark = [pytest.mark.browser, pytest.mark.slow]
 def hub(tmp_path_factory: pytest.TempPathFactory):
     """A hub whose user's server serves a copy of the quickstart notebook; yields (Hub, the user's Lab, trace)."""
     tmp = tmp_path_factory.mktemp("hub")
-    work = tmp / "work"
-    work.mkdir()
-    copy_notebook(QUICKSTART, work)
-    trace = tmp / "trace.jsonl"
+    work, trace = quickstart_folder(tmp)
     with start_hub(tmp, work, trace) as running:
         yield running, running.user_lab(work), trace
 
