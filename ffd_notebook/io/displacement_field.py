@@ -21,12 +21,11 @@ from numpy.typing import ArrayLike, NDArray
 
 from .._util.points import as_points
 from ..errors import FileFormatError
-from ..ffd.deform import FFD
+from ..ffd.grid import GridEvaluator
 from ..images.geometry import ImageGrid
 from ..images.reference import reference_grid
 from ._atomic import atomic_path
 from ._safety import check_regular_file
-from .tensor_grid import apply_along, axis_weights
 
 __all__ = [
     "FIELD_SUFFIXES",
@@ -302,11 +301,21 @@ def _first_line(exc: BaseException) -> str:
     return lines[-1][:200] if lines else type(exc).__name__
 
 
-def _deformer(deformation: Any) -> Callable[[NDArray[np.float64]], NDArray[np.float64]]:
-    if hasattr(deformation, "deform"):
-        return deformation.deform
-    if callable(deformation):
+class _Callable:
+    """A callable on ``(N, 3)`` points as a deformation (``deform``)."""
+
+    def __init__(self, function: Callable[[NDArray[np.float64]], Any]) -> None:
+        self.function = function
+
+    def deform(self, points: NDArray[np.float64]) -> Any:
+        return self.function(points)
+
+
+def _as_deformation(deformation: Any) -> Any:
+    if callable(getattr(deformation, "deform", None)):
         return deformation
+    if callable(deformation):
+        return _Callable(deformation)
     raise TypeError(f"expected a deformation (an object with deform(points), or a callable), got "
                     f"{type(deformation).__name__}")  # fmt: skip
 
@@ -316,16 +325,18 @@ def sample_displacement_field(deformation: Any, reference: Any) -> DisplacementF
 
     ``deformation`` is anything with ``deform(points)`` (an :class:`~ffd_notebook.FFD`, an
     :class:`~ffd_notebook.io.ElastixTransform`, a field) or a callable on ``(N, 3)`` points;
-    ``reference`` an image file, a SimpleITK image, a :class:`DisplacementField` or a mapping
-    ``{"size": (nx, ny, nz), "spacing": ..., "origin": ..., "direction": ...}``.
+    ``reference`` anything :func:`~ffd_notebook.images.reference_grid` reads. It is evaluated by the
+    engine's one evaluator on a grid (:class:`~ffd_notebook.ffd.grid.GridEvaluator`): separably for an
+    FFD whose lattice runs along the grid, with every option of the FFD (an FFD's per-point weights
+    are then one per voxel, in array order), point by point otherwise.
 
     Parameters
     ----------
     deformation : FFD, ElastixTransform, DisplacementField or callable
         What moves points (a callable maps ``(N, 3)`` points to moved points).
-    reference : image, DisplacementField or mapping
-        The grid: a SimpleITK image or image file, a field, or a mapping with ``size`` and optionally
-        ``spacing``, ``origin``, ``direction``.
+    reference : ImageGrid, image, image file, DisplacementField or mapping
+        The grid: anything :func:`~ffd_notebook.images.reference_grid` reads (a mapping with ``size`` and
+        optionally ``spacing``, ``origin``, ``direction``).
 
     Returns
     -------
@@ -339,59 +350,22 @@ def sample_displacement_field(deformation: Any, reference: Any) -> DisplacementF
     >>> field = sample_displacement_field(FFD(lat), {"size": (2, 2, 2)})
     >>> field.vectors[1, 1, 1].round(12).tolist()
     [0.5, 0.0, 0.0]
+    >>> sample_displacement_field(FFD(lat, strength=0.5), {"size": (2, 2, 2)}).vectors[1, 1, 1].round(12).tolist()
+    [0.25, 0.0, 0.0]
     """
     grid = reference_grid(reference)
     if grid.dim != 3:
         raise ValueError(f"a displacement field needs a 3D reference grid, got a {grid.dim}D one")
     if int(np.prod(grid.size)) > _MAX_VOXELS:
         raise ValueError(f"a reference grid of {grid.size} voxels: expected at most {_MAX_VOXELS} voxels")
-    fast = _aligned_ffd(deformation, grid)
-    if fast is not None:
-        return DisplacementField(fast, grid.spacing, grid.origin, grid.direction)
-    deform = _deformer(deformation)
-    nx, ny, nz = grid.size
-    placement = grid.index_to_physical()[:3, :3]
+    evaluator = GridEvaluator(_as_deformation(deformation), grid.index_to_physical(), grid.shape)
+    nz, ny, nx = grid.shape
     vectors = np.empty((nz, ny, nx, 3))
     per_slab = max(1, _SLAB_POINTS // (ny * nx))
-    ji = np.stack(np.meshgrid(np.arange(ny, dtype=np.float64), np.arange(nx, dtype=np.float64), indexing="ij"), -1)
-    plane = ji[..., ::-1].reshape(-1, 2) @ placement[:, :2].T + grid.origin  # the voxel centres of the k = 0 layer
     for start in range(0, nz, per_slab):
         stop = min(nz, start + per_slab)
-        layers = np.arange(start, stop, dtype=np.float64)[:, None, None] * placement[:, 2]
-        points = (plane[None] + layers).reshape(-1, 3)
-        moved = np.asarray(deform(points), dtype=np.float64)
-        vectors[start:stop] = (moved - points).reshape(stop - start, ny, nx, 3)
+        vectors[start:stop] = np.moveaxis(evaluator.displacements(start, stop), 0, -1)
     return DisplacementField(vectors, grid.spacing, grid.origin, grid.direction)
-
-
-def _aligned_ffd(deformation: Any, grid: ImageGrid) -> NDArray | None:
-    """An FFD's displacement on a grid along its lattice axes, axis by axis (see :mod:`.tensor_grid`), or ``None``.
-
-    Returns the ``(nz, ny, nx, 3)`` vectors (array order)."""
-    if not isinstance(deformation, FFD) or deformation.basis != "bspline" or deformation.border != "zero":
-        return None
-    lat = deformation.lattice
-    if not np.allclose(grid.direction, lat.rotation, rtol=0, atol=1e-12):
-        return None
-    size = grid.size
-    start = lat.to_lattice(grid.origin[None])[0]
-    step = (np.diag(lat.rotation.T @ grid.direction) * grid.spacing) / lat.spacing
-    local = lat.offsets  # (i, j, k) order, as the lattice's
-    for axis in range(3):
-        u = start[axis] + np.arange(size[axis]) * step[axis]
-        weights = axis_weights(u, lat.shape[axis])
-        if deformation.only_inside:  # the domain is a box: a sample outside it on any axis gets nothing
-            weights[(u < 1.0) | (u > lat.shape[axis] - 2.0)] = 0.0
-        local = apply_along(weights, local, axis)
-    linear = deformation.affine[:3, :3] - np.eye(3)
-    if linear.any() or deformation.affine[:3, 3].any():
-        placement = grid.direction * grid.spacing
-        local = local + (linear @ grid.origin + deformation.affine[:3, 3])
-        for axis in range(3):
-            shape = [1, 1, 1, 3]
-            shape[axis] = size[axis]
-            local += (np.arange(size[axis], dtype=np.float64)[:, None] * (linear @ placement[:, axis])).reshape(shape)
-    return np.ascontiguousarray(local.transpose(2, 1, 0, 3))
 
 
 # ---------------------------------------------------------------------------------------- files
