@@ -373,11 +373,12 @@ class GridEvaluator:
             moved = np.asarray(self.deformation.deform(points, weights=w.reshape(-1)), dtype=np.float64)
         if moved.shape != points.shape:
             raise ValueError(f"deformation.deform returned shape {moved.shape} for {points.shape} points")
-        if displacement:
-            values = (moved - points).T
-        else:
-            values = self.output[:3, :3] @ moved.T
-            values += self.output[:3, 3, None]
+        with np.errstate(invalid="ignore", over="ignore"):  # a deformation's NaN or inf is its own (images: outside)
+            if displacement:
+                values = (moved - points).T
+            else:
+                values = self.output[:3, :3] @ moved.T
+                values += self.output[:3, 3, None]
         return np.ascontiguousarray(values[components]).reshape(len(components), stop - start, *self.shape[1:])
 
     def _separable(

@@ -6,7 +6,8 @@ what ``sitk.DisplacementFieldTransform``, ANTs and nitransforms read. Between vo
 :class:`DisplacementField` interpolates linearly as ITK's ``VectorLinearInterpolateImageFunction``
 does (the neighbours clamped to the grid), inside the buffer's half-voxel margin
 (``-0.5 <= index < n - 0.5`` on every axis, ``ImageFunction::IsInsideBuffer``); a point outside it
-does not move (``DisplacementFieldTransform::TransformPoint``).
+does not move (``DisplacementFieldTransform::TransformPoint``). That is the images' interpolator,
+:class:`~ffd_notebook.images.pixels.Interpolator` (linear, default value zero), reading the vectors.
 """
 
 from __future__ import annotations
@@ -23,6 +24,7 @@ from .._util.points import as_points
 from ..errors import FileFormatError
 from ..ffd.grid import GridEvaluator
 from ..images.geometry import ImageGrid
+from ..images.pixels import Interpolator
 from ..images.reference import reference_grid
 from ._atomic import atomic_path
 from ._safety import check_regular_file
@@ -101,6 +103,8 @@ class DisplacementField:
         self.vectors: NDArray[np.float64] = v
         self.grid: ImageGrid = grid
         self._to_index = grid.physical_to_index()[:3]
+        self._interpolator: Interpolator | None = None
+        self._interpolator_of: NDArray[np.float64] | None = None
 
     @classmethod
     def from_sitk(cls, image: Any) -> DisplacementField:
@@ -245,26 +249,16 @@ class DisplacementField:
         [[1.0, 0.0, 0.0]]
         """
         index = self.to_index(points)
-        dims = np.array(self.size, dtype=np.float64)
-        inside = np.all((index >= -0.5) & (index < dims - 0.5), axis=1)
-        out = np.zeros_like(index)
-        if not inside.any():
-            return out
-        c = np.clip(index[inside], 0.0, dims - 1.0)
-        base = np.minimum(np.floor(c), np.maximum(dims - 2.0, 0.0)).astype(np.int64)
-        t = c - base
-        upper = np.minimum(base + 1, np.array(self.size) - 1)
-        acc = np.zeros((len(c), 3))
-        for corner in range(8):
-            bits = [(corner >> a) & 1 for a in range(3)]
-            weight = np.ones(len(c))
-            ijk = []
-            for a, bit in enumerate(bits):
-                weight *= t[:, a] if bit else 1.0 - t[:, a]
-                ijk.append(upper[:, a] if bit else base[:, a])
-            acc += weight[:, None] * self.vectors[ijk[2], ijk[1], ijk[0]]
-        out[inside] = acc
+        out = np.empty_like(index)
+        self._reader().read(np.ascontiguousarray(index.T[::-1]), out=out)  # array order (k, j, i)
         return out
+
+    def _reader(self) -> Interpolator:
+        """The images' linear interpolator on the vectors (made again if ``vectors`` was replaced)."""
+        if self._interpolator is None or self._interpolator_of is not self.vectors:
+            self._interpolator = Interpolator(self.vectors, self.grid, "linear", 0.0)
+            self._interpolator_of = self.vectors
+        return self._interpolator
 
     def deform(self, points: ArrayLike) -> NDArray[np.float64]:
         """Where the field takes ``(N, 3)`` points: ``x + displacement(x)``.
