@@ -22,7 +22,6 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
-from .._util.blas import one_blas_thread
 from .pixels import Interpolator, as_pixels, check_image_interpolation
 from .reference import reference_grid
 from .sample import Deformation, IndexSampler, slab_rows
@@ -107,8 +106,7 @@ def warp_image(
     step = slab_rows(grid)
     for start in range(0, grid.shape[0], step):
         stop = min(start + step, grid.shape[0])
-        with one_blas_thread():  # small products: a second BLAS thread waiting for a busy core costs 10x
-            index = sampler.rows(start, stop)
+        index = sampler.rows(start, stop)  # on this thread: the evaluator's products stay below BLAS's threading
         reader.read(index, out=out[start:stop])
     if sitk_image is None:
         return out
