@@ -80,7 +80,7 @@ def test_nested_and_many_threads():
                     with one_blas_thread():
                         assert set(blas_threads()) == {1}
                         np.linalg.svd(rng.random((30, 20)))
-            except BaseException as exc:  # noqa: BLE001 - reported by the main thread
+            except BaseException as exc:  # reported by the main thread
                 errors.append(exc)
 
         threads = [threading.Thread(target=work, args=(i,)) for i in range(8)]
