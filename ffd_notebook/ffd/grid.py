@@ -326,6 +326,16 @@ class GridEvaluator:
     def slab_index(self, start: int, stop: int) -> NDArray[np.float64]:
         """``(4, n)`` homogeneous indices ``(i, j, k, 1)`` of array rows ``start:stop``, in C order.
 
+        Parameters
+        ----------
+        start, stop : int
+            Rows of the grid's first (slowest) array axis.
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(4, n)`` float64, ``n`` the voxels of those rows, ``i`` fastest.
+
         Examples
         --------
         >>> GridEvaluator(FFD(Lattice((4, 4, 4), 1.0)), np.eye(4), (2, 3)).slab_index(1, 2)[:2].tolist()
@@ -341,15 +351,52 @@ class GridEvaluator:
         return index
 
     def points(self, start: int, stop: int, *, components: Sequence[int] = (0, 1, 2)) -> NDArray[np.float64]:
-        """``output @ T(x)`` for the voxels of array rows ``start:stop``: ``(len(components), stop - start, ...)``.
+        """``output @ T(x)`` for the voxels of array rows ``start:stop``.
 
-        ``components`` picks the rows of the result and their order: ``(2, 1, 0)`` gives an
-        input image's indices in array order ``(k, j, i)``, ready for ``scipy.ndimage.map_coordinates``.
+        Parameters
+        ----------
+        start, stop : int
+            Rows of the grid's first (slowest) array axis.
+        components : sequence of int
+            The rows of the result and their order: ``(2, 1, 0)`` gives an input image's indices in
+            array order ``(k, j, i)``, ready for ``scipy.ndimage.map_coordinates``.
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(len(components), stop - start, *shape[1:])`` float64.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from ffd_notebook import FFD, Lattice
+        >>> lat = Lattice((4, 4, 4), 1.0, origin=(-1.0, -1.0, -1.0)); lat.offsets[...] = (0.0, 0.0, 2.0)
+        >>> GridEvaluator(FFD(lat), np.eye(4), (1, 1, 2)).points(0, 1).round(12).tolist()
+        [[[[0.0, 1.0]]], [[[0.0, 0.0]]], [[[2.0, 2.0]]]]
         """
         return self._evaluate(start, stop, list(components), displacement=False)
 
     def displacements(self, start: int, stop: int) -> NDArray[np.float64]:
-        """``T(x) - x`` (physical) for the voxels of array rows ``start:stop``: ``(3, stop - start, ...)``."""
+        """``T(x) - x`` (physical) for the voxels of array rows ``start:stop``.
+
+        Parameters
+        ----------
+        start, stop : int
+            Rows of the grid's first (slowest) array axis.
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(3, stop - start, *shape[1:])`` float64 displacements.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from ffd_notebook import FFD, Lattice
+        >>> lat = Lattice((4, 4, 4), 1.0, origin=(-1.0, -1.0, -1.0)); lat.offsets[...] = (0.0, 0.0, 2.0)
+        >>> GridEvaluator(FFD(lat, strength=0.5), np.eye(4), (2, 2)).displacements(0, 2)[2].round(12).tolist()
+        [[1.0, 1.0], [1.0, 1.0]]
+        """
         return self._evaluate(start, stop, [0, 1, 2], displacement=True)
 
     def _evaluate(self, start: int, stop: int, components: list[int], displacement: bool) -> NDArray[np.float64]:
@@ -427,8 +474,12 @@ class GridEvaluator:
         runs on its caller's thread and needs no process-wide limit on BLAS threads.
         """
         _, w_j, w_k = plan.mats
+        w_i = plan.w_i
+        if w_i.shape[1] == 1:  # one voxel along i (a slice across it): contract x first, into the offsets
+            offsets = np.tensordot(plan.mats[0][0], offsets, axes=(0, 0))[None]
+            w_i = np.array([[1.0], [0.0], [1.0]])  # its weight 1, then the columns of i (= 0) and 1
         n_i, n_j, n_k, m = offsets.shape
-        # z first: (rows_k, n_k) @ (n_k, n_i n_j m), then y per k row: (J, n_j) @ (n_j, n_i m)
+        # z first: (rows_k, n_k) @ (n_k, n_j n_i m), then y: (rows_j, n_j) @ (n_j, rows_k n_i m)
         by_z = np.ascontiguousarray(offsets.transpose(2, 1, 0, 3)).reshape(n_k, n_j * n_i * m)
         if len(self.shape) == 3:
             ks = np.arange(start, stop, dtype=np.float64)
@@ -439,20 +490,18 @@ class GridEvaluator:
             js = np.arange(start, stop, dtype=np.float64)
             w_rows, w_ys = w_k[:1], w_j[start:stop]
         q = _product(w_rows, by_z).reshape(len(ks), n_j, n_i * m)
-        r = np.empty((len(ks), len(js), n_i * m))
-        for row in range(len(ks)):
-            _product(w_ys, q[row], out=r[row])
+        r = _product(w_ys, np.ascontiguousarray(q.transpose(1, 0, 2)).reshape(n_j, -1))  # (rows_j, rows_k n_i m)
         # (m, rows_k, rows_j, n_i + 2): the x weights' coefficients, then those of i and 1 (the affine part)
         augmented = np.empty((m, len(ks), len(js), n_i + 2))
-        augmented[..., :n_i] = r.reshape(len(ks), len(js), n_i, m).transpose(3, 0, 1, 2)
+        augmented[..., :n_i] = r.reshape(len(js), len(ks), n_i, m).transpose(3, 1, 0, 2)
         augmented[..., n_i] = linear[:, 0, None, None]
         rest = augmented[..., n_i + 1]
         rest[...] = constant[:, None, None]
         rest += linear[:, 1, None, None] * js[None, None, :]
         rest += linear[:, 2, None, None] * ks[None, :, None]
-        out = np.empty((m, len(ks) * len(js), plan.w_i.shape[1]))
+        out = np.empty((m, len(ks) * len(js), w_i.shape[1]))
         for c in range(m):
-            _product(augmented[c].reshape(-1, n_i + 2), plan.w_i, out=out[c])
+            _product(augmented[c].reshape(-1, n_i + 2), w_i, out=out[c])
         return out.reshape(m, stop - start, *self.shape[1:])
 
 

@@ -140,8 +140,8 @@ class Interpolator:
             inside &= index[axis] >= -0.5
             inside &= index[axis] < self._upper[axis]
         outside = ~inside
-        if not (np.abs(index) < _HUGE).all():  # NaN, infinite or beyond an integer index: read voxel 0 there instead
-            index = np.where(inside, index, 0.0)
+        if outside.any() and not (np.abs(index[:, outside]) < _HUGE).all():
+            index = np.where(inside, index, 0.0)  # NaN, infinite or beyond an integer: read voxel 0 there instead
         for c, values in enumerate(self._components):
             target = out[..., c] if self.component_shape else out
             kwargs = {"order": self.order, "mode": self._mode, "prefilter": False}

@@ -230,7 +230,17 @@ class WarpedSlices:
         self._bind(axis)
 
     def moved(self, axis: int) -> NDArray[np.float64]:
-        """``T(x)`` at the slice's voxel centres as last evaluated, ``(N, 3)`` in :meth:`slice_points`' order.
+        """``T(x)`` at the slice's voxel centres as last evaluated.
+
+        Parameters
+        ----------
+        axis : int
+            0, 1 or 2 (``i``, ``j``, ``k``); 2 for a 2D image's one slice.
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(N, 3)`` physical points in :meth:`slice_points`' order (the slices' own buffer: copy to keep).
 
         Examples
         --------
