@@ -11,7 +11,8 @@ points they reach). Either way only the slice pixels whose ``T(x)`` changed are 
 the image, so the work of a drag is proportional to the moved control point's reach, not to the image.
 
 An FFD's per-point weights are one per voxel of the image (array order), each slice taking its
-voxels' share (:func:`~ffd_notebook.ffd.grid.grid_weights`); they are read when a slice is bound.
+voxels' share (:func:`~ffd_notebook.ffd.grid.grid_weights`); they are read when a slice is bound, and
+again by :meth:`WarpedSlices.update` when the FFD's weights are another array.
 """
 
 from __future__ import annotations
@@ -114,6 +115,7 @@ class WarpedSlices:
         self.values: dict[int, NDArray] = {}
         self._evaluators: dict[int, Any] = {}  # per slice: a GridEvaluator (separable) or a Deformer
         self._moved: dict[int, NDArray[np.float64]] = {}
+        self._weights_of: Any = None  # the FFD's weights the slices were bound with
         for axis in self.axes:
             self._bind(axis)
 
@@ -267,6 +269,7 @@ class WarpedSlices:
         return placement, tuple(shape)
 
     def _slice_weights(self, axis: int) -> NDArray[np.float64] | None:
+        self._weights_of = self.ffd.weights
         weights = grid_weights(self.ffd.weights, self.grid.shape)
         if weights is None or self.grid.dim == 2:
             return weights
@@ -334,9 +337,10 @@ class WarpedSlices:
         ({0: 0, 1: 0, 2: 16}, 100)
         """
         regions = {}
+        rebind = self.ffd.weights is not self._weights_of  # other voxel weights: every slice takes its share again
         for axis in self.axes:
             evaluator = self._evaluators[axis]
-            if isinstance(evaluator, GridEvaluator) and not evaluator.separable:  # turned since: bind the plain one
+            if rebind or isinstance(evaluator, GridEvaluator) and not evaluator.separable:  # or turned: the plain one
                 self._bind(axis)
                 regions[axis] = np.ones(self.values[axis].shape[:2], dtype=bool)
                 continue

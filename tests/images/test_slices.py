@@ -98,3 +98,23 @@ def test_rgb_photo_has_one_slice():
     np.testing.assert_array_equal(slices.values[2], warped)
     with pytest.raises(ValueError, match="no slice across axis 0"):
         slices.set_position(0, 3)
+
+
+@pytest.mark.parametrize("aligned", [False, True], ids=["deformer", "grid-evaluator"])
+def test_voxel_weights_reach_every_slice_as_warp_image(aligned):
+    """An FFD's weights on an image are one per voxel: each slice shows its voxels' share, set before or after."""
+    rng = np.random.default_rng(23)
+    grid = awkward_grid((16, 14, 12))
+    array = smooth_volume(grid.shape, rng)
+    ffd = lattice_over(grid, (6, 6, 6), scale=2.0, rng=rng, aligned=aligned)
+    geometry = {"spacing": grid.spacing, "origin": grid.origin, "direction": grid.direction}
+    slices = WarpedSlices(array, ffd, positions=(5, 6, 7), **geometry)
+    ffd.weights = rng.random(array.size)  # set after binding: the next update takes them
+    assert all(region.all() for region in slices.update([(2, 2, 2)]).values())
+    expected = full_slices(array, ffd, grid, slices.positions)
+    unweighted = full_slices(array, FFD(ffd.lattice), grid, slices.positions)
+    for axis in range(3):
+        np.testing.assert_allclose(slices.values[axis], expected[axis], atol=1e-5 * np.ptp(array), rtol=0)
+        assert np.abs(slices.values[axis] - unweighted[axis]).max() > 1.0
+    with pytest.raises(ValueError, match="one per voxel"):
+        WarpedSlices(array, FFD(ffd.lattice, weights=np.ones(10)), **geometry)
