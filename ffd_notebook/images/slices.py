@@ -340,7 +340,7 @@ class WarpedSlices:
         rebind = self.ffd.weights is not self._weights_of  # other voxel weights: every slice takes its share again
         for axis in self.axes:
             evaluator = self._evaluators[axis]
-            if rebind or isinstance(evaluator, GridEvaluator) and not evaluator.separable:  # or turned: the plain one
+            if rebind or (isinstance(evaluator, GridEvaluator) and not evaluator.separable):  # or turned: the plain one
                 self._bind(axis)
                 regions[axis] = np.ones(self.values[axis].shape[:2], dtype=bool)
                 continue
