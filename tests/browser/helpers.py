@@ -18,6 +18,7 @@ import contextlib
 import json
 import math
 import os
+import re
 import shutil
 import socket
 import statistics
@@ -106,6 +107,28 @@ def stop_process(proc: subprocess.Popen, grace_s: float = 15.0) -> None:
     except subprocess.TimeoutExpired:
         proc.kill()
         proc.wait(5)
+
+
+@contextlib.contextmanager
+def app_server(args: list[str], cwd: Path, timeout: float = 90) -> Iterator[str]:
+    """``python ARGS`` (``["-m", "ffd_notebook", "--port", P, ...]`` or ``serve_instrumented_app.py``) run in ``cwd``,
+    its output in ``cwd/app.log``; yields the URL it prints once listening (with its token); stopped on exit."""
+    log_path = Path(cwd) / "app.log"
+    with open(log_path, "w") as log:
+        proc = subprocess.Popen(
+            [sys.executable, *args], cwd=cwd, stdout=log, stderr=subprocess.STDOUT, env=server_env()
+        )
+        try:
+
+            def started() -> str | None:
+                if proc.poll() is not None:
+                    raise RuntimeError(f"the app exited with {proc.returncode}:\n{log_path.read_text()}")
+                found = re.search(r"running at (http://\S+)", log_path.read_text())
+                return found.group(1) if found else None
+
+            yield wait_for(started, timeout, "the app to print its URL")
+        finally:
+            stop_process(proc)
 
 
 def read_jsonl(path: str | os.PathLike[str]) -> list[dict[str, Any]]:
@@ -402,6 +425,114 @@ def record_metrics(name: str, metrics: dict[str, Any]) -> None:
     everything[name] = metrics
     METRICS_FILE.write_text(json.dumps(everything, indent=1))
     print(f"\n[{name}] browser metrics:\n{json.dumps(metrics, indent=1)}")
+
+
+# ---------------------------------------------------------------------- a panel that fits
+# Every visible piece of text in ``root`` (a CSS selector): its width must lie within every element that holds it,
+# up to ``root`` itself (a select's value cut to "bsp…", a button's text wider than the button, a label past the
+# panel's edge); an input's value must fit its box; no two texts may cover each other (a slider's value bubble
+# over the select above it). Returns one record per problem.
+PANEL_FIT_JS = r"""
+(root) => {
+  const panel = document.querySelector(root);
+  if (!panel) return [{problem: 'no element ' + root}];
+  const problems = [];
+  const shown = (el) => {
+    for (let e = el; e; e = e.parentElement) {
+      const s = getComputedStyle(e);
+      if (s.display === 'none' || s.visibility === 'hidden' || s.opacity === '0') return false;
+      if (e === panel) break;
+    }
+    const r = el.getBoundingClientRect();
+    return r.width > 0 && r.height > 0;
+  };
+  const name = (el) => {
+    const holder = el.closest('[id]');
+    return (holder ? '#' + holder.id + ' ' : '') + el.tagName.toLowerCase() +
+      [...el.classList].slice(0, 3).map((c) => '.' + c).join('');
+  };
+  const px = (r) => [Math.round(r.left), Math.round(r.right), Math.round(r.top), Math.round(r.bottom)];
+  const texts = [];
+  const walker = document.createTreeWalker(panel, NodeFilter.SHOW_TEXT);
+  while (walker.nextNode()) {
+    const node = walker.currentNode;
+    const text = node.textContent.trim();
+    const el = node.parentElement;
+    // (a box the user scrolls on purpose, e.g. lines of code, is marked .ffd-scroll: its lines may be wider)
+    if (!text || !shown(el) || el.closest('.ffd-scroll')) continue;
+    const range = document.createRange();
+    range.selectNodeContents(node);
+    const r = range.getBoundingClientRect();
+    if (r.width === 0) continue;
+    for (let box = el; box; box = box.parentElement) {
+      const b = box.getBoundingClientRect();
+      if (r.left < b.left - 1 || r.right > b.right + 1) {
+        problems.push({problem: 'text wider than its box', text, box: name(box), text_px: px(r), box_px: px(b)});
+        break;
+      }
+      if (box === panel) break;
+    }
+    // the part of it in sight: inside every ancestor that clips (a scrolled-away text covers nothing)
+    let seen = {left: r.left, right: r.right, top: r.top, bottom: r.bottom};
+    for (let box = el.parentElement; box; box = box.parentElement) {
+      if (getComputedStyle(box).overflow !== 'visible') {
+        const b = box.getBoundingClientRect();
+        seen = {left: Math.max(seen.left, b.left), right: Math.min(seen.right, b.right),
+                top: Math.max(seen.top, b.top), bottom: Math.min(seen.bottom, b.bottom)};
+      }
+      if (box === panel) break;
+    }
+    if (seen.right - seen.left > 1 && seen.bottom - seen.top > 1) texts.push({text, r: seen, el});
+  }
+  // (a path the user types longer than its field scrolls in it, as in any text field: the app's are .ffd-text)
+  for (const input of panel.querySelectorAll('input')) {
+    if (!shown(input) || input.readOnly || input.closest('.ffd-text')) continue;
+    if (['checkbox', 'radio', 'file', 'hidden', 'range'].includes(input.type)) continue;
+    if (input.scrollWidth > input.clientWidth + 1) {
+      problems.push({problem: 'value wider than its field', text: input.value, box: name(input),
+                     value_px: input.scrollWidth, box_px: input.clientWidth});
+    }
+  }
+  // a native select (the notebook's dropdowns) shows its option's text in its content box
+  const canvas = document.createElement('canvas').getContext('2d');
+  for (const select of panel.querySelectorAll('select')) {
+    const option = select.options[select.selectedIndex];
+    if (!shown(select) || !option) continue;
+    const style = getComputedStyle(select);
+    canvas.font = `${style.fontWeight} ${style.fontSize} ${style.fontFamily}`;
+    const room = select.clientWidth - parseFloat(style.paddingLeft) - parseFloat(style.paddingRight);
+    if (canvas.measureText(option.text).width > room + 1) {
+      problems.push({problem: 'choice wider than its field', text: option.text, box: name(select),
+                     value_px: canvas.measureText(option.text).width, box_px: room});
+    }
+  }
+  for (let i = 0; i < texts.length; i++) {
+    for (let j = i + 1; j < texts.length; j++) {
+      const a = texts[i].r, b = texts[j].r;
+      const w = Math.min(a.right, b.right) - Math.max(a.left, b.left);
+      const h = Math.min(a.bottom, b.bottom) - Math.max(a.top, b.top);
+      if (w > 1 && h > 1) {
+        problems.push({problem: 'texts cover each other', text: texts[i].text + ' / ' + texts[j].text,
+                       box: name(texts[i].el) + ' / ' + name(texts[j].el), px: [px(a), px(b)]});
+      }
+    }
+  }
+  return problems;
+}
+"""
+
+
+def cut_texts(frame: Any, root: str) -> list[dict[str, Any]]:
+    """What ``PANEL_FIT_JS`` finds wrong in the element ``root`` of ``frame`` (a page or an iframe): [] if all fits."""
+    return frame.evaluate(PANEL_FIT_JS, root)
+
+
+def open_panel_section(page: Any, section: str) -> None:
+    """Unfold the app panel's ``section`` ("Files", "Display"...) if it is folded."""
+    title = page.locator(f"#ffd-section-{section.lower().replace(' ', '-')} .v-expansion-panel-title")
+    if title.get_attribute("aria-expanded") != "true":
+        title.click()
+    wait_for(lambda: title.get_attribute("aria-expanded") == "true", 20, f"the {section} section to open")
 
 
 # ---------------------------------------------------------------------- JupyterLab
