@@ -24,7 +24,7 @@ zero, :func:`~.support.axis_in_domain`), per-point ``weights`` (:func:`grid_weig
 
 **Plain path.** Anything else (a lattice turned against the grid, any other deformation: an elastix
 chain, a displacement field) is evaluated point by point by its ``deform`` on each slab's voxel
-centres; :attr:`GridEvaluator.separable` says which path runs. ``tests/ffd/test_grid_hypothesis.py``
+centres; :attr:`GridEvaluator.separable` says which path runs. ``tests/test_grid.py``
 proves the separable path equal to ``FFD.deform`` point by point, and that the plain path is taken
 exactly where the separable one cannot hold.
 
@@ -211,7 +211,7 @@ def grid_weights(weights: Any, shape: Sequence[int]) -> NDArray[np.float64] | No
 
 
 class _Plan:
-    """What the separable path keeps between slabs: per-axis matrices and the coefficients of each output."""
+    """What the separable path keeps between calls: the per-axis matrices of one lattice placement and basis."""
 
     def __init__(self, ffd: FFD, axes: list[tuple[int, NDArray[np.float64]]], ffd_key: tuple) -> None:
         lat = ffd.lattice
@@ -219,10 +219,9 @@ class _Plan:
         # per grid axis g: (size_g, n_a) weights of the lattice axis a running along it
         self.mats = [axis_matrix(kinds[a], u, lat.shape[a], ffd.border, ffd.only_inside) for a, u in axes]
         self.order = [a for a, _ in axes]  # the lattice axes in grid order (i, j, k)
-        n_i = self.mats[0].shape[1]
         i = np.arange(self.mats[0].shape[0], dtype=np.float64)
+        # the x weights transposed, with two more rows: those of i and 1, for the part affine in the indices
         self.w_i = np.ascontiguousarray(np.column_stack([self.mats[0], i, np.ones_like(i)]).T)  # (n_i + 2, I)
-        self.n_i = n_i
         self.key = ffd_key
 
 
