@@ -6,7 +6,8 @@ what ``sitk.DisplacementFieldTransform``, ANTs and nitransforms read. Between vo
 :class:`DisplacementField` interpolates linearly as ITK's ``VectorLinearInterpolateImageFunction``
 does (the neighbours clamped to the grid), inside the buffer's half-voxel margin
 (``-0.5 <= index < n - 0.5`` on every axis, ``ImageFunction::IsInsideBuffer``); a point outside it
-does not move (``DisplacementFieldTransform::TransformPoint``).
+does not move (``DisplacementFieldTransform::TransformPoint``). That is the images' interpolator,
+:class:`~ffd_notebook.images.pixels.Interpolator` (linear, default value zero), reading the vectors.
 """
 
 from __future__ import annotations
@@ -21,12 +22,12 @@ from numpy.typing import ArrayLike, NDArray
 
 from .._util.points import as_points
 from ..errors import FileFormatError
-from ..ffd.deform import FFD
+from ..ffd.grid import GridEvaluator
 from ..images.geometry import ImageGrid
+from ..images.pixels import Interpolator
 from ..images.reference import reference_grid
 from ._atomic import atomic_path
 from ._safety import check_regular_file
-from .tensor_grid import apply_along, axis_weights
 
 __all__ = [
     "FIELD_SUFFIXES",
@@ -102,6 +103,8 @@ class DisplacementField:
         self.vectors: NDArray[np.float64] = v
         self.grid: ImageGrid = grid
         self._to_index = grid.physical_to_index()[:3]
+        self._interpolator: Interpolator | None = None
+        self._interpolator_of: NDArray[np.float64] | None = None
 
     @classmethod
     def from_sitk(cls, image: Any) -> DisplacementField:
@@ -246,26 +249,16 @@ class DisplacementField:
         [[1.0, 0.0, 0.0]]
         """
         index = self.to_index(points)
-        dims = np.array(self.size, dtype=np.float64)
-        inside = np.all((index >= -0.5) & (index < dims - 0.5), axis=1)
-        out = np.zeros_like(index)
-        if not inside.any():
-            return out
-        c = np.clip(index[inside], 0.0, dims - 1.0)
-        base = np.minimum(np.floor(c), np.maximum(dims - 2.0, 0.0)).astype(np.int64)
-        t = c - base
-        upper = np.minimum(base + 1, np.array(self.size) - 1)
-        acc = np.zeros((len(c), 3))
-        for corner in range(8):
-            bits = [(corner >> a) & 1 for a in range(3)]
-            weight = np.ones(len(c))
-            ijk = []
-            for a, bit in enumerate(bits):
-                weight *= t[:, a] if bit else 1.0 - t[:, a]
-                ijk.append(upper[:, a] if bit else base[:, a])
-            acc += weight[:, None] * self.vectors[ijk[2], ijk[1], ijk[0]]
-        out[inside] = acc
+        out = np.empty_like(index)
+        self._reader().read(np.ascontiguousarray(index.T[::-1]), out=out)  # array order (k, j, i)
         return out
+
+    def _reader(self) -> Interpolator:
+        """The images' linear interpolator on the vectors (made again if ``vectors`` was replaced)."""
+        if self._interpolator is None or self._interpolator_of is not self.vectors:
+            self._interpolator = Interpolator(self.vectors, self.grid, "linear", 0.0)
+            self._interpolator_of = self.vectors
+        return self._interpolator
 
     def deform(self, points: ArrayLike) -> NDArray[np.float64]:
         """Where the field takes ``(N, 3)`` points: ``x + displacement(x)``.
@@ -302,11 +295,21 @@ def _first_line(exc: BaseException) -> str:
     return lines[-1][:200] if lines else type(exc).__name__
 
 
-def _deformer(deformation: Any) -> Callable[[NDArray[np.float64]], NDArray[np.float64]]:
-    if hasattr(deformation, "deform"):
-        return deformation.deform
-    if callable(deformation):
+class _Callable:
+    """A callable on ``(N, 3)`` points as a deformation (``deform``)."""
+
+    def __init__(self, function: Callable[[NDArray[np.float64]], Any]) -> None:
+        self.function = function
+
+    def deform(self, points: NDArray[np.float64]) -> Any:
+        return self.function(points)
+
+
+def _as_deformation(deformation: Any) -> Any:
+    if callable(getattr(deformation, "deform", None)):
         return deformation
+    if callable(deformation):
+        return _Callable(deformation)
     raise TypeError(f"expected a deformation (an object with deform(points), or a callable), got "
                     f"{type(deformation).__name__}")  # fmt: skip
 
@@ -316,16 +319,18 @@ def sample_displacement_field(deformation: Any, reference: Any) -> DisplacementF
 
     ``deformation`` is anything with ``deform(points)`` (an :class:`~ffd_notebook.FFD`, an
     :class:`~ffd_notebook.io.ElastixTransform`, a field) or a callable on ``(N, 3)`` points;
-    ``reference`` an image file, a SimpleITK image, a :class:`DisplacementField` or a mapping
-    ``{"size": (nx, ny, nz), "spacing": ..., "origin": ..., "direction": ...}``.
+    ``reference`` anything :func:`~ffd_notebook.images.reference_grid` reads. It is evaluated by the
+    engine's one evaluator on a grid (:class:`~ffd_notebook.ffd.grid.GridEvaluator`): separably for an
+    FFD whose lattice runs along the grid, with every option of the FFD (an FFD's per-point weights
+    are then one per voxel, in array order), point by point otherwise.
 
     Parameters
     ----------
     deformation : FFD, ElastixTransform, DisplacementField or callable
         What moves points (a callable maps ``(N, 3)`` points to moved points).
-    reference : image, DisplacementField or mapping
-        The grid: a SimpleITK image or image file, a field, or a mapping with ``size`` and optionally
-        ``spacing``, ``origin``, ``direction``.
+    reference : ImageGrid, image, image file, DisplacementField or mapping
+        The grid: anything :func:`~ffd_notebook.images.reference_grid` reads (a mapping with ``size`` and
+        optionally ``spacing``, ``origin``, ``direction``).
 
     Returns
     -------
@@ -339,59 +344,22 @@ def sample_displacement_field(deformation: Any, reference: Any) -> DisplacementF
     >>> field = sample_displacement_field(FFD(lat), {"size": (2, 2, 2)})
     >>> field.vectors[1, 1, 1].round(12).tolist()
     [0.5, 0.0, 0.0]
+    >>> sample_displacement_field(FFD(lat, strength=0.5), {"size": (2, 2, 2)}).vectors[1, 1, 1].round(12).tolist()
+    [0.25, 0.0, 0.0]
     """
     grid = reference_grid(reference)
     if grid.dim != 3:
         raise ValueError(f"a displacement field needs a 3D reference grid, got a {grid.dim}D one")
     if int(np.prod(grid.size)) > _MAX_VOXELS:
         raise ValueError(f"a reference grid of {grid.size} voxels: expected at most {_MAX_VOXELS} voxels")
-    fast = _aligned_ffd(deformation, grid)
-    if fast is not None:
-        return DisplacementField(fast, grid.spacing, grid.origin, grid.direction)
-    deform = _deformer(deformation)
-    nx, ny, nz = grid.size
-    placement = grid.index_to_physical()[:3, :3]
+    evaluator = GridEvaluator(_as_deformation(deformation), grid.index_to_physical(), grid.shape)
+    nz, ny, nx = grid.shape
     vectors = np.empty((nz, ny, nx, 3))
     per_slab = max(1, _SLAB_POINTS // (ny * nx))
-    ji = np.stack(np.meshgrid(np.arange(ny, dtype=np.float64), np.arange(nx, dtype=np.float64), indexing="ij"), -1)
-    plane = ji[..., ::-1].reshape(-1, 2) @ placement[:, :2].T + grid.origin  # the voxel centres of the k = 0 layer
     for start in range(0, nz, per_slab):
         stop = min(nz, start + per_slab)
-        layers = np.arange(start, stop, dtype=np.float64)[:, None, None] * placement[:, 2]
-        points = (plane[None] + layers).reshape(-1, 3)
-        moved = np.asarray(deform(points), dtype=np.float64)
-        vectors[start:stop] = (moved - points).reshape(stop - start, ny, nx, 3)
+        vectors[start:stop] = np.moveaxis(evaluator.displacements(start, stop), 0, -1)
     return DisplacementField(vectors, grid.spacing, grid.origin, grid.direction)
-
-
-def _aligned_ffd(deformation: Any, grid: ImageGrid) -> NDArray | None:
-    """An FFD's displacement on a grid along its lattice axes, axis by axis (see :mod:`.tensor_grid`), or ``None``.
-
-    Returns the ``(nz, ny, nx, 3)`` vectors (array order)."""
-    if not isinstance(deformation, FFD) or deformation.basis != "bspline" or deformation.border != "zero":
-        return None
-    lat = deformation.lattice
-    if not np.allclose(grid.direction, lat.rotation, rtol=0, atol=1e-12):
-        return None
-    size = grid.size
-    start = lat.to_lattice(grid.origin[None])[0]
-    step = (np.diag(lat.rotation.T @ grid.direction) * grid.spacing) / lat.spacing
-    local = lat.offsets  # (i, j, k) order, as the lattice's
-    for axis in range(3):
-        u = start[axis] + np.arange(size[axis]) * step[axis]
-        weights = axis_weights(u, lat.shape[axis])
-        if deformation.only_inside:  # the domain is a box: a sample outside it on any axis gets nothing
-            weights[(u < 1.0) | (u > lat.shape[axis] - 2.0)] = 0.0
-        local = apply_along(weights, local, axis)
-    linear = deformation.affine[:3, :3] - np.eye(3)
-    if linear.any() or deformation.affine[:3, 3].any():
-        placement = grid.direction * grid.spacing
-        local = local + (linear @ grid.origin + deformation.affine[:3, 3])
-        for axis in range(3):
-            shape = [1, 1, 1, 3]
-            shape[axis] = size[axis]
-            local += (np.arange(size[axis], dtype=np.float64)[:, None] * (linear @ placement[:, axis])).reshape(shape)
-    return np.ascontiguousarray(local.transpose(2, 1, 0, 3))
 
 
 # ---------------------------------------------------------------------------------------- files

@@ -45,6 +45,7 @@ from .._util.points import as_points
 from ..ffd import oneshot as _oneshot
 from ..ffd.deform import FFD
 from ..ffd.lattice import Lattice
+from ..ffd.support import in_domain
 from ..images.geometry import ImageGrid
 from .elastix_text import ParameterMap, read_parameter_file, write_parameter_file
 from .itk_model import strip_padding
@@ -107,8 +108,7 @@ class BSplineStep:
 
     def apply(self, points: NDArray[np.float64]) -> NDArray[np.float64]:
         rows = self.grid_index(points)
-        dims = np.array(self.coefficients.shape[:3], dtype=np.float64)[:, None]
-        valid = np.all((rows >= 1.0) & (rows < dims - 2.0), axis=0)
+        valid = in_domain("bspline", self.coefficients.shape[:3], rows.T, "half-open")  # elastix's valid region
         out = points.copy()
         if valid.any():
             inside = np.ascontiguousarray(rows[:, valid])
@@ -212,9 +212,9 @@ class ElastixTransform:
 
         A chain with exactly one B-spline: linear steps composed before it pull its grid back
         (the lattice is placed by the inverse map), any other linear step becomes the FFD's affine
-        part (composed after it: the offsets turn with it). ``only_inside=True`` (points outside
-        the B-spline's valid region do not move), unless the grid has three zero layers all
-        round (what :func:`save_elastix` writes), which are dropped.
+        part (composed after it: the offsets turn with it). ``only_inside="half-open"`` (points outside
+        the B-spline's valid region do not move; the region is open at its far faces, as elastix's),
+        unless the grid has three zero layers all round (what :func:`save_elastix` writes), which are dropped.
 
         A linear map with shear composed before the B-spline (elastix's usual affine-then-B-spline
         registration) gives a sheared lattice (:attr:`~ffd_notebook.Lattice.sheared`): elastix
@@ -275,7 +275,7 @@ class ElastixTransform:
         if stripped is not None:
             stripped.metadata = lattice.metadata
             return FFD(stripped, "bspline", border="zero", affine=affine)
-        return FFD(lattice, "bspline", border="zero", affine=affine, only_inside=True)
+        return FFD(lattice, "bspline", border="zero", affine=affine, only_inside="half-open")
 
     def __repr__(self) -> str:
         parts = [self.steps[0].kind]
