@@ -6,7 +6,9 @@ what ``sitk.DisplacementFieldTransform``, ANTs and nitransforms read. Between vo
 :class:`DisplacementField` interpolates linearly as ITK's ``VectorLinearInterpolateImageFunction``
 does (the neighbours clamped to the grid), inside the buffer's half-voxel margin
 (``-0.5 <= index < n - 0.5`` on every axis, ``ImageFunction::IsInsideBuffer``); a point outside it
-does not move (``DisplacementFieldTransform::TransformPoint``).
+does not move (``DisplacementFieldTransform::TransformPoint``). NiftyReg's own fields follow another
+rule beyond their grid (``outside="nearest"``): the displacement of the nearest border voxel goes on
+(``get_SlidedValues`` in NiftyReg's ``_reg_splineBasis.cpp``).
 """
 
 from __future__ import annotations
@@ -36,6 +38,8 @@ __all__ = [
     "save_displacement_field",
 ]
 
+#: What moves a point beyond a field's grid (:class:`DisplacementField`'s ``outside``).
+FIELD_OUTSIDE_RULES = ("zero", "nearest")
 #: Displacement-field file names, and the ITK image IO that reads and writes each.
 FIELD_SUFFIXES = {".nii": "NiftiImageIO", ".nii.gz": "NiftiImageIO", ".nrrd": "NrrdImageIO", ".mha": "MetaImageIO"}
 _MAX_VOXELS = 2**28  # 268M voxels: 6.4 GB of float64 vectors, far above any registration field
@@ -65,6 +69,10 @@ class DisplacementField:
         Voxel spacing and the position of voxel ``(0, 0, 0)``.
     direction : array_like, optional
         3x3 matrix whose columns are the grid axes (identity by default).
+    outside : {"zero", "nearest"}
+        What moves a point outside the buffer: nothing (``"zero"``, ITK's ``DisplacementFieldTransform``, ANTs)
+        or the displacement of the nearest border voxel (``"nearest"``, NiftyReg's fields, which interpolate with
+        their border voxels repeated beyond the grid).
 
     Examples
     --------
@@ -75,7 +83,18 @@ class DisplacementField:
     [[2.0, 1.0, 1.0], [3.4, 1.0, 1.0], [2.6, 1.0, 1.0]]
     """
 
-    def __init__(self, vectors: ArrayLike, spacing: ArrayLike, origin: ArrayLike, direction: ArrayLike | None = None):
+    def __init__(
+        self,
+        vectors: ArrayLike,
+        spacing: ArrayLike,
+        origin: ArrayLike,
+        direction: ArrayLike | None = None,
+        *,
+        outside: str = "zero",
+    ):
+        if outside not in FIELD_OUTSIDE_RULES:
+            raise ValueError(f"outside must be one of {', '.join(FIELD_OUTSIDE_RULES)}, got {outside!r}")
+        self.outside = outside
         v = np.asarray(vectors, dtype=np.float64)
         if v.ndim != 4 or v.shape[3] != 3 or min(v.shape[:3]) < 1:
             raise ValueError(f"vectors must be an (nx, ny, nz, 3) array, got shape {v.shape}")
@@ -164,7 +183,10 @@ class DisplacementField:
         """
         index = self.to_index(points)
         dims = np.array(self.shape, dtype=np.float64)
-        inside = np.all((index >= -0.5) & (index < dims - 0.5), axis=1)
+        if self.outside == "nearest":
+            inside = np.all(np.isfinite(index), axis=1)
+        else:
+            inside = np.all((index >= -0.5) & (index < dims - 0.5), axis=1)
         out = np.zeros_like(index)
         if not inside.any():
             return out
@@ -212,8 +234,9 @@ class DisplacementField:
     __call__ = deform
 
     def __repr__(self) -> str:
+        rule = "" if self.outside == "zero" else f", outside={self.outside!r}"
         return (f"DisplacementField(shape={self.shape}, spacing={self.spacing.tolist()}, "
-                f"origin={self.origin.tolist()})")  # fmt: skip
+                f"origin={self.origin.tolist()}{rule})")  # fmt: skip
 
 
 # ---------------------------------------------------------------------------------------- reference grids
