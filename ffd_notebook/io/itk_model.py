@@ -232,7 +232,7 @@ def _field(path: str | os.PathLike[str], raw: RawTransform) -> DisplacementField
         raise _error(path, raw, "parameters", f"a field of size {size.tolist()} has 3 values per voxel, got "
                      f"{len(raw.parameters)} parameters")  # fmt: skip
     nx, ny, nz = (int(n) for n in size)
-    vectors = raw.parameters.reshape(nz, ny, nx, 3).transpose(2, 1, 0, 3)
+    vectors = raw.parameters.reshape(nz, ny, nx, 3)  # SimpleITK's array order, as DisplacementField keeps it
     try:
         return DisplacementField(vectors, fixed[6:9], fixed[3:6], fixed[9:].reshape(3, 3))
     except ValueError as exc:
@@ -340,9 +340,9 @@ def ffd_to_transforms(ffd: FFD) -> list[RawTransform]:
 
 
 def _field_transform(field: DisplacementField) -> RawTransform:
-    fixed = np.concatenate([np.asarray(field.shape, dtype=np.float64), field.origin, field.spacing,
+    fixed = np.concatenate([np.asarray(field.size, dtype=np.float64), field.origin, field.spacing,
                             field.direction.ravel()])  # fmt: skip
-    vectors = np.ascontiguousarray(field.vectors.transpose(2, 1, 0, 3)).ravel()
+    vectors = np.ascontiguousarray(field.vectors).ravel()
     return RawTransform(_FIELD + "_double_3_3", vectors, fixed)
 
 

@@ -103,8 +103,8 @@ def _field(nifti: NiftiFile, vectors: NDArray[np.float64], positions: bool) -> D
     axes = RAS_TO_LPS @ world[:3, :3]
     spacing = np.linalg.norm(axes, axis=0)
     try:
-        return DisplacementField(displacements @ RAS_TO_LPS.T, spacing, RAS_TO_LPS @ world[:3, 3], axes / spacing,
-                                 outside="nearest")  # fmt: skip
+        vectors_kji = (displacements @ RAS_TO_LPS.T).transpose(2, 1, 0, 3)  # nibabel's (i, j, k) to array order
+        return DisplacementField(vectors_kji, spacing, RAS_TO_LPS @ world[:3, 3], axes / spacing, outside="nearest")
     except ValueError as exc:
         raise nifti.fail(str(exc)) from None
 
