@@ -96,8 +96,10 @@ def nifti_meaning(header: Any) -> tuple[str, Any]:
     if code in FSL_INTENTS:
         return "fsl", code
     description = bytes(np.asarray(header["descrip"]).tobytes()).split(b"\x00")[0].decode("latin-1").strip()
-    if name.lower() == b"mapping" or description.lower().endswith("deformation") or "deformation field" in (
-        description.lower()
+    if (
+        name.lower() == b"mapping"
+        or description.lower().endswith("deformation")
+        or "deformation field" in (description.lower())
     ):
         return "spm", f"intent name {name.decode('latin-1')!r}, description {description!r}"
     if name:
