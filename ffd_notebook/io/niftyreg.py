@@ -269,26 +269,29 @@ def niftyreg_grid(
     return positions @ RAS_TO_LPS.T, world, after
 
 
-def save_niftyreg(path: str | os.PathLike[str], ffd: FFD) -> None:
-    """Write an FFD as a NiftyReg cubic B-spline control-point grid that ``reg_resample`` and ``reg_transform``
-    apply as ``ffd.deform`` moves points, atomically (see :func:`niftyreg_grid` for what is exact and refused).
+def save_niftyreg(path: str | os.PathLike[str], deformation: FFD | DisplacementField) -> None:
+    """Write an FFD as a NiftyReg cubic B-spline control-point grid, or a field as a NiftyReg displacement field,
+    that ``reg_resample`` and ``reg_transform`` apply as ffd_notebook does, atomically.
 
-    The grid is float32, as NiftyReg computes (``reg_transform`` refuses a float64 grid: its deformation fields
-    are float32), so the positions are rounded to about 1e-7 of their size (1e-5 mm at 100 mm); its placement is
-    in both the sform and the qform (an oblique lattice is one too; a sheared one only in the sform, which
-    NiftyReg prefers), in RAS millimetres.
+    An FFD: see :func:`niftyreg_grid` for what is exact and what is refused. A
+    :class:`~ffd_notebook.io.DisplacementField` must follow NiftyReg's rule beyond its grid
+    (``outside="nearest"``, as NiftyReg's own fields are read); an ITK field leaves points there unmoved, which no
+    NiftyReg field does. The file is float32, as NiftyReg computes (``reg_transform`` refuses a float64 grid: its
+    deformation fields are float32), so positions are rounded to about 1e-7 of their size (1e-5 mm at 100 mm);
+    its placement is in both the sform and the qform (an oblique grid is one too; a sheared one only in the
+    sform, which NiftyReg prefers), in RAS millimetres.
 
     Parameters
     ----------
     path : str or os.PathLike
         A ``.nii`` or ``.nii.gz`` file.
-    ffd : FFD
-        A cubic B-spline FFD.
+    deformation : FFD or DisplacementField
+        A cubic B-spline FFD, or a field with ``outside="nearest"``.
 
     Raises
     ------
     ValueError
-        What a grid cannot hold exactly (the message says why).
+        What NiftyReg's files cannot hold exactly (the message says why).
 
     Examples
     --------
@@ -304,21 +307,36 @@ def save_niftyreg(path: str | os.PathLike[str], ffd: FFD) -> None:
 
     name = os.fspath(path).lower()
     if not name.endswith((".nii", ".nii.gz")):
-        raise ValueError(f"{os.fspath(path)}: a NiftyReg grid is a .nii or .nii.gz file")
-    positions, world, after = niftyreg_grid(path, ffd)
-    image = nib.Nifti1Image(positions[:, :, :, None, :].astype(np.float32), world)
+        raise ValueError(f"{os.fspath(path)}: a NiftyReg file is a .nii or .nii.gz file")
+    extensions: list[NDArray[np.float64]] = []
+    if isinstance(deformation, DisplacementField):
+        if deformation.outside != "nearest":
+            raise ValueError(f"{os.fspath(path)}: a NiftyReg displacement field repeats its border voxels beyond its "
+                             "grid; this field leaves points there unmoved (ITK's rule), so NiftyReg would move "
+                             "them: not written (resample it on a grid that covers every point you need)")  # fmt: skip
+        grid = deformation.grid
+        world = np.eye(4)
+        world[:3, :3] = RAS_TO_LPS @ (grid.direction * grid.spacing)
+        world[:3, 3] = RAS_TO_LPS @ grid.origin
+        values = (deformation.vectors @ RAS_TO_LPS.T).transpose(2, 1, 0, 3)  # array order to nibabel's (i, j, k)
+        code = 1  # DISP_FIELD
+    else:
+        values, world, after = niftyreg_grid(path, deformation)
+        code = 2  # CUB_SPLINE_GRID
+        if after is not None:  # NiftyReg applies its first extension before the spline, its second after
+            extensions = [np.eye(4), after]
+    image = nib.Nifti1Image(values[:, :, :, None, :].astype(np.float32), world)
     header = image.header
-    if after is not None:  # NiftyReg's layout: a mat44 of float32 in 72 bytes (esize 80), before then after
-        for matrix in (np.eye(4), after):
-            content = matrix.astype("<f4").tobytes() + bytes(8)
-            header.extensions.append(nib.nifti1.Nifti1Extension(0, content))
+    for matrix in extensions:  # NiftyReg's layout: a mat44 of float32 in 72 bytes (an extension of 80)
+        header.extensions.append(nib.nifti1.Nifti1Extension(0, matrix.astype("<f4").tobytes() + bytes(8)))
     header.set_sform(world, 1)
-    if np.allclose(world[:3, :3].T @ world[:3, :3], np.diag(np.diag(world[:3, :3].T @ world[:3, :3])), atol=1e-9):
+    gram = world[:3, :3].T @ world[:3, :3]
+    if np.allclose(gram, np.diag(np.diag(gram)), rtol=0, atol=1e-9 * gram.max()):
         header.set_qform(world, 1)
     else:
         header.set_qform(None, 0)  # a sheared grid: a qform cannot hold it, the sform (preferred) does
-    header.set_intent("vector", name=NREG_TRANS_NAME)
-    header["intent_p1"] = 2  # CUB_SPLINE_GRID
+    header.set_intent("vector", name="NREG_TRANS")
+    header["intent_p1"] = code
     header.set_xyzt_units("mm")
     with atomic_path(path) as tmp:
         staging = tmp.with_name("." + tmp.name.replace(".", "_") + (".nii.gz" if name.endswith(".gz") else ".nii"))
@@ -327,6 +345,3 @@ def save_niftyreg(path: str | os.PathLike[str], ffd: FFD) -> None:
             os.replace(staging, tmp)
         finally:
             staging.unlink(missing_ok=True)
-
-
-NREG_TRANS_NAME = "NREG_TRANS"
