@@ -1,0 +1,175 @@
+"""ANTs' files against ANTs itself: a real SyN registration's warp, affine (ITK's MATLAB .mat) and composite .h5,
+applied by ants.apply_transforms, and our files applied by ANTs (see ``tests/registration_reference.py``)."""
+
+from __future__ import annotations
+
+import struct
+import time
+
+import numpy as np
+import pytest
+import registration_reference as rr
+import SimpleITK as sitk
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from ffd_notebook import FFD, warp_image
+from ffd_notebook.errors import FileFormatError
+from ffd_notebook.io import (
+    AffineTransform,
+    DisplacementField,
+    TransformChain,
+    fit_lattice,
+    load_deformation,
+    save_deformation,
+)
+from ffd_notebook.io.itk_matlab import read_itk_matlab
+
+GREY = 0.05  # grey levels of an MRI spanning 0..19009: ANTs resamples in float32
+
+
+def _timed_load(paths):
+    start = time.perf_counter()
+    loaded = load_deformation(paths)
+    return loaded, 1000 * (time.perf_counter() - start)
+
+
+def test_generic_affine_mat_is_read_as_itk_reads_it(ants_run):
+    affine, ms = _timed_load(ants_run["affine"])
+    print(f"\nload {ants_run['affine'].name}: {ms:.1f} ms")
+    assert isinstance(affine, AffineTransform)
+    itk = sitk.ReadTransform(str(ants_run["affine"]))  # SimpleITK reads ITK's MATLAB files too
+    points = np.random.default_rng(0).normal(0.0, 60.0, (200, 3))
+    theirs = np.array([itk.TransformPoint(p) for p in points.tolist()])
+    assert np.abs(affine.deform(points) - theirs).max() < 1e-9
+    assert read_itk_matlab(ants_run["affine"])[0].kind == "AffineTransform_float_3_3"  # as ANTs writes it
+
+
+def test_the_syn_list_deforms_as_ants_apply_transforms(ants_run):
+    chain, ms = _timed_load([ants_run["warp"], ants_run["affine"]])  # antsApplyTransforms -t order
+    print(f"\nload [{ants_run['warp'].name}, {ants_run['affine'].name}]: {ms:.1f} ms")
+    assert isinstance(chain, TransformChain) and isinstance(chain.steps[0], DisplacementField)
+    fixed, moving = str(ants_run["fixed"]), str(ants_run["moving"])
+    ours = warp_image(moving, chain, reference=fixed, interpolation="linear")
+    theirs = sitk.ReadImage(str(ants_run["ants_list"]), sitk.sitkFloat64)
+    worst, median, count = rr.compare_inside(ours, theirs, rr.inside_mask(chain, fixed, moving))
+    print(f"ants.apply_transforms([warp, affine]) vs warp_image: max {worst:.3g}, median {median:.2g} grey levels "
+          f"over {count} voxels")  # fmt: skip
+    assert count > 20000 and worst < GREY
+    # the other order is another deformation: the list's order is what it means
+    backwards = load_deformation([ants_run["affine"], ants_run["warp"]])
+    wrong = warp_image(moving, backwards, reference=fixed, interpolation="linear")
+    assert rr.compare_inside(wrong, theirs, rr.inside_mask(chain, fixed, moving))[0] > 100 * GREY
+
+
+def test_the_composite_h5_is_the_same_chain(ants_run):
+    composite, ms = _timed_load(ants_run["composite"])
+    print(f"\nload {ants_run['composite'].name}: {ms:.1f} ms")
+    assert isinstance(composite, TransformChain)
+    assert [type(s) for s in composite.steps] == [DisplacementField, AffineTransform]
+    fixed, moving = str(ants_run["fixed"]), str(ants_run["moving"])
+    ours = warp_image(moving, composite, reference=fixed, interpolation="linear")
+    theirs = sitk.ReadImage(str(ants_run["ants_composite"]), sitk.sitkFloat64)
+    worst, median, count = rr.compare_inside(ours, theirs, rr.inside_mask(composite, fixed, moving))
+    print(f"ants.apply_transforms(composite) vs warp_image: max {worst:.3g}, median {median:.2g} grey levels")
+    assert count > 20000 and worst < GREY
+
+
+def test_our_affine_and_composite_files_are_applied_by_ants_as_we_apply_them(ants_run, tmp_path):
+    chain = load_deformation([ants_run["warp"], ants_run["affine"]])
+    save_deformation(tmp_path / "affine.mat", chain.steps[1])
+    save_deformation(tmp_path / "chain.h5", chain)
+    itk = sitk.ReadTransform(str(tmp_path / "affine.mat"))
+    points = np.random.default_rng(1).normal(0.0, 40.0, (100, 3))
+    assert np.abs(np.array([itk.TransformPoint(p) for p in points.tolist()]) - chain.steps[1].deform(points)).max() < 1e-9
+    back = load_deformation(tmp_path / "chain.h5")
+    assert np.abs(back.deform(points) - chain.deform(points)).max() < 1e-9
+    fixed, moving = ants_run["fixed"], ants_run["moving"]
+    ours = warp_image(str(moving), chain, reference=str(fixed))
+    mask = rr.inside_mask(chain, fixed, moving)
+    for files in ([ants_run["warp"], tmp_path / "affine.mat"], [tmp_path / "chain.h5"]):
+        result = rr.ants_apply(fixed, moving, files, tmp_path / "ants.nii.gz", tmp_path / "work")
+        worst, median, _ = rr.compare_inside(ours, sitk.ReadImage(str(result), sitk.sitkFloat64), mask)
+        print(f"\nants.apply_transforms of our {[f.name for f in files]}: max {worst:.3g}, median {median:.2g}")
+        assert worst < GREY
+
+
+def test_fit_lattice_makes_the_syn_warp_an_editable_lattice_with_its_residual(ants_run):
+    chain = load_deformation([ants_run["warp"], ants_run["affine"]])
+    start = time.perf_counter()
+    ffd = fit_lattice(chain, (10, 12, 9), region=str(ants_run["fixed"]), affine=True)
+    seconds = time.perf_counter() - start
+    fit = ffd.lattice.metadata["fit"]
+    warp = chain.steps[0]
+    size = float(np.linalg.norm(warp.vectors, axis=-1).max())
+    print(f"\nfit_lattice(SyN chain, 10x12x9, affine=True): residual RMS {fit['rms']:.3f} mm, max {fit['max']:.3f} mm "
+          f"over {fit['samples']} voxels (the warp moves points up to {size:.2f} mm), {seconds:.2f} s")  # fmt: skip
+    assert isinstance(ffd, FFD) and fit["samples"] == 33 * 41 * 25
+    assert fit["rms"] < 0.25 * size
+    fixed, moving = str(ants_run["fixed"]), str(ants_run["moving"])
+    grid_points = sitk.ReadImage(fixed)
+    from ffd_notebook.images import reference_grid
+
+    points = reference_grid(grid_points).physical_points()
+    residual = np.linalg.norm(ffd.deform(points) - chain.deform(points), axis=1)
+    assert np.sqrt(np.mean(residual**2)) == pytest.approx(fit["rms"], rel=1e-6)
+    ffd.lattice.offsets[4, 5, 4] += (3.0, 0.0, 0.0)  # editable: a hand correction moves the points near it
+    assert np.linalg.norm(ffd.deform(points) - chain.deform(points), axis=1).max() > fit["max"]
+
+
+# ------------------------------------------------------------------------------- the .mat parser, refusals
+def _matrix(name: bytes, values, *, mopt=0, rows=None, cols=1, imaginary=0, length=None, order="<") -> bytes:
+    dtype = np.dtype(order + ("f4" if mopt // 10 % 10 else "f8"))
+    data = np.asarray(values, dtype=dtype).tobytes()
+    rows = len(values) if rows is None else rows
+    length = len(name) + 1 if length is None else length
+    return struct.pack(order + "5i", mopt, rows, cols, imaginary, length) + name + b"\0" + data
+
+
+AFFINE = list(np.eye(3).ravel()) + [1.0, 2.0, 3.0]
+
+
+@pytest.mark.parametrize(
+    ("content", "message"),
+    [
+        (b"", "an empty file"),
+        (b"\x00" * 7, "truncated header"),
+        (_matrix(b"AffineTransform_double_3_3", AFFINE), "has no fixed parameters after it"),
+        (_matrix(b"AffineTransform_double_3_3", AFFINE, cols=2), r"a 12x2 matrix"),
+        (_matrix(b"AffineTransform_double_3_3", AFFINE, imaginary=1), "a complex matrix"),
+        (_matrix(b"AffineTransform_double_3_3", AFFINE, mopt=2), "type 2 is not a MATLAB level-4 numeric matrix"),
+        (_matrix(b"AffineTransform_double_3_3", AFFINE, rows=10**9), "at most"),
+        (_matrix(b"AffineTransform_double_3_3", AFFINE, rows=13), "truncated"),
+        (_matrix(b"AffineTransform_double_3_3", [np.nan] * 12), "NaN"),
+        (_matrix(b"Affine", AFFINE) + _matrix(b"fixed", [0.0] * 3), "unsupported transform type 'Affine'"),
+        (_matrix(b"AffineTransform_double_3_3", AFFINE[:9]) + _matrix(b"fixed", [0.0] * 3), "12 parameters"),
+    ],
+)
+def test_bad_mat_files_are_refused_naming_the_file(tmp_path, content, message):
+    path = tmp_path / "t.mat"
+    path.write_bytes(content)
+    with pytest.raises(FileFormatError, match=f"t.mat: .*{message}"):
+        load_deformation(path)
+
+
+def test_big_endian_and_float32_matrices_are_read_as_itk_reads_them(tmp_path):
+    path = tmp_path / "t.mat"
+    path.write_bytes(_matrix(b"AffineTransform_float_3_3", AFFINE, mopt=1010, order=">")
+                     + _matrix(b"fixed", [1.0, 0.0, 0.0], mopt=1010, order=">"))  # fmt: skip
+    itk = sitk.ReadTransform(str(path))
+    ours = load_deformation(path)
+    assert np.allclose(ours.deform([[5.0, 6.0, 7.0]]), [itk.TransformPoint((5.0, 6.0, 7.0))], atol=1e-12)
+
+
+@settings(max_examples=150, deadline=None)
+@given(st.binary(max_size=200), st.integers(0, 3))
+def test_the_mat_parser_refuses_or_reads_any_bytes(tmp_path_factory, tail, cut):
+    """Any bytes after a valid start: a deformation or FileFormatError, never another exception or a hang."""
+    path = tmp_path_factory.mktemp("mat") / "t.mat"
+    good = _matrix(b"AffineTransform_double_3_3", AFFINE) + _matrix(b"fixed", [0.0] * 3)
+    path.write_bytes(good[: len(good) - cut] + tail)
+    try:
+        result = load_deformation(path)
+    except FileFormatError:
+        return
+    assert isinstance(result, AffineTransform)
