@@ -20,7 +20,8 @@ What they mean is what FSL's own Python library computes (fslpy 3.29: ``fsl/tran
 - A displacement field (intent 2006) holds, at each voxel of its grid (placed in the world by its own header),
   the displacement from the reference's FSL coordinates to the source's (*relative*) or the source's FSL
   coordinates themselves (*absolute*). The files do not say which; fslpy guesses from which reading varies less.
-  Here that reading must vary at least three times less than the other, or the file is refused.
+  Here that reading must vary at least three times less than the other, or the file is refused (unless
+  :func:`load_fnirt` is told which with ``field=``).
 - Everything is then carried from the NIfTI world (RAS) to ITK's physical space (LPS), as SimpleITK reads images.
 """
 
@@ -135,7 +136,7 @@ def _voxel_positions(world: NDArray[np.float64], shape: tuple[int, ...]) -> NDAr
     return index @ world[:3, :3].T + world[:3, 3]
 
 
-def _field(nifti: NiftiFile, reference: FslImage, source: FslImage) -> DisplacementField:
+def _field(nifti: NiftiFile, reference: FslImage, source: FslImage, field: str | None) -> DisplacementField:
     shape = nifti.shape
     if len(shape) != 4 or shape[3] != 3:
         raise nifti.fail(f"an FNIRT displacement field is (nx, ny, nz, 3), got data of shape {shape}")
@@ -145,13 +146,17 @@ def _field(nifti: NiftiFile, reference: FslImage, source: FslImage) -> Displacem
     ref_fsl = voxels @ world_to_fsl[:3, :3].T + world_to_fsl[:3, 3]
     assert nifti.data is not None
     data = nifti.data
-    varies_as_is = float(data.reshape(-1, 3).std(axis=0).sum())
-    varies_minus = float((data - ref_fsl).reshape(-1, 3).std(axis=0).sum())
-    if max(varies_as_is, varies_minus) < _CLEAR * max(min(varies_as_is, varies_minus), 1e-12):
-        raise nifti.fail(f"an FNIRT displacement field that does not say whether it holds displacements or "
-                         f"positions, and whose values do not tell clearly either (they vary by {varies_as_is:.3g} "
-                         f"mm as displacements, {varies_minus:.3g} mm as positions); not guessed")  # fmt: skip
-    src_fsl = data + ref_fsl if varies_as_is < varies_minus else data
+    if field is None:
+        varies_as_is = float(data.reshape(-1, 3).std(axis=0).sum())
+        varies_minus = float((data - ref_fsl).reshape(-1, 3).std(axis=0).sum())
+        if max(varies_as_is, varies_minus) < _CLEAR * max(min(varies_as_is, varies_minus), 1e-12):
+            raise nifti.fail(f"an FNIRT displacement field that does not say whether it holds displacements or "
+                             f"positions, and whose values do not tell clearly either (they vary by "
+                             f"{varies_as_is:.3g} mm read as displacements, {varies_minus:.3g} mm read as positions); "
+                             "not guessed: say which with load_fnirt(path, reference=..., source=..., "
+                             "field='relative' or 'absolute')")  # fmt: skip
+        field = "relative" if varies_as_is < varies_minus else "absolute"
+    src_fsl = data + ref_fsl if field == "relative" else data
     target = src_fsl @ source.fsl_to_world()[:3, :3].T + source.fsl_to_world()[:3, 3]
     displacements = (target - voxels) @ RAS_TO_LPS.T
     axes = RAS_TO_LPS @ world[:3, :3]
@@ -163,7 +168,9 @@ def _field(nifti: NiftiFile, reference: FslImage, source: FslImage) -> Displacem
         raise nifti.fail(str(exc)) from None
 
 
-def fnirt_deformation(nifti: NiftiFile, intent: int, reference: Any, source: Any) -> FFD | DisplacementField:
+def fnirt_deformation(
+    nifti: NiftiFile, intent: int, reference: Any, source: Any, field: str | None = None
+) -> FFD | DisplacementField:
     """The deformation an FSL file (read by :func:`~.nifti_files.read_nifti`) holds, in LPS."""
     what = FSL_INTENTS.get(intent, f"intent {intent}")
     if intent not in (*_CUBIC, _FIELD):
@@ -171,10 +178,12 @@ def fnirt_deformation(nifti: NiftiFile, intent: int, reference: Any, source: Any
                          "fslpy reads them) and displacement fields (2006) are read, as fslpy evaluates")  # fmt: skip
     check_millimetres(nifti)
     ref, src = fsl_image(reference, "reference"), fsl_image(source, "source")
-    return _coefficients(nifti, ref, src) if intent in _CUBIC else _field(nifti, ref, src)
+    return _coefficients(nifti, ref, src) if intent in _CUBIC else _field(nifti, ref, src, field)
 
 
-def load_fnirt(path: str | os.PathLike[str], *, reference: Any, source: Any) -> FFD | DisplacementField:
+def load_fnirt(
+    path: str | os.PathLike[str], *, reference: Any, source: Any, field: str | None = None
+) -> FFD | DisplacementField:
     """Read an FSL FNIRT coefficient file as an FFD, or an FNIRT displacement field, in ITK's physical space (LPS).
 
     The result moves a point of the reference image where FSL (fslpy) takes it in the source image: a
@@ -188,6 +197,10 @@ def load_fnirt(path: str | os.PathLike[str], *, reference: Any, source: Any) -> 
     reference, source : path or reference grid
         The images FNIRT registered (``--ref`` and ``--in``): NIfTI files (read as fslpy reads them), or
         anything :func:`~ffd_notebook.images.reference_grid` takes.
+    field : {"relative", "absolute"}, optional
+        What a displacement field holds: displacements or positions. FNIRT's files do not say; by default it is
+        told from the values (the reading that varies at least three times less), and the file is refused when
+        they do not tell clearly.
 
     Returns
     -------
@@ -218,7 +231,9 @@ def load_fnirt(path: str | os.PathLike[str], *, reference: Any, source: Any) -> 
     kind, intent = nifti_meaning(nifti.header)
     if kind != "fsl":
         raise nifti.fail("not an FSL transformation (no FSL intent code)")
-    return fnirt_deformation(nifti, intent, reference, source)
+    if field not in (None, "relative", "absolute"):
+        raise ValueError(f"field must be 'relative', 'absolute' or None, got {field!r}")
+    return fnirt_deformation(nifti, intent, reference, source, field)
 
 
 # ---------------------------------------------------------------------------------------- writing
