@@ -92,7 +92,7 @@ def nifti_meaning(header: Any) -> tuple[str, Any]:
     code = int(header["intent_code"])
     if name == NREG_TRANS:
         p1 = float(header["intent_p1"])
-        return "niftyreg", int(p1) if p1 == round(p1) else p1
+        return "niftyreg", int(p1) if np.isfinite(p1) and p1 == round(p1) else p1
     if code in FSL_INTENTS:
         return "fsl", code
     description = bytes(np.asarray(header["descrip"]).tobytes()).split(b"\x00")[0].decode("latin-1").strip()
