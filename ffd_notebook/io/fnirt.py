@@ -36,9 +36,16 @@ from numpy.typing import NDArray
 
 from ..ffd.deform import FFD
 from ..ffd.lattice import Lattice
-from ._atomic import atomic_path
 from .displacement_field import DisplacementField
-from .nifti_files import FSL_INTENTS, NiftiFile, check_millimetres, nifti_meaning, read_nifti, read_nifti_header
+from .nifti_files import (
+    FSL_INTENTS,
+    NiftiFile,
+    check_millimetres,
+    nifti_meaning,
+    read_nifti,
+    read_nifti_header,
+    write_nifti,
+)
 from .niftyreg import RAS_TO_LPS
 
 __all__ = ["load_fnirt", "save_fnirt"]
@@ -307,11 +314,4 @@ def save_fnirt(path: str | os.PathLike[str], ffd: FFD, *, reference: Any, source
     image.set_qform(qform, 1)
     header.set_zooms((*step, 1.0))
     header.set_xyzt_units("mm")
-    name = os.fspath(path).lower()
-    with atomic_path(path) as tmp:
-        staging = tmp.with_name("." + tmp.name.replace(".", "_") + (".nii.gz" if name.endswith(".gz") else ".nii"))
-        try:
-            nib.save(image, staging)
-            os.replace(staging, tmp)
-        finally:
-            staging.unlink(missing_ok=True)
+    write_nifti(path, image)

@@ -176,18 +176,23 @@ def strip_padding(lattice: Lattice) -> Lattice | None:
     return Lattice(inner.shape[:3], lattice.spacing, origin, lattice.rotation, inner)
 
 
+def _children(path: str | os.PathLike[str], transforms: list[RawTransform]) -> list[RawTransform]:
+    """A file's transforms without their CompositeTransform: what it composes (or the one transform)."""
+    first = transforms[0]
+    if _base(path, first) == "CompositeTransform":
+        if len(transforms) == 1:
+            raise _error(path, first, "kind", "an empty CompositeTransform")
+        return transforms[1:]
+    if len(transforms) > 1:
+        raise _error(path, transforms[1], "kind", f"{len(transforms)} transforms side by side; expected one "
+                     "(several belong in a CompositeTransform)")  # fmt: skip
+    return transforms
+
+
 def transforms_to_ffd(path: str | os.PathLike[str], transforms: list[RawTransform]) -> FFD:
     """The FFD equal to a file's transforms everywhere, or a :class:`FileFormatError` saying why not."""
     first = transforms[0]
-    if _base(path, first) == "CompositeTransform":
-        chain = transforms[1:]
-        if not chain:
-            raise _error(path, first, "kind", "an empty CompositeTransform: no B-spline for a lattice")
-    elif len(transforms) > 1:
-        raise _error(path, transforms[1], "kind", f"{len(transforms)} transforms side by side; expected one "
-                     "(several belong in a CompositeTransform)")  # fmt: skip
-    else:
-        chain = transforms
+    chain = _children(path, transforms)
     bases = [_base(path, raw) for raw in chain]
     for raw, base in zip(chain, bases, strict=True):
         if base not in _KNOWN:
@@ -246,16 +251,7 @@ def transforms_to_deformation(
     :class:`AffineTransform` (affine parts only) or a :class:`TransformChain` (displacement fields among them, as in
     ANTs' composite files; the chain lists them in the order they move a point, the composite's last child first).
     """
-    first = transforms[0]
-    if _base(path, first) == "CompositeTransform":
-        children = transforms[1:]
-        if not children:
-            raise _error(path, first, "kind", "an empty CompositeTransform")
-    elif len(transforms) > 1:
-        raise _error(path, transforms[1], "kind", f"{len(transforms)} transforms side by side; expected one "
-                     "(several belong in a CompositeTransform)")  # fmt: skip
-    else:
-        children = transforms
+    children = _children(path, transforms)
     bases = [_base(path, raw) for raw in children]
     if _FIELD not in bases:
         if "BSplineTransform" in bases or "CompositeTransform" in bases:

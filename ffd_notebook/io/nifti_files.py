@@ -21,9 +21,10 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..errors import FileFormatError
+from ._atomic import atomic_path
 from ._safety import open_regular
 
-__all__ = ["NiftiFile", "nifti_meaning", "read_nifti", "read_nifti_header"]
+__all__ = ["NiftiFile", "nifti_meaning", "read_nifti", "read_nifti_header", "write_nifti"]
 
 _MAX_VALUES = 3 * 2**26  # a 400^3 field of 3-vectors; far above any registration's
 NREG_TRANS = b"NREG_TRANS"
@@ -216,3 +217,20 @@ def check_millimetres(nifti: NiftiFile) -> None:
     if units not in (0, 2):
         raise nifti.fail(f"spatial units are {_UNITS.get(units, units)}; NiftyReg and FSL files are in "
                          "millimetres (NiftyReg rescales the voxel size, not the sform): not read")  # fmt: skip
+
+
+def write_nifti(path: str | os.PathLike[str], image: Any) -> None:
+    """Save a nibabel image atomically: through a temporary file in the same folder (nibabel chooses compression
+    by the file name's suffix, so the temporary file has the target's ``.nii`` or ``.nii.gz``)."""
+    import nibabel as nib
+
+    name = os.fspath(path).lower()
+    if not name.endswith((".nii", ".nii.gz")):
+        raise ValueError(f"{os.fspath(path)}: expected a .nii or .nii.gz file name")
+    with atomic_path(path) as tmp:
+        staging = tmp.with_name("." + tmp.name.replace(".", "_") + (".nii.gz" if name.endswith(".gz") else ".nii"))
+        try:
+            nib.save(image, staging)
+            os.replace(staging, tmp)
+        finally:
+            staging.unlink(missing_ok=True)

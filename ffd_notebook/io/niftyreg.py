@@ -39,9 +39,8 @@ from numpy.typing import NDArray
 
 from ..ffd.deform import FFD
 from ..ffd.lattice import Lattice
-from ._atomic import atomic_path
 from .displacement_field import DisplacementField
-from .nifti_files import NIFTYREG_CODES, NiftiFile, check_millimetres, read_nifti, vector_data
+from .nifti_files import NIFTYREG_CODES, NiftiFile, check_millimetres, read_nifti, vector_data, write_nifti
 from .transform_chain import AffineTransform, TransformChain
 
 __all__ = ["load_niftyreg", "save_niftyreg"]
@@ -338,10 +337,4 @@ def save_niftyreg(path: str | os.PathLike[str], deformation: FFD | DisplacementF
     header.set_intent("vector", name="NREG_TRANS")
     header["intent_p1"] = code
     header.set_xyzt_units("mm")
-    with atomic_path(path) as tmp:
-        staging = tmp.with_name("." + tmp.name.replace(".", "_") + (".nii.gz" if name.endswith(".gz") else ".nii"))
-        try:
-            nib.save(image, staging)
-            os.replace(staging, tmp)
-        finally:
-            staging.unlink(missing_ok=True)
+    write_nifti(path, image)
