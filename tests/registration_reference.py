@@ -77,12 +77,13 @@ def big_reference(folder: Path, fixed: Path) -> Path:
 
 
 def run_niftyreg(folder: Path) -> dict[str, Path]:
-    """reg_aladin, then reg_f3d -aff (its affine folded into the grid); reg_resample (linear, NaN outside) and
-    reg_transform -def / -disp of the grid on the fixed image and on a larger grid. Returns the files."""
+    """reg_aladin, then reg_f3d -aff (its affine folded into the grid) and reg_f3d -aff -vel (a velocity grid);
+    reg_resample (linear, NaN outside) and reg_transform -def / -disp of each on the fixed image and on a larger
+    grid. Returns the files."""
     fixed, moving = mri_pair(folder)
     big = big_reference(folder, fixed)
     out = {"fixed": fixed, "moving": moving, "big": big}
-    for name in ("aff", "cpp", "resampled", "def", "disp", "def_big"):
+    for name in ("aff", "cpp", "resampled", "def", "disp", "def_big", "vel", "vel_resampled", "vel_def", "vel_def_big"):
         out[name] = folder / {"aff": "aff.txt", "resampled": "resampled.nii.gz"}.get(name, f"{name}.nii.gz")
     NIFTYREG.call("reg_aladin", "-ref", fixed, "-flo", moving, "-aff", out["aff"], "-res", folder / "aladin.nii.gz",
                   "-voff", cwd=folder)  # fmt: skip
@@ -92,6 +93,13 @@ def run_niftyreg(folder: Path) -> dict[str, Path]:
     NIFTYREG.call("reg_transform", "-ref", fixed, "-def", out["cpp"], out["def"], cwd=folder)
     NIFTYREG.call("reg_transform", "-ref", fixed, "-disp", out["cpp"], out["disp"], cwd=folder)
     NIFTYREG.call("reg_transform", "-ref", big, "-def", out["cpp"], out["def_big"], cwd=folder)
+    # reg_f3d -vel: a velocity grid (half affines in its extensions), exponentiated on each reference's voxels
+    NIFTYREG.call("reg_f3d", "-ref", fixed, "-flo", moving, "-aff", out["aff"], "-cpp", out["vel"], "-res",
+                  folder / "vel_f3d.nii.gz", "-sx", "8", "-maxit", "30", "-ln", "2", "-vel", "-voff",
+                  cwd=folder)  # fmt: skip
+    resample(fixed, moving, out["vel"], out["vel_resampled"])
+    NIFTYREG.call("reg_transform", "-ref", fixed, "-def", out["vel"], out["vel_def"], cwd=folder)
+    NIFTYREG.call("reg_transform", "-ref", big, "-def", out["vel"], out["vel_def_big"], cwd=folder)
     return out
 
 
@@ -137,20 +145,19 @@ def run_ants(folder: Path, workdir: Path) -> dict[str, Path]:
 
 APPLY_SCRIPT = """
 import ants
-folder = IN['json']['folder']
 fixed = ants.image_read(IN['json']['fixed']); moving = ants.image_read(IN['json']['moving'])
-warped = ants.apply_transforms(fixed=fixed, moving=moving, transformlist=IN['json']['transforms'],
-                               interpolator='linear')
-ants.image_write(warped, IN['json']['result'])
+for result, transforms in IN['json']['jobs'].items():
+    warped = ants.apply_transforms(fixed=fixed, moving=moving, transformlist=transforms, interpolator='linear')
+    ants.image_write(warped, result)
 """
 
 
-def ants_apply(fixed: Path, moving: Path, transforms: list[Path], result: Path, workdir: Path) -> Path:
-    """``ants.apply_transforms`` (linear) of a list of transform files, written to ``result``."""
-    meta = {"fixed": str(fixed), "moving": str(moving), "transforms": [str(t) for t in transforms],
-            "result": str(result), "folder": str(result.parent)}  # fmt: skip
+def ants_apply(fixed: Path, moving: Path, jobs: dict[Path, list[Path]], workdir: Path) -> None:
+    """``ants.apply_transforms`` (linear) of lists of transform files, each written to its ``result`` path (the
+    keys of ``jobs``), in one run of ANTs' Python."""
+    meta = {"fixed": str(fixed), "moving": str(moving),
+            "jobs": {str(result): [str(t) for t in files] for result, files in jobs.items()}}  # fmt: skip
     ANTS_FSL.run(APPLY_SCRIPT, {"json": meta}, workdir=workdir)
-    return result
 
 
 def inside_mask(deformation, reference, moving) -> np.ndarray:

@@ -79,7 +79,8 @@ def load_deformation(
       transform parameter file: ``load_elastix(path).to_ffd()``, the chain it starts lowered onto one FFD.
     - NiftyReg files (intent name ``NREG_TRANS``): a ``reg_f3d`` control-point grid as
       ``FFD(lattice, border="clamp")`` with an editable lattice, fields as
-      :class:`~ffd_notebook.io.DisplacementField` (:func:`~ffd_notebook.io.load_niftyreg`).
+      :class:`~ffd_notebook.io.DisplacementField`, a velocity grid (``reg_f3d -vel``) as the field NiftyReg
+      exponentiates on the ``reference`` image's voxels (:func:`~ffd_notebook.io.load_niftyreg`).
     - FSL FNIRT files (intent 2007 coefficients, 2006 fields): they map the ``reference`` image's coordinates to
       the ``source`` image's, so both are needed, as ``applywarp`` needs ``--ref`` and ``--in``
       (:func:`~ffd_notebook.io.load_fnirt`).
@@ -98,8 +99,8 @@ def load_deformation(
     path_or_list : str, os.PathLike or sequence of them
         The file, or files in ``antsApplyTransforms -t`` order.
     reference, source : path or reference grid, optional
-        The images an FSL transformation maps between (the NIfTI files, or any reference grid); other formats
-        do not use them.
+        The images an FSL transformation maps between (the NIfTI files, or any reference grid); the image a
+        NiftyReg velocity grid is exponentiated on (``reference``); other formats do not use them.
 
     Returns
     -------
@@ -168,7 +169,7 @@ def _load_nifti(path: str | os.PathLike[str], reference: Any, source: Any) -> Lo
                               "an ITK or ANTs displacement field has no intent name")  # fmt: skip
     nifti = read_nifti(path)
     if kind == "niftyreg":
-        return niftyreg_deformation(nifti, what)
+        return niftyreg_deformation(nifti, what, reference)
     return fnirt_deformation(nifti, what, reference, source)
 
 

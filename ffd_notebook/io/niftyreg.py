@@ -24,9 +24,11 @@ What NiftyReg computes (its ``reg-lib/cpu`` sources, version 1.5.70, checked aga
 - A grid or field may carry affine matrices in NIfTI extensions (the symmetric registrations' half affines,
   ``reg_spline_getDeformationField``): the first is applied before the spline, the second after. The writer
   keeps an FFD's affine part there, exact everywhere.
-- Velocity fields and grids are exponentiated by scaling and squaring on the voxel grid of the image they are
-  applied to (``reg_defField_getDeformationFieldFromFlowField``): a different deformation for each reference, not
-  one a file can state. They are refused, with how to turn them into a deformation field NiftyReg computes.
+- A velocity grid (``reg_f3d -vel``) is exponentiated by scaling and squaring on the voxel grid of the image it
+  is applied to (``reg_spline_getDefFieldFromVelocityGrid``): a deformation only with that image, read so
+  with ``reference=`` as a field on its voxels. Velocity *fields* (codes 3 and 4) are exponentiated on the
+  reference's grid by ``reg_resample`` but on their own by ``reg_transform``: refused, with how to turn one
+  into the deformation field meant.
 """
 
 from __future__ import annotations
@@ -108,17 +110,24 @@ def _field(nifti: NiftiFile, vectors: NDArray[np.float64], positions: bool) -> D
         raise nifti.fail(str(exc)) from None
 
 
-def niftyreg_deformation(nifti: NiftiFile, code: Any) -> FFD | DisplacementField | TransformChain:
-    """The deformation a NiftyReg file (read by :func:`~.nifti_files.read_nifti`) holds, in LPS."""
+def niftyreg_deformation(
+    nifti: NiftiFile, code: Any, reference: Any = None
+) -> FFD | DisplacementField | TransformChain:
+    """The deformation a NiftyReg file (read by :func:`~.nifti_files.read_nifti`) holds, in LPS; a velocity grid's
+    on the ``reference`` grid it is exponentiated on."""
     if code not in NIFTYREG_CODES:
         raise nifti.fail(f"a NiftyReg file (intent name NREG_TRANS) with the unknown intent_p1 code {code!r}; "
                          f"known codes: {', '.join(f'{k} {v}' for k, v in NIFTYREG_CODES.items())}")  # fmt: skip
     what = NIFTYREG_CODES[code]
-    if code in (3, 4, 5):
+    if code in (3, 4):
+        raise nifti.fail(f"{what}: NiftyReg's tools exponentiate it on different grids (reg_resample on the "
+                         "reference image's voxels, reg_transform on the field's own), so what it means depends on "
+                         "the tool; turn it into the deformation field you mean with `reg_transform -ref REF.nii.gz "
+                         "-def THIS_FILE def.nii.gz` and load that")  # fmt: skip
+    if code == 5 and reference is None:
         raise nifti.fail(f"{what} (reg_f3d -vel): NiftyReg exponentiates it by scaling and squaring on the voxel "
-                         "grid of each image it is applied to, so it is not one deformation a file can state; turn "
-                         "it into the deformation NiftyReg computes for your reference image with `reg_transform "
-                         "-ref REF.nii.gz -def THIS_FILE def.nii.gz` and load that")  # fmt: skip
+                         "grid of the image it is applied to, so it is a deformation only with that image: "
+                         "load_deformation(path, reference=IMAGE)")  # fmt: skip
     if code == 6:
         raise nifti.fail(f"{what} (intent_p1 6): its piecewise-linear interpolation is not one of ffd_notebook's "
                          "bases, so it is not read; `reg_transform -ref REF.nii.gz -def THIS_FILE def.nii.gz` "
@@ -139,10 +148,60 @@ def niftyreg_deformation(nifti: NiftiFile, code: Any) -> FFD | DisplacementField
     affines = [_lps_affine(m).matrix for m in _extension_affines(nifti)]
     if code == 2:
         return _grid_ffd(nifti, _grid_lattice(nifti, vectors), affines)
+    if code == 5:
+        return _exponentiated(nifti, _grid_lattice(nifti, vectors), affines, reference)
     field = _field(nifti, vectors, positions=code == 0)
     if not affines:
         return field
     return TransformChain([AffineTransform(affines[0]), field, *[AffineTransform(m) for m in affines[1:]]])
+
+
+_MAX_STEP = 0.28  # NiftyReg's bound on a scaled velocity (mm, 3D): sqrt(0.5^2 / 3), rounded as it writes it
+_MIN_SQUARINGS = 6
+
+
+def _exponentiated(
+    nifti: NiftiFile, lattice: Lattice, affines: list[NDArray[np.float64]], reference: Any
+) -> DisplacementField:
+    """A velocity grid exponentiated on the reference's voxels as NiftyReg does it
+    (``reg_spline_getDefFieldFromVelocityGrid``): the flow ``v(y) = S(A0 y) - A0 y`` at every voxel (``S`` the
+    grid's spline of positions, ``A0`` its first extension's affine), scaled down by ``2^n`` (``n`` =
+    ``|intent_p2|``, or NiftyReg's count from the largest value when it is 0; a negative ``intent_p2`` is the
+    backward deformation), composed with itself ``n`` times (trilinear, border repeated), the affine put back
+    (``A0 y + ...``) and the second extension's affine applied after."""
+    from ..images.reference import reference_grid
+
+    grid = reference_grid(reference)
+    if grid.dim != 3:
+        raise ValueError(f"a 3D reference image is needed to exponentiate {nifti.path}, got {grid.dim}D")
+    before = affines[0] if affines else np.eye(4)
+    points = grid.physical_points()
+    start = points @ before[:3, :3].T + before[:3, 3]
+    flow = FFD(lattice, "bspline", border="clamp").deform(start) - start
+    p2 = float(nifti.header["intent_p2"])
+    if not np.isfinite(p2):
+        raise nifti.fail(f"intent_p2 (the number of squaring steps) is {p2}")
+    steps = round(abs(p2))
+    if steps == 0:  # NiftyReg's own count: enough halvings to bring every value under 0.28 mm, at least 6
+        largest = float(np.abs(flow).max())
+        steps = 1
+        while largest / 2.0**steps >= _MAX_STEP:
+            steps += 1
+        steps = max(steps, _MIN_SQUARINGS)
+    if steps > 64:
+        raise nifti.fail(f"{steps} squaring steps (intent_p2); NiftyReg writes a handful")
+    displacement = flow / (2.0**steps * (-1.0 if p2 < 0 else 1.0))
+    shape = (*grid.shape, 3)  # array order (nz, ny, nx): physical_points() is i-fastest
+    field = DisplacementField(displacement.reshape(shape), grid.spacing, grid.origin, grid.direction,
+                              outside="nearest")  # fmt: skip
+    for _ in range(steps):  # phi <- phi o phi, sampled at the voxels
+        displacement = displacement + field.displacement(points + displacement)
+        field.vectors = displacement.reshape(shape)
+    positions = start + displacement
+    if len(affines) > 1:
+        positions = positions @ affines[1][:3, :3].T + affines[1][:3, 3]
+    return DisplacementField((positions - points).reshape(shape), grid.spacing, grid.origin, grid.direction,
+                             outside="nearest")  # fmt: skip
 
 
 def _grid_ffd(nifti: NiftiFile, lattice: Lattice, affines: list[NDArray[np.float64]]) -> FFD:
@@ -165,7 +224,7 @@ def _grid_ffd(nifti: NiftiFile, lattice: Lattice, affines: list[NDArray[np.float
     return FFD(lattice, "bspline", border="clamp", affine=after @ before)
 
 
-def load_niftyreg(path: str | os.PathLike[str]) -> FFD | DisplacementField | TransformChain:
+def load_niftyreg(path: str | os.PathLike[str], *, reference: Any = None) -> FFD | DisplacementField | TransformChain:
     """Read a NiftyReg transformation file: a control-point grid as an FFD, a field as a DisplacementField.
 
     The result lives in ITK's physical space (LPS millimetres), as SimpleITK reads the images it is applied to,
@@ -175,12 +234,17 @@ def load_niftyreg(path: str | os.PathLike[str]) -> FFD | DisplacementField | Tra
     grid, affines in the file's extensions folded in (``reg_resample`` applies the first before the spline, the
     second after); a deformation or displacement field is a :class:`~ffd_notebook.io.DisplacementField` whose border
     voxels go on beyond its grid (``outside="nearest"``), a :class:`~ffd_notebook.io.TransformChain` with the
-    affines of the file's extensions.
+    affines of the file's extensions. A velocity grid (``reg_f3d -vel``) is a deformation only on the image
+    NiftyReg exponentiates it on: with ``reference``, the field of that image's voxels, as ``reg_transform -ref
+    REFERENCE -def`` computes it.
 
     Parameters
     ----------
     path : str or os.PathLike
         A ``.nii`` or ``.nii.gz`` file with the intent name ``NREG_TRANS``.
+    reference : path or reference grid, optional
+        The image a velocity grid is exponentiated on (anything :func:`~ffd_notebook.images.reference_grid`
+        reads); other files do not use it.
 
     Returns
     -------
@@ -189,9 +253,9 @@ def load_niftyreg(path: str | os.PathLike[str]) -> FFD | DisplacementField | Tra
     Raises
     ------
     FileFormatError
-        Not a NiftyReg file, an unknown ``intent_p1`` code, velocity fields and grids (exponentiated on each
-        reference's own grid: the message says how to turn one into a field), linear spline grids, 2D files,
-        units other than millimetres; names the file and what it found.
+        Not a NiftyReg file, an unknown ``intent_p1`` code, a velocity grid without its reference, velocity
+        fields (NiftyReg's tools exponentiate them differently: the message says how to turn one into a field),
+        linear spline grids, 2D files, units other than millimetres; names the file and what it found.
 
     Examples
     --------
@@ -212,7 +276,7 @@ def load_niftyreg(path: str | os.PathLike[str]) -> FFD | DisplacementField | Tra
     kind, code = nifti_meaning(nifti.header)
     if kind != "niftyreg":
         raise nifti.fail("not a NiftyReg transformation (no intent name NREG_TRANS)")
-    return niftyreg_deformation(nifti, code)
+    return niftyreg_deformation(nifti, code, reference)
 
 
 # ---------------------------------------------------------------------------------------- writing

@@ -88,8 +88,10 @@ def test_our_affine_and_composite_files_are_applied_by_ants_as_we_apply_them(ant
     fixed, moving = ants_run["fixed"], ants_run["moving"]
     ours = warp_image(str(moving), chain, reference=str(fixed))
     mask = rr.inside_mask(chain, fixed, moving)
-    for files in ([ants_run["warp"], tmp_path / "affine.mat"], [tmp_path / "chain.h5"]):
-        result = rr.ants_apply(fixed, moving, files, tmp_path / "ants.nii.gz", tmp_path / "work")
+    jobs = {tmp_path / "list.nii.gz": [ants_run["warp"], tmp_path / "affine.mat"],
+            tmp_path / "composite.nii.gz": [tmp_path / "chain.h5"]}  # fmt: skip
+    rr.ants_apply(fixed, moving, jobs, tmp_path / "work")
+    for result, files in jobs.items():
         worst, median, _ = rr.compare_inside(ours, sitk.ReadImage(str(result), sitk.sitkFloat64), mask)
         print(f"\nants.apply_transforms of our {[f.name for f in files]}: max {worst:.3g}, median {median:.2g}")
         assert worst < GREY

@@ -20,6 +20,7 @@ from ffd_notebook.io import DisplacementField, load_deformation, load_niftyreg, 
 
 LPS = np.diag([-1.0, -1.0, 1.0])
 EXACT_MM = 2e-4  # NiftyReg computes in float32: positions of ~100 mm carry about 1e-5 mm of rounding
+VELOCITY_MM = 5e-3  # six squarings in float32 double NiftyReg's rounding six times over
 GREY = 0.2  # grey levels of an MRI spanning 0..19009 (1e-5 of it): float32 positions move linear interpolation so
 
 
@@ -144,8 +145,8 @@ def _grid_file(tmp_path, name="cpp.nii.gz", *, p1=2.0, shape=(5, 5, 5, 1, 3), dt
 @pytest.mark.parametrize(
     ("options", "message"),
     [
-        ({"p1": 5.0}, r"a cubic B-spline velocity grid \(reg_f3d -vel\): NiftyReg exponentiates it .*reg_transform"),
-        ({"p1": 3.0}, "a velocity field of positions"),
+        ({"p1": 5.0}, r"a cubic B-spline velocity grid \(reg_f3d -vel\): .*load_deformation\(path, reference=IMAGE\)"),
+        ({"p1": 3.0}, "a velocity field of positions: NiftyReg's tools exponentiate it on different grids"),
         ({"p1": 4.0}, "a velocity field of displacements"),
         ({"p1": 6.0}, "a linear spline control-point grid"),
         ({"p1": 9.0}, "unknown intent_p1 code 9"),
@@ -165,6 +166,27 @@ def test_what_cannot_be_read_exactly_is_refused_naming_the_file(tmp_path, option
     path = _grid_file(tmp_path, **options)
     with pytest.raises(FileFormatError, match=f"cpp.nii.gz: .*{message}"):
         load_deformation(path)
+
+
+def test_a_velocity_grid_is_exponentiated_on_the_reference_as_niftyreg_does(niftyreg_run, tmp_path):
+    fixed, moving = niftyreg_run["fixed"], niftyreg_run["moving"]
+    for reference, name in ((fixed, "vel_def"), (niftyreg_run["big"], "vel_def_big")):
+        start = time.perf_counter()
+        field = load_deformation(niftyreg_run["vel"], reference=str(reference))
+        ms = 1000 * (time.perf_counter() - start)
+        assert isinstance(field, DisplacementField) and field.outside == "nearest"
+        centres, positions = niftyreg_field(niftyreg_run[name])
+        error = np.abs(field.deform(centres) - positions)
+        print(f"\nvelocity grid exponentiated on {reference.name} ({ms:.0f} ms) vs reg_transform -def: max "
+              f"{error.max():.1e} mm, median {np.median(error):.1e} mm, displacements up to "
+              f"{np.abs(positions - centres).max():.1f} mm")  # fmt: skip
+        assert error.max() < VELOCITY_MM
+    field = load_deformation(niftyreg_run["vel"], reference=str(fixed))
+    ours = warp_image(str(moving), field, reference=str(fixed))
+    theirs = sitk.ReadImage(str(niftyreg_run["vel_resampled"]), sitk.sitkFloat64)
+    worst, median, count = rr.compare_inside(ours, theirs, rr.inside_mask(field, fixed, moving))
+    print(f"reg_resample of the velocity grid vs warp_image: max {worst:.3g}, median {median:.2g} grey levels")
+    assert count > 20000 and median < GREY and worst < 25 * GREY
 
 
 def test_what_main_read_silently_as_itk_displacements_is_read_as_niftyreg_means_it(niftyreg_run):
