@@ -271,6 +271,19 @@ def save_fnirt(path: str | os.PathLike[str], ffd: FFD, *, reference: Any, source
     ------
     ValueError
         What a coefficient file cannot hold exactly (the message says why), a missing reference or source.
+
+    Examples
+    --------
+    >>> import pathlib, tempfile
+    >>> from ffd_notebook import FFD, Lattice
+    >>> grid = {"size": (10, 10, 10), "spacing": 2.0}       # FSL mirrors x of this grid (LPS -> RAS: det > 0)
+    >>> on_knots = Lattice((7, 7, 7), 4.0, origin=(-4.0, -4.0, -4.0))
+    >>> save_fnirt(pathlib.Path(tempfile.mkdtemp()) / "coef.nii.gz", FFD(on_knots), reference=grid, source=grid)
+    >>> off_knots = Lattice((7, 7, 7), 4.0, origin=(-3.0, -4.0, -4.0))
+    >>> save_fnirt(pathlib.Path(tempfile.mkdtemp()) / "coef.nii.gz", FFD(off_knots), reference=grid, source=grid)
+    Traceback (most recent call last):
+    ...
+    ValueError: ...: its control points are not on a knot grid of the reference ...
     """
     import nibabel as nib
 
