@@ -15,7 +15,7 @@ from __future__ import annotations
 import os
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any, Union, cast
+from typing import Any, Union
 
 import numpy as np
 
@@ -292,7 +292,9 @@ def save_deformation(
         save_displacement_field(path, deformation)
         return
     if kind == "niftyreg":
-        save_niftyreg(path, cast(Any, deformation))
+        if not isinstance(deformation, FFD | DisplacementField):
+            raise _not_a_lattice(path, deformation, "a NiftyReg grid")
+        save_niftyreg(path, deformation)
         return
     if kind == "fnirt":
         if not isinstance(deformation, FFD):

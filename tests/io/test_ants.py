@@ -174,3 +174,21 @@ def test_the_mat_parser_refuses_or_reads_any_bytes(tmp_path_factory, tail, cut):
     except FileFormatError:
         return
     assert isinstance(result, AffineTransform)
+
+
+@pytest.mark.parametrize("name", ["a.ffd", "a.prm", "TransformParameters.0.txt", "cpp.nii.gz", "coef.nii.gz"])
+@pytest.mark.parametrize("what", ["field", "affine", "chain"])
+def test_what_is_not_a_lattice_is_refused_with_one_exception_type_on_every_route(tmp_path, name, what):
+    """Issue 35 item 11: a field written as a lattice raised TypeError on the elastix route, ValueError elsewhere."""
+    field = DisplacementField(np.zeros((3, 3, 3, 3)), spacing=2.0)
+    affine = AffineTransform(np.diag([2.0, 1.0, 1.0, 1.0]))
+    deformation = {"field": field, "affine": affine, "chain": TransformChain([field, affine])}[what]
+    format = {"TransformParameters.0.txt": "elastix", "cpp.nii.gz": "niftyreg", "coef.nii.gz": "fnirt"}.get(name)
+    if what == "field" and format == "niftyreg":  # an ITK field: NiftyReg would move points beyond its grid
+        match = "leaves points there unmoved"
+    else:
+        match = "is not a lattice"
+    with pytest.raises(ValueError, match=match):
+        save_deformation(tmp_path / name, deformation, format=format, reference={"size": (4, 4, 4)},
+                         source={"size": (4, 4, 4)})  # fmt: skip
+    assert list(tmp_path.iterdir()) == []
