@@ -167,6 +167,8 @@ def read_nifti(path: str | os.PathLike[str], *, data: bool = True) -> NiftiFile:
             first = stream.read(4)
             stream.seek(0)
             kind = _image_class(first, path)
+            _check_header(kind, stream, path)
+            stream.seek(0)
             holder = FileHolder(fileobj=stream)
             image = kind.from_file_map({"header": holder, "image": holder}, mmap=False, keep_file_open=False)
             header = image.header
@@ -186,6 +188,31 @@ def read_nifti(path: str | os.PathLike[str], *, data: bool = True) -> NiftiFile:
     if values is not None and not np.all(np.isfinite(values)):
         raise FileFormatError(path, None, "the data contain NaN or infinite values")
     return NiftiFile(os.fspath(path), header, values)
+
+
+def _check_header(kind: Any, stream: Any, path: str | os.PathLike[str]) -> None:
+    """Refuse a header nibabel would repair on reading (a negative voxel size made positive, an invalid sform
+    code set to 0, a wrong header size...): what it holds would then be a guess. Warnings that change nothing
+    (a data offset SPM would not like) pass, and so does a ``qfac`` (``pixdim[0]``) of 0, which the NIfTI-1
+    standard reads as 1 (NiftyReg writes it so)."""
+    header_class = kind.header_class
+    size = header_class.template_dtype.itemsize
+    block = stream.read(size)
+    if len(block) < size:
+        raise FileFormatError(path, None, f"a truncated NIfTI header ({len(block)} of {size} bytes)")
+    header = header_class(block, check=False)
+    repaired = header.copy()
+    problems = []
+    for check in header_class._get_checks():  # nibabel's own battery, the one from_fileobj runs with fixes
+        if check.__name__ == "_chk_qfac" and float(header["pixdim"][0]) == 0.0:
+            header["pixdim"][0] = repaired["pixdim"][0] = 1.0  # the standard's own reading of 0, not a repair
+            continue
+        repaired, report = check(repaired, fix=True)
+        if report.problem_level and report.fix_msg:
+            problems.append(f"{report.problem_msg} ({report.fix_msg})")
+    if repaired.binaryblock != header.binaryblock:
+        raise FileFormatError(path, None, "a NIfTI header nibabel would have to repair, so what it holds would be "
+                              f"a guess: {'; '.join(problems) or 'its fields are inconsistent'}")  # fmt: skip
 
 
 def read_nifti_header(path: str | os.PathLike[str]) -> Any:

@@ -235,3 +235,24 @@ def test_fields_and_affines_of_niftyreg_are_written_back_exactly(niftyreg_run, t
 
 def deformation_of(path, run, tmp_path):
     return rr.deformation_field(run["big"], path, tmp_path / "def_of.nii.gz")
+
+
+@pytest.mark.parametrize(
+    ("offset", "fmt", "value", "message"),
+    [
+        (80, "<f", -8.0, r"pixdim\[1,2,3\] should be positive"),
+        (254, "<h", -255, "sform_code -255 not valid"),
+        (252, "<h", 77, "qform_code 77 not valid"),
+        (0, "<i", 300, "sizeof_hdr"),
+    ],
+)
+def test_a_header_nibabel_would_repair_is_refused_not_read_as_repaired(tmp_path, offset, fmt, value, message):
+    import struct
+
+    lattice = Lattice((5, 5, 5), 4.0, border="clamp")
+    save_niftyreg(tmp_path / "cpp.nii", FFD(lattice))
+    data = bytearray((tmp_path / "cpp.nii").read_bytes())
+    struct.pack_into(fmt, data, offset, value)
+    (tmp_path / "cpp.nii").write_bytes(bytes(data))
+    with pytest.raises(FileFormatError, match=rf"cpp\.nii: .*({message}|not a NIfTI)"):
+        load_deformation(tmp_path / "cpp.nii")
