@@ -157,7 +157,7 @@ def _browser_files() -> None:
     _section("Your computer's files")
     v.VFileInput(
         v_model=("ffd_upload",),
-        label="upload a lattice (.ffd, .tfm, .h5, .prm)",
+        label="upload a lattice (.ffd, .tfm, .h5, .mat, .prm, .nii.gz)",
         accept=_LATTICE_ACCEPT,
         id="ffd-upload",
         prepend_icon="",
