@@ -18,7 +18,11 @@ as_root() { if [ "$(id -u)" = 0 ]; then "$@"; else sudo "$@"; fi; }
 if command -v apt-get >/dev/null; then
   as_root apt-get update -q
   as_root apt-get install -y -q --no-install-recommends chromium libegl1 libegl-mesa0 libgl1-mesa-dri libgbm1
+  # Node's npm, for JupyterHub's proxy below (an image whose nodejs already ships npm keeps its own)
+  command -v npm >/dev/null || as_root apt-get install -y -q --no-install-recommends nodejs npm
 fi
+# JupyterHub's configurable-http-proxy (npm), for the hub browser test (tests/browser/test_jupyterhub_browser.py)
+command -v configurable-http-proxy >/dev/null || as_root npm install -g --no-fund --no-audit configurable-http-proxy@5
 python3 -m pip install -q -e ".[test]"
 status=0
 python3 -m pytest "$@" || status=$?

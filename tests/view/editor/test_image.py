@@ -3,33 +3,15 @@
 from __future__ import annotations
 
 import numpy as np
-import pytest
 import pyvista as pv
 import SimpleITK as sitk
+from editor_testing import full_slices
 
-from ffd_notebook.images import ImageGrid, read_image, warp_image, write_image
+from ffd_notebook.images import ImageGrid, read_image, warp_image
 from ffd_notebook.view.editor import Editor
 from ffd_notebook.view.editor.editor import PYVISTA_MESH_IO
 from ffd_notebook.view.editor.session import EditingSession
 from ffd_notebook.view.editor.session.controls import by_key, run, session_state
-
-
-@pytest.fixture
-def ct(tmp_path):
-    """A CT-like volume around the unit sphere (anisotropic voxels), as a NIfTI file."""
-    grid = ImageGrid((34, 30, 26), spacing=(0.075, 0.085, 0.095), origin=(-1.25, -1.25, -1.2))
-    points = grid.physical_points()
-    r = np.linalg.norm(points, axis=1)
-    values = np.where(r < 0.5, 300.0, -200.0) + 100.0 * np.sin(6.0 * points[:, 0])
-    path = tmp_path / "ct.nii.gz"
-    write_image(path, grid.to_sitk(sitk.GetImageFromArray(values.reshape(grid.shape).astype(np.float32))))
-    return path
-
-
-def full_slices(image, ffd, positions):
-    full = sitk.GetArrayFromImage(warp_image(image, ffd))
-    i, j, k = positions
-    return {0: full[:, :, i], 1: full[:, j, :], 2: full[k]}
 
 
 def drag(session, ijk, by):

@@ -37,8 +37,9 @@ from ...serving.file_root import (
     refuse_special_or_oversize,
 )
 from ..scene.scene import prepare_display
-from ..session.controls import numbers
+from ..session.controls import number, numbers
 from ..session.lattices import copy_ffd
+from ..session.session import ChangedMeanwhile
 
 __all__ = ["MESH_FORMATS", "AppFiles", "upload_bytes"]
 
@@ -200,7 +201,10 @@ class AppFiles:
     # ------------------------------------------------------------------ lattice
     def rebuild(self, *values: Any) -> None:
         """Fit a lattice of the typed size (``nx, ny, nz``) around the mesh; binding it to the mesh
-        (seconds on a big mesh) runs in a worker thread."""
+        (seconds on a big mesh) runs in a worker thread.
+
+        Edits made meanwhile stay: weights painted or set are weighed into the result; another strength or
+        interpolation starts the fit again with it (:class:`~..session.session.ChangedMeanwhile`)."""
         session = self.session
         try:
             shape = numbers(list(values), "lattice size", int)
@@ -215,7 +219,11 @@ class AppFiles:
         def done(deformer: Any) -> None:
             if session.mesh is not mesh:
                 raise ValueError("the mesh changed meanwhile; rebuild again")
-            session.set_shape(shape, deformer)
+            try:
+                session.set_shape(shape, deformer)
+            except ChangedMeanwhile as exc:
+                session.info(f"{exc}: fitting again")
+                self.rebuild(*values)
 
         self.in_background(f"fitting a {name} lattice", lambda: ffd.bind(mesh.points), done,
                             f"the {name} lattice", "rebuild")  # fmt: skip
@@ -240,7 +248,8 @@ class AppFiles:
         self.in_background(f"{verb}: binding the lattice to the mesh", prepared.bind, act, "the lattice", verb)
 
     def set_basis(self, basis: Any) -> None:
-        """Switch the basis; the refitted lattice is bound to the mesh in a worker thread."""
+        """Switch the basis; the refitted lattice is bound to the mesh in a worker thread (edits made meanwhile
+        stay, as for :meth:`rebuild`)."""
         session = self.session
         if basis == session.basis:
             return
@@ -254,15 +263,26 @@ class AppFiles:
         def done(deformer: Any) -> None:
             if session.mesh is not mesh:
                 raise ValueError("the mesh changed meanwhile; choose the basis again")
-            session.set_basis(str(basis), deformer)
+            try:
+                session.set_basis(str(basis), deformer)
+            except ChangedMeanwhile as exc:
+                session.info(f"{exc}: switching again")
+                self.set_basis(basis)
 
         self.in_background(f"switching to the {basis} basis", lambda: ffd.bind(mesh.points), done,
                             f"the {basis} basis", "switch the basis")  # fmt: skip
 
     def decimate(self, reduction: Any) -> None:
         """Decimate the mesh in a worker thread (seconds on a 500k-point mesh), with the lattice bound to the
-        result and its plotted copy prepared there too; the loop only swaps them in."""
+        result and its plotted copy prepared there too; the loop only swaps them in. A reduction that is not
+        a number is refused at once; what fails in the worker is one message, posted from the loop."""
         session, scene = self.session, self.editor.scene
+        try:
+            reduction = number(reduction, "the reduction")
+        except ValueError as exc:
+            session.error(f"could not decimate: {exc}")
+            self.sync()
+            return
 
         def work() -> tuple[Any, Any]:
             done = session.decimation(reduction)
@@ -313,8 +333,8 @@ class AppFiles:
         target = self._typed(path, lambda p: self.root.for_writing(p, IMAGE_WRITE_SUFFIXES), "save")
         if target is not None:
             shown = self.root.shown(target)
-            image = self.session.image
-            self.in_background(f"writing {shown}", lambda: image.save(target, announce=False),
+            image, ffd = self.session.image, copy_ffd(self.session.ffd)  # the deformation as it is now
+            self.in_background(f"writing {shown}", lambda: image.save(target, announce=False, ffd=ffd),
                                 lambda _: self.session.messages.append(f"saved the warped image to {shown}"),
                                 shown, "save")  # fmt: skip
 

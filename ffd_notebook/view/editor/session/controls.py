@@ -37,6 +37,7 @@ __all__ = [
     "MODE_CHOICES",
     "N_MESSAGES",
     "POINTS_CHOICES",
+    "SECTION_HINTS",
     "Control",
     "by_key",
     "number",
@@ -46,6 +47,8 @@ __all__ = [
 ]
 
 N_MESSAGES = 5  # messages the panels list (newest first)
+#: what the panels say beside a section's name (the section of :attr:`Control.section`)
+SECTION_HINTS = {"Control point": "drag a sphere, or pick one and type"}
 BOTH = frozenset({"notebook", "app"})
 
 

@@ -27,8 +27,9 @@ What happens to the lattice when a mesh is loaded
     A lattice placed by a file (a .ffd quaternion, ITK, PyGeM), passed to the editor or assigned
     with ``editor.lattice = ...`` stays where it is; a .ffd lattice without placement is placed
     again at the new mesh's minimum corner (offsets kept); a lattice fitted by the editor is fitted
-    again around the new mesh (same size, offsets zero). Undo brings back a lattice together with
-    this rule.
+    again around the new mesh (same size, interpolation and strength, offsets zero). Undo brings back a
+    lattice together with this rule. Painted vertex weights belong to the old mesh's vertices: they
+    go, and a message says so.
 """
 
 from __future__ import annotations
@@ -45,7 +46,7 @@ from ....ffd.lattice import Lattice
 from ....io import AffineTransform, DisplacementField, fit_lattice, place_at_mesh_minimum
 from ....io import load_deformation as _load_deformation
 from ....io import save_deformation as _save_deformation
-from .lattices import copy_ffd, fitted_lattice
+from .lattices import copy_ffd, refitted
 
 if TYPE_CHECKING:
     from .session import EditingSession
@@ -202,8 +203,8 @@ class SessionFiles:
             ffd = copy_ffd(self.session.ffd, weights=None)
         elif self.session.lattice_source == "ffd-min":
             ffd = copy_ffd(self.session.ffd, place_at_mesh_minimum(self.session.lattice, mesh), weights=None)
-        else:
-            ffd = FFD(fitted_lattice(mesh, self.session.lattice.shape, self.session.basis), self.session.basis)
+        else:  # the interpolation and strength stay, as for a new lattice size
+            ffd = refitted(self.session.ffd, mesh, self.session.lattice.shape, weights=None)
         return mesh, ffd.bind(mesh.points)
 
     def use_mesh(self, mesh: Any, deformer: Deformer, name: str) -> None:

@@ -21,6 +21,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
+from ....ffd.deform import FFD
 from ....images import WarpedSlices, warp_image, write_image
 from ....images.slices import intensity_window
 from .changes import Change
@@ -115,9 +116,11 @@ class SessionImage:
         grey = slices.values[slices.axes[0]].ndim == 2
         self._slices, self._source, self.name, self._interpolation = slices, source, name, interpolation
         self.window = intensity_window(slices.pixels) if grey else None
-        if slices.ffd is not self.session.ffd:
+        if slices.ffd is not self.session.ffd:  # another lattice since it was read: bound again
             slices.set_ffd(self.session.ffd)
-        self._pending = set()
+            self._pending = set()
+        else:  # read (in a worker thread, say) while control points moved: those catch up at the next look
+            self._pending = {(int(i), int(j), int(k)) for i, j, k in np.ndindex(*self.session.lattice.shape)}
         self._unshown = {}
         self._everything()
         self.session.notify("image", None, "load image")
@@ -184,20 +187,27 @@ class SessionImage:
         target = Path(lattice_path)
         return target.with_name(f"{target.stem}.warped{suffix}")
 
-    def warped(self) -> Any:
-        """The whole image warped through the session's FFD (what :meth:`save` writes)."""
-        self.require()
-        return warp_image(self._source, self.session.ffd, interpolation=self._interpolation)
+    def _loaded_slices(self) -> WarpedSlices:
+        """The slices as they are, not brought up to date (a worker thread may ask); a ValueError if none."""
+        if self._slices is None:
+            raise ValueError("no image is loaded")
+        return self._slices
 
-    def save(self, path: str | os.PathLike[str], *, announce: bool = True) -> None:
-        """Write the warped image (SimpleITK's formats, by extension), atomically (a worker thread may call it
-        with ``announce=False``: then it only writes)."""
-        slices = self.require()
-        warped = self.warped()
+    def warped(self, ffd: FFD | None = None) -> Any:
+        """The whole image warped through ``ffd`` (the session's by default): what :meth:`save` writes."""
+        self._loaded_slices()
+        return warp_image(self._source, self.session.ffd if ffd is None else ffd, interpolation=self._interpolation)
+
+    def save(self, path: str | os.PathLike[str], *, announce: bool = True, ffd: FFD | None = None) -> None:
+        """Write the image warped through ``ffd`` (the session's by default; SimpleITK's formats, by extension),
+        atomically. A worker thread may call it with ``announce=False`` (then it only writes) and a copy of the
+        session's FFD taken when saving was asked for (then edits made meanwhile are not half in the file)."""
+        grid = self._loaded_slices().grid
+        warped = self.warped(ffd)
         if not hasattr(warped, "GetSize"):  # an array image: give it its geometry
             import SimpleITK as sitk
 
-            warped = slices.grid.to_sitk(sitk.GetImageFromArray(warped, isVector=warped.ndim > slices.grid.dim))
+            warped = grid.to_sitk(sitk.GetImageFromArray(warped, isVector=warped.ndim > grid.dim))
         write_image(path, warped)
         if announce:
             self.session.info(f"Saved the warped image to {os.path.basename(os.fspath(path))}")
