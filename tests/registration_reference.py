@@ -128,7 +128,12 @@ out = {}
 for name, transforms in (('list', reg['fwdtransforms']), ('composite', [composite['fwdtransforms']])):
     warped = ants.apply_transforms(fixed=fixed, moving=moving, transformlist=transforms, interpolator='linear')
     ants.image_write(warped, folder + f'/ants_{name}.nii.gz')
-open(folder + '/transforms.txt', 'w').write('\\n'.join(reg['fwdtransforms'] + [composite['fwdtransforms']]))
+# the inverse: the fixed image on the moving image's grid, through invtransforms (the affine inverted)
+back = ants.apply_transforms(fixed=moving, moving=fixed, transformlist=reg['invtransforms'],
+                             whichtoinvert=[True, False], interpolator='linear')
+ants.image_write(back, folder + '/ants_inverse.nii.gz')
+open(folder + '/transforms.txt', 'w').write('\\n'.join(reg['fwdtransforms'] + [composite['fwdtransforms']]
+                                                     + [reg['invtransforms'][1]]))
 """
 
 
@@ -137,10 +142,11 @@ def run_ants(folder: Path, workdir: Path) -> dict[str, Path]:
     image by ``ants.apply_transforms`` (linear)."""
     fixed, moving = mri_pair(folder)
     ANTS_FSL.run(ANTS_SCRIPT, {"json": {"folder": str(folder)}}, workdir=workdir)
-    warp, affine, composite = (folder / "transforms.txt").read_text().split("\n")
+    warp, affine, composite, inverse_warp = (folder / "transforms.txt").read_text().split("\n")
     return {"fixed": fixed, "moving": moving, "warp": Path(warp), "affine": Path(affine),
-            "composite": Path(composite), "ants_list": folder / "ants_list.nii.gz",
-            "ants_composite": folder / "ants_composite.nii.gz"}  # fmt: skip
+            "composite": Path(composite), "inverse_warp": Path(inverse_warp),
+            "ants_list": folder / "ants_list.nii.gz", "ants_composite": folder / "ants_composite.nii.gz",
+            "ants_inverse": folder / "ants_inverse.nii.gz"}  # fmt: skip
 
 
 APPLY_SCRIPT = """

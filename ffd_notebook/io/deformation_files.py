@@ -89,7 +89,9 @@ def load_deformation(
       something else (an SPM field of positions, an intent name no tool here writes) is refused.
     - A list: a :class:`~ffd_notebook.io.TransformChain` of the files in ``antsApplyTransforms -t`` order, as
       ``ants.registration`` returns them (``[prefix1Warp.nii.gz, prefix0GenericAffine.mat]``): it deforms as
-      ``ants.apply_transforms`` with the same list, the first file moving a point first.
+      ``ants.apply_transforms`` with the same list, the first file moving a point first. An item
+      ``(path, True)`` is the inverse of an affine file, as ANTs' ``whichtoinvert`` (its ``invtransforms``:
+      ``[(prefix0GenericAffine.mat, True), prefix1InverseWarp.nii.gz]``).
 
     Every deformation read from the NIfTI world lives in ITK's physical space (LPS millimetres), as SimpleITK
     reads the images it is applied to.
@@ -97,7 +99,7 @@ def load_deformation(
     Parameters
     ----------
     path_or_list : str, os.PathLike or sequence of them
-        The file, or files in ``antsApplyTransforms -t`` order.
+        The file, or files in ``antsApplyTransforms -t`` order (an item ``(path, True)``: its inverse).
     reference, source : path or reference grid, optional
         The images an FSL transformation maps between (the NIfTI files, or any reference grid); the image a
         NiftyReg velocity grid is exponentiated on (``reference``); other formats do not use them.
@@ -128,7 +130,7 @@ def load_deformation(
         paths = list(path_or_list)
         if not paths:
             raise ValueError("an empty list of deformation files")
-        steps = [load_deformation(p, reference=reference, source=source) for p in paths]
+        steps = [_list_item(item, reference, source) for item in paths]
         return steps[0] if len(steps) == 1 else TransformChain(steps)
     path = path_or_list
     suffix = _suffix(path)
@@ -154,6 +156,23 @@ def load_deformation(
         except ValueError as exc:
             raise FileFormatError(path, None, f"this elastix chain has no FFD equal to it: {exc}") from None
     return transforms_to_deformation(path, read_transforms(path))
+
+
+def _list_item(item: Any, reference: Any, source: Any) -> LoadedDeformation:
+    """One file of a list: a path, or ``(path, True)`` for its inverse (ANTs' ``whichtoinvert``, an affine only)."""
+    if isinstance(item, tuple):
+        if len(item) != 2 or not isinstance(item[1], bool):
+            raise ValueError(f"a list item is a path or (path, invert), got {item!r}")
+        path, invert = item
+    else:
+        path, invert = item, False
+    loaded = load_deformation(path, reference=reference, source=source)
+    if not invert:
+        return loaded
+    if not isinstance(loaded, AffineTransform):
+        raise ValueError(f"{os.fspath(path)}: only an affine transform is inverted (as ANTs' whichtoinvert); use "
+                         "the inverse field the registration wrote (prefix1InverseWarp.nii.gz)")  # fmt: skip
+    return loaded.inverse()
 
 
 def _load_nifti(path: str | os.PathLike[str], reference: Any, source: Any) -> LoadedDeformation:

@@ -66,6 +66,23 @@ class AffineTransform:
 
     __call__ = deform
 
+    def inverse(self) -> AffineTransform:
+        """The inverse map (``ValueError`` for a singular one).
+
+        Returns
+        -------
+        AffineTransform
+
+        Examples
+        --------
+        >>> t = AffineTransform([[2.0, 0, 0, 1.0], [0, 1, 0, 0], [0, 0, 1, 0]])
+        >>> t.inverse().deform(t.deform([[1.0, 2.0, 3.0]])).tolist()
+        [[1.0, 2.0, 3.0]]
+        """
+        if np.linalg.cond(self.matrix[:3, :3]) > 1e12:
+            raise ValueError("a singular affine transform has no inverse")
+        return AffineTransform(np.linalg.inv(self.matrix))
+
     def __repr__(self) -> str:
         return f"AffineTransform({self.matrix[:3].round(6).tolist()})"
 
