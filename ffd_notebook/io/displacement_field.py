@@ -8,6 +8,9 @@ does (the neighbours clamped to the grid), inside the buffer's half-voxel margin
 (``-0.5 <= index < n - 0.5`` on every axis, ``ImageFunction::IsInsideBuffer``); a point outside it
 does not move (``DisplacementFieldTransform::TransformPoint``). That is the images' interpolator,
 :class:`~ffd_notebook.images.pixels.Interpolator` (linear, default value zero), reading the vectors.
+NiftyReg's own fields follow another rule beyond their grid (``outside="nearest"``): the displacement of
+the nearest border voxel goes on (``get_SlidedValues`` in NiftyReg's ``_reg_splineBasis.cpp``), the same
+interpolator reading at the index clamped onto the grid.
 """
 
 from __future__ import annotations
@@ -38,6 +41,8 @@ __all__ = [
     "save_displacement_field",
 ]
 
+#: What moves a point beyond a field's grid (:class:`DisplacementField`'s ``outside``).
+FIELD_OUTSIDE_RULES = ("zero", "nearest")
 #: Displacement-field file names, and the ITK image IO that reads and writes each.
 FIELD_SUFFIXES = {".nii": "NiftiImageIO", ".nii.gz": "NiftiImageIO", ".nrrd": "NrrdImageIO", ".mha": "MetaImageIO"}
 _MAX_VOXELS = 2**28  # 268M voxels: 6.4 GB of float64 vectors, far above any registration field
@@ -72,6 +77,10 @@ class DisplacementField:
         Voxel spacing and the position of voxel ``(0, 0, 0)`` (x first); 1 and 0 by default.
     direction : array_like, optional
         3x3 matrix whose columns are the grid axes (identity by default).
+    outside : {"zero", "nearest"}
+        What moves a point outside the buffer: nothing (``"zero"``, ITK's ``DisplacementFieldTransform``, ANTs)
+        or the displacement of the nearest border voxel (``"nearest"``, NiftyReg's fields, which interpolate with
+        their border voxels repeated beyond the grid).
 
     Examples
     --------
@@ -88,7 +97,12 @@ class DisplacementField:
         spacing: ArrayLike | None = None,
         origin: ArrayLike | None = None,
         direction: ArrayLike | None = None,
+        *,
+        outside: str = "zero",
     ) -> None:
+        if outside not in FIELD_OUTSIDE_RULES:
+            raise ValueError(f"outside must be one of {', '.join(FIELD_OUTSIDE_RULES)}, got {outside!r}")
+        self.outside = outside
         v = np.asarray(vectors, dtype=np.float64)
         if v.ndim != 4 or v.shape[3] != 3 or min(v.shape[:3]) < 1:
             raise ValueError(f"vectors must be an (nz, ny, nx, 3) array (array order, as images), got shape {v.shape}")
@@ -249,6 +263,8 @@ class DisplacementField:
         [[1.0, 0.0, 0.0]]
         """
         index = self.to_index(points)
+        if self.outside == "nearest":  # NiftyReg: beyond the grid, the border voxels' displacement goes on
+            index = np.clip(index, 0.0, np.array(self.size, dtype=np.float64) - 1.0)  # NaN stays NaN: zero
         out = np.empty_like(index)
         self._reader().read(np.ascontiguousarray(index.T[::-1]), out=out)  # array order (k, j, i)
         return out
@@ -287,7 +303,9 @@ class DisplacementField:
     __call__ = deform
 
     def __repr__(self) -> str:
-        return f"DisplacementField(size={self.size}, spacing={self.spacing.tolist()}, origin={self.origin.tolist()})"
+        rule = "" if self.outside == "zero" else f", outside={self.outside!r}"
+        return (f"DisplacementField(size={self.size}, spacing={self.spacing.tolist()}, "
+                f"origin={self.origin.tolist()}{rule})")  # fmt: skip
 
 
 def _first_line(exc: BaseException) -> str:
