@@ -12,6 +12,7 @@ after the check), the declared size checked before a byte of data is read, trunc
 from __future__ import annotations
 
 import gzip
+import logging
 import os
 import zlib
 from dataclasses import dataclass
@@ -201,18 +202,33 @@ def _check_header(kind: Any, stream: Any, path: str | os.PathLike[str]) -> None:
     if len(block) < size:
         raise FileFormatError(path, None, f"a truncated NIfTI header ({len(block)} of {size} bytes)")
     header = header_class(block, check=False)
+    if float(header["pixdim"][0]) == 0.0:
+        header["pixdim"][0] = 1.0  # a qfac of 0 is 1 by the standard's own reading (NiftyReg writes it so)
     repaired = header.copy()
-    problems = []
-    for check in header_class._get_checks():  # nibabel's own battery, the one from_fileobj runs with fixes
-        if check.__name__ == "_chk_qfac" and float(header["pixdim"][0]) == 0.0:
-            header["pixdim"][0] = repaired["pixdim"][0] = 1.0  # the standard's own reading of 0, not a repair
-            continue
-        repaired, report = check(repaired, fix=True)
-        if report.problem_level and report.fix_msg:
-            problems.append(f"{report.problem_msg} ({report.fix_msg})")
+    problems: list[str] = []
+    collect = logging.getLogger(f"{__name__}.header_check")
+    collect.propagate = False
+    collect.setLevel(1)  # every problem a check reports (level 0 is "no problem")
+    handler = _Collect(problems)
+    collect.addHandler(handler)
+    try:  # nibabel's own battery of checks, the one it runs with fixes when it reads a file
+        repaired.check_fix(logger=collect, error_level=100)
+    finally:
+        collect.removeHandler(handler)
     if repaired.binaryblock != header.binaryblock:
         raise FileFormatError(path, None, "a NIfTI header nibabel would have to repair, so what it holds would be "
                               f"a guess: {'; '.join(problems) or 'its fields are inconsistent'}")  # fmt: skip
+
+
+class _Collect(logging.Handler):
+    """Keeps the messages of nibabel's header checks that made a fix."""
+
+    def __init__(self, into: list[str]) -> None:
+        super().__init__(level=logging.DEBUG)
+        self.into = into
+
+    def emit(self, record: logging.LogRecord) -> None:
+        self.into.append(record.getMessage())
 
 
 def read_nifti_header(path: str | os.PathLike[str]) -> Any:

@@ -125,8 +125,12 @@ def test_fit_lattice_makes_the_syn_warp_an_editable_lattice_with_its_residual(an
     points = reference_grid(str(ants_run["fixed"])).physical_points()
     residual = np.linalg.norm(ffd.deform(points) - chain.deform(points), axis=1)
     assert np.sqrt(np.mean(residual**2)) == pytest.approx(fit["rms"], rel=1e-6)
+    before = ffd.deform(points)
     ffd.lattice.offsets[4, 5, 4] += (3.0, 0.0, 0.0)  # editable: a hand correction moves the points near it
-    assert np.linalg.norm(ffd.deform(points) - chain.deform(points), axis=1).max() > fit["max"]
+    moved = np.linalg.norm(ffd.deform(points) - before, axis=1)
+    apart = np.abs(ffd.lattice.to_lattice(points) - (4, 5, 4))  # in control-point spacings
+    near, beyond = apart.max(axis=1) < 0.5, apart.max(axis=1) >= 2.0  # a cubic B-spline reaches 2 spacings
+    assert near.any() and moved[near].min() > 0.3 and moved.max() <= 3.0 and not moved[beyond].any()  # 3 (23/48)^3
 
 
 # ------------------------------------------------------------------------------- the .mat parser, refusals
