@@ -288,23 +288,18 @@ class AppFiles:
     def load_image_in_background(self, path: str) -> None:
         """Start showing an image (NIfTI, NRRD, MetaImage, PNG...) from a path in the app's folder (a worker thread).
 
-        A header that names a data file (MetaImage, NRRD) is refused unless that file is in the folder too.
+        A header that names data files (MetaImage, NRRD: one name, a ``LIST`` or a pattern) is read only if every
+        one of them is in the folder too (:func:`~ffd_notebook.images.read_image` with ``within=`` the folder).
         """
-        target = self._typed(path, self._image_for_reading, "load")
+        from ....images import read_image
+
+        target = self._typed(path, self.root.for_reading, "load")
         if target is None:
             return
-        shown = self.root.shown(target)
+        shown, folder = self.root.shown(target), self.root.path
         image = self.session.image
-        self.in_background(f"reading {shown}", lambda: image.read(target),
+        self.in_background(f"reading {shown}", lambda: image.read(read_image(target, within=folder)),
                             lambda slices: image.use(slices, target, shown), shown, "load")  # fmt: skip
-
-    def _image_for_reading(self, typed: str) -> Path:
-        from ....images import image_data_files
-
-        target = self.root.for_reading(typed)
-        for data_file in image_data_files(target):
-            self.root.for_reading(data_file)  # PathRefused if it is outside the root
-        return target
 
     def save_image_in_background(self, path: str) -> None:
         """Start writing the warped image in the app's folder (format from the extension, atomically)."""
