@@ -20,6 +20,7 @@ from .files import ImageFile, open_image, read_image, read_image_information, wr
 from .geometry import ImageGrid
 from .inverse import invert_points
 from .pixels import IMAGE_INTERPOLATIONS
+from .reference import reference_grid
 from .slices import WarpedSlices
 from .warp import warp_image
 
@@ -34,6 +35,7 @@ __all__ = [
     "open_image",
     "read_image",
     "read_image_information",
+    "reference_grid",
     "warp_image",
     "write_image",
 ]
