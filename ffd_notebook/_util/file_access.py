@@ -204,7 +204,7 @@ def named_file(owner: str | os.PathLike[str], name: str, *, within: str | os.Pat
     >>> named_file(folder / "a.mhd", "/dev/zero")
     Traceback (most recent call last):
     ...
-    ffd_notebook.errors.FileFormatError: ...a.mhd: its data file '/dev/zero' is a character device, not a regular ...
+    ffd_notebook.errors.FileFormatError: ...a.mhd: its data file is a character device, not a regular file: ...
     """
     if not name or "\x00" in name:
         raise FileFormatError(owner, line, f"names an empty {what}" if not name else f"a {what} name with a NUL byte")
@@ -214,14 +214,14 @@ def named_file(owner: str | os.PathLike[str], name: str, *, within: str | os.Pat
     try:
         info = os.stat(target)
     except FileNotFoundError:
-        raise FileFormatError(owner, line, f"its {what} {name!r} does not exist") from None
+        raise FileFormatError(owner, line, f"its {what} does not exist ({name!r})") from None
     except OSError as exc:
-        raise FileFormatError(owner, line, f"its {what} {name!r} cannot be read ({exc.strerror})") from None
+        raise FileFormatError(owner, line, f"its {what} cannot be read ({name!r}: {exc.strerror})") from None
     mode = info.st_mode
     if not stat.S_ISREG(mode):
         kind = "a folder" if stat.S_ISDIR(mode) else _KINDS.get(stat.S_IFMT(mode), "not a regular file")
-        raise FileFormatError(owner, line, f"its {what} {name!r} is {kind}, not a regular file: refused")
+        raise FileFormatError(owner, line, f"its {what} is {kind}, not a regular file: refused ({name!r})")
     if info.st_size > max_bytes:
-        raise FileFormatError(owner, line, f"its {what} {name!r} is too large ({info.st_size} bytes; the limit is "
+        raise FileFormatError(owner, line, f"its {what} is too large ({name!r}: {info.st_size} bytes; the limit is "
                               f"{max_bytes})")  # fmt: skip
     return target

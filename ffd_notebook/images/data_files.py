@@ -29,6 +29,8 @@ import zlib
 from dataclasses import dataclass
 from pathlib import Path
 
+import numpy as np
+
 from .._util.file_access import named_file, open_regular
 from ..errors import FileFormatError
 
@@ -100,7 +102,10 @@ class DataPart:
     in text: not sized here). ``from_end``: the data is the file's last ``length`` bytes
     (MetaImage ``HeaderSize = -1``, NRRD ``byte skip: -1``). ``stored``: how many bytes the
     compressed stream takes in the file, when the header says (MetaImage ``CompressedDataSize``).
-    ``line`` is the header line that names ``path`` (None for inline data).
+    ``line`` is the header line that names ``path`` (None for inline data). ``values``: the NumPy
+    dtype of the stored values where non-finite ones can be counted (NIfTI floating-point data,
+    whose NaN and infinities ITK's NIfTI reader turns into 0), starting ``skip`` bytes into the
+    decoded data (a ``.nii.gz`` file's header).
     """
 
     path: Path
@@ -110,6 +115,8 @@ class DataPart:
     from_end: bool = False
     stored: int | None = None
     line: int | None = None
+    values: str | None = None
+    skip: int = 0
 
 
 @dataclass(frozen=True)
@@ -126,6 +133,7 @@ class ImageLayout:
     parts: tuple[DataPart, ...]
     sizes: tuple[int, ...] | None = None
     components: int = 1
+    pixels: int = 0
 
     @property
     def named(self) -> list[Path]:
@@ -232,11 +240,15 @@ def image_data_files(path: str | os.PathLike[str], *, within: str | os.PathLike[
     return image_layout(path, within=within).named
 
 
-def check_whole(layout: ImageLayout) -> None:
+def check_whole(layout: ImageLayout, *, count_non_finite: bool = False) -> int:
     """Refuse an image whose pixel data ends before its header (or structure) says it does.
 
     Raw data: one ``os.stat`` per file. Compressed data: inflated once, in 1 MiB pieces that are
     thrown away, to the end of the stream (its CRC and length trailer checked by zlib).
+
+    With ``count_non_finite``, the pixels holding a NaN or infinite value are counted in the
+    file's own data where ITK would hide them (NIfTI floating-point data: counted while the
+    stream is inflated, or from the mapped file); the count is returned (0 where not counted).
 
     Raises
     ------
@@ -256,6 +268,7 @@ def check_whole(layout: ImageLayout) -> None:
     ...
     ffd_notebook.errors.FileFormatError: ...a.mhd, line 4: the pixel data ends early: its data file a.raw has 20 ...
     """
+    bad = np.zeros(layout.pixels if count_non_finite and any(p.values for p in layout.parts) else 0, dtype=bool)
     for part in layout.parts:
         if part.encoding == "text":
             continue
@@ -269,17 +282,55 @@ def check_whole(layout: ImageLayout) -> None:
             if size < need:
                 raise FileFormatError(layout.path, part.line, f"the pixel data ends early: {where} has {size} "
                                       f"bytes of {need}")  # fmt: skip
+            if bad.size and part.values:
+                _mark_non_finite(bad, np.memmap(part.path, dtype=part.values, mode="r", offset=part.start,
+                                                shape=(part.length // np.dtype(part.values).itemsize,)), 0)  # fmt: skip
             continue
         stored = part.stored
         if stored is not None and part.start + stored > size:
             raise FileFormatError(layout.path, part.line, f"the pixel data ends early: {where} holds "
                                   f"{max(0, size - part.start)} of the {stored} compressed bytes its header "
                                   "announces")  # fmt: skip
-        _inflate_whole(layout, part, where, part.start + stored if stored is not None else size)
+        counter = _Counter(bad, part) if bad.size and part.values else None
+        _inflate_whole(layout, part, where, part.start + stored if stored is not None else size, counter)
+    return int(bad.sum())
+
+
+def _mark_non_finite(bad: np.ndarray, values: np.ndarray, first: int) -> None:
+    """Mark in ``bad`` the pixels of the non-finite ``values`` (value ``first + n`` is pixel ``(first + n) % pixels``).
+
+    The values are a pixel's components one after another, as NIfTI stores a vector image (the
+    component axis slowest): a value's pixel is its index modulo the number of pixels.
+    """
+    for start in range(0, len(values), 1 << 22):
+        chunk = np.asarray(values[start : start + (1 << 22)])
+        where = np.flatnonzero(~np.isfinite(chunk))
+        if where.size:
+            bad[(where + first + start) % bad.size] = True
+
+
+class _Counter:
+    """Counts the non-finite values of a decoded stream fed piece by piece (whole values only, carried across)."""
+
+    def __init__(self, bad: np.ndarray, part: DataPart) -> None:
+        self.bad, self.dtype = bad, np.dtype(part.values)
+        self.skip, self.count = part.skip, (part.length - part.skip) // self.dtype.itemsize
+        self.seen, self.carry = 0, b""
+
+    def feed(self, data: bytes) -> None:
+        if self.skip:
+            cut = min(self.skip, len(data))
+            data, self.skip = data[cut:], self.skip - cut
+        data = self.carry + data
+        whole = min(len(data) // self.dtype.itemsize, self.count - self.seen)
+        self.carry = data[whole * self.dtype.itemsize :] if whole + self.seen < self.count else b""
+        if whole > 0:
+            _mark_non_finite(self.bad, np.frombuffer(data, dtype=self.dtype, count=whole), self.seen)
+            self.seen += whole
 
 
 # ------------------------------------------------------------------------------------------ compressed data
-def _inflate_whole(layout: ImageLayout, part: DataPart, where: str, end: int) -> None:
+def _inflate_whole(layout: ImageLayout, part: DataPart, where: str, end: int, counter: _Counter | None) -> None:
     """Inflate ``part`` (gzip members or a zlib stream) from ``start`` to ``end``; refuse if it stops short."""
     produced = 0
     with open_regular(part.path, max_bytes=1 << 62) as f:
@@ -317,6 +368,8 @@ def _inflate_whole(layout: ImageLayout, part: DataPart, where: str, end: int) ->
                 raise FileFormatError(layout.path, part.line, f"the compressed pixel data of {where} is damaged "
                                       f"({exc})") from None  # fmt: skip
             produced += len(out)
+            if counter is not None:
+                counter.feed(out)
             if produced > part.length + _EXTRA_INFLATED:
                 raise FileFormatError(layout.path, part.line, f"the compressed pixel data of {where} inflates to "
                                       f"more than the {part.length} bytes its header needs")  # fmt: skip
@@ -606,6 +659,9 @@ def _nrrd(path: Path, within: str | os.PathLike[str] | None) -> ImageLayout:
                                               "refused")  # fmt: skip
                     list_names.append(lines[index][:2])
                     index += 1
+                if any(text.strip() for _, text, _ in lines[index:]):  # ITK 5.4's teem reads on to the end
+                    raise FileFormatError(path, lines[index][0], "lines after the blank line that ends the LIST "
+                                          "(teem versions read them differently): refused")  # fmt: skip
                 if index < len(lines):
                     data_start = lines[index][2]
                 break
@@ -713,7 +769,7 @@ def _nifti(path: Path, suffix: str) -> ImageLayout:
         header = header_class.from_fileobj(io.BytesIO(raw), check=False)
         magic = bytes(header["magic"]).rstrip(b"\x00")
         shape = header.get_data_shape()
-        itemsize = header.get_data_dtype().itemsize
+        dtype = header.get_data_dtype()
         offset = int(header.get_data_offset())
     except Exception as exc:  # nibabel's errors on a damaged header are of many kinds
         raise FileFormatError(path, None, f"not a NIfTI header nibabel understands ({exc})") from None
@@ -721,12 +777,16 @@ def _nifti(path: Path, suffix: str) -> ImageLayout:
         raise FileFormatError(path, None, f"NIfTI magic {magic!r}: only single-file NIfTI (n+1, n+2) is read; a "
                               "header whose pixels are in another file (.hdr/.img) is not")  # fmt: skip
     offset = max(offset, 352 if magic == b"n+1" else 544)
-    length = _product([int(n) for n in shape]) * itemsize
+    values = _product([int(n) for n in shape])
+    length = values * dtype.itemsize
+    floats = dtype.str if dtype.kind == "f" else None
     if compressed:
-        part = DataPart(path, 0, offset + length, "gzip")
+        part = DataPart(path, 0, offset + length, "gzip", values=floats, skip=offset)
     else:
-        part = DataPart(path, offset, length)
-    return ImageLayout(path, "NIfTI", "NiftiImageIO", (part,), tuple(int(n) for n in shape))
+        part = DataPart(path, offset, length, values=floats)
+    components = int(shape[4]) if len(shape) >= 5 else 1
+    pixels = values // max(components, 1)
+    return ImageLayout(path, "NIfTI", "NiftiImageIO", (part,), tuple(int(n) for n in shape), pixels=pixels)
 
 
 # PNG, JPEG, BMP, TIFF: where the file's own structure says it ends -----------------------------------

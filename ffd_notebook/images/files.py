@@ -88,13 +88,17 @@ class ImageFile:
         self.components = int(reader.GetNumberOfComponents())
         self.pixel_id = int(reader.GetPixelID())
 
-    def read(self, *, pixel_type: int | None = None) -> Any:
+    def read(self, *, pixel_type: int | None = None, finite: bool = False) -> Any:
         """The pixels and geometry as a ``SimpleITK.Image``, read whole or refused.
 
         Parameters
         ----------
         pixel_type : int, optional
             A SimpleITK pixel type to convert to (``sitk.sitkVectorFloat64``...); the file's own by default.
+        finite : bool
+            Refuse the image if a pixel holds a NaN or an infinite value, naming how many do
+            (:func:`~ffd_notebook.io.load_displacement_field` asks for it). They are counted in the
+            file's data, also in NIfTI files, whose non-finite values ITK's reader turns into 0.
 
         Returns
         -------
@@ -105,7 +109,7 @@ class ImageFile:
         ------
         FileFormatError
             The pixel data ends early (how many bytes of how many, or a compressed stream cut short),
-            or SimpleITK cannot read it; names the file.
+            non-finite values with ``finite``, or SimpleITK cannot read it; names the file.
 
         Examples
         --------
@@ -116,16 +120,33 @@ class ImageFile:
         >>> open_image(path).read(pixel_type=sitk.sitkFloat64).GetPixelIDTypeAsString()
         '64-bit float'
         """
-        check_whole(self.layout)
+        hidden = check_whole(self.layout, count_non_finite=finite)
+        if hidden:
+            raise self._non_finite(hidden)
         if pixel_type is not None:
             self._reader.SetOutputPixelType(pixel_type)
         try:
-            return self._reader.Execute()
+            image = self._reader.Execute()
         except RuntimeError as exc:
             if any(part.encoding == "text" for part in self.layout.parts):
                 raise FileFormatError(self.path, None, "cannot read the pixels: the text data ends early or holds "
                                       f"something other than numbers ({itk_message(exc)})") from None  # fmt: skip
             raise FileFormatError(self.path, None, f"cannot read the pixels ({itk_message(exc)})") from None
+        if finite:
+            import SimpleITK as sitk
+
+            values = sitk.GetArrayViewFromImage(image)
+            if values.dtype.kind in "fc":
+                bad = ~np.isfinite(values)
+                count = int((bad.reshape(bad.shape[: self.dimension] + (-1,)).any(axis=-1)).sum())
+                if count:
+                    raise self._non_finite(count)
+        return image
+
+    def _non_finite(self, count: int) -> FileFormatError:
+        what = "vectors" if self.components > 1 else "pixels"
+        total = int(np.prod(self.grid.size))
+        return FileFormatError(self.path, None, f"{count} of its {total} {what} hold NaN or infinite values: refused")
 
     def __repr__(self) -> str:
         return f"ImageFile({os.fspath(self.path)!r}, {self.layout.format}, size={self.grid.size})"

@@ -44,7 +44,8 @@ def _suffix(path: str | os.PathLike[str]) -> str:
     return suffix
 
 
-def load_deformation(path: str | os.PathLike[str]) -> FFD | DisplacementField:
+def load_deformation(path: str | os.PathLike[str], *, within: str | os.PathLike[str] | None = None
+                     ) -> FFD | DisplacementField:  # fmt: skip
     """Read a ``.ffd``, ITK (``.tfm``, ``.txt``, ``.h5``, ``.hdf5``), elastix or PyGeM ``.prm`` file as an FFD.
 
     ``.ffd``: ``FFD(load_ffd(path))`` (B-spline, or the per-axis interpolations, "outside" mode and
@@ -58,14 +59,20 @@ def load_deformation(path: str | os.PathLike[str]) -> FFD | DisplacementField:
     :class:`~ffd_notebook.io.DisplacementField` (:func:`~ffd_notebook.io.fit_lattice` makes a
     lattice of it).
 
+    Files that name other files (an elastix chain's initial transforms, a field's MetaImage or
+    NRRD data files) read them as elastix and ITK do, or only inside ``within``: the app passes its
+    folder (or an upload's own folder), so a file in it cannot make the app read elsewhere.
+
     Parameters
     ----------
     path : str or os.PathLike
         The file; its extension chooses the format.
+    within : str or os.PathLike, optional
+        The folder the files it names must be in; ``None``: anywhere.
 
     Returns
     -------
-    FFD
+    FFD or DisplacementField
         The deformation the file means.
 
     Raises
@@ -87,7 +94,7 @@ def load_deformation(path: str | os.PathLike[str]) -> FFD | DisplacementField:
     """
     suffix = _suffix(path)
     if suffix in FIELD_SUFFIXES:
-        return load_displacement_field(path)
+        return load_displacement_field(path, within=within)
     if suffix == ".ffd":
         lattice = load_ffd(path)
         options = lattice.metadata.get("ffd_options") or {}
@@ -100,7 +107,7 @@ def load_deformation(path: str | os.PathLike[str]) -> FFD | DisplacementField:
     if suffix == ".prm":
         return FFD(load_prm(path), "bernstein", only_inside=True)
     if suffix == ".txt" and is_parameter_file(path):
-        chain = load_elastix(path)
+        chain = load_elastix(path, within=within)
         try:
             return chain.to_ffd()
         except ValueError as exc:

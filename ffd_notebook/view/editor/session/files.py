@@ -90,14 +90,15 @@ class SessionFiles:
     def __init__(self, session: EditingSession) -> None:
         self.session = session
 
-    def read_deformation(self, path: StrPath) -> tuple[FFD, str]:
+    def read_deformation(self, path: StrPath, *, within: StrPath | None = None) -> tuple[FFD, str]:
         """Read and check a deformation file for ``session`` without changing anything: ``(ffd, source)``.
 
         ``source`` is how the lattice is placed: ``"ffd-placed"`` (a .ffd with its own placement),
         ``"ffd-min"`` (a .ffd without one, put at the current mesh's minimum corner) or ``"file"``
-        (ITK, PyGeM: by the file's own numbers). Safe to run in a worker thread.
+        (ITK, PyGeM: by the file's own numbers). Safe to run in a worker thread. ``within``: the
+        folder the files it names must be in (:func:`ffd_notebook.io.load_deformation`; the app's).
         """
-        loaded = _load_deformation(path)
+        loaded = _load_deformation(path, within=within)
         if isinstance(loaded, DisplacementField):  # a lattice of the session's shape, fitted over the field's voxels
             shape = cast("tuple[int, int, int]", tuple(max(4, n) for n in self.session.lattice.shape))
             return fit_lattice(loaded, shape), "file"
