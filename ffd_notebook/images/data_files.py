@@ -243,8 +243,11 @@ def image_data_files(path: str | os.PathLike[str], *, within: str | os.PathLike[
 def check_whole(layout: ImageLayout, *, count_non_finite: bool = False) -> int:
     """Refuse an image whose pixel data ends before its header (or structure) says it does.
 
-    Raw data: one ``os.stat`` per file. Compressed data: inflated once, in 1 MiB pieces that are
-    thrown away, to the end of the stream (its CRC and length trailer checked by zlib).
+    Raw data: one ``os.stat`` per file, and so is compressed data whose length the header gives
+    (MetaImage's ``CompressedDataSize``: ITK inflates exactly those bytes and refuses a stream that
+    does not give the pixels). Other compressed data (``.nii.gz``, gzip NRRD) is inflated once, in
+    1 MiB pieces that are thrown away, to the end of the stream (its CRC and length trailer checked
+    by zlib): ITK's NIfTI reader fills a short stream with zeros and NRRD's ignores a cut trailer.
 
     With ``count_non_finite``, the pixels holding a NaN or infinite value are counted in the
     file's own data where ITK would hide them (NIfTI floating-point data: counted while the
@@ -288,11 +291,13 @@ def check_whole(layout: ImageLayout, *, count_non_finite: bool = False) -> int:
             continue
         stored = part.stored
         if stored is not None and part.start + stored > size:
-            raise FileFormatError(layout.path, part.line, f"the pixel data ends early: {where} holds "
-                                  f"{max(0, size - part.start)} of the {stored} compressed bytes its header "
+            raise FileFormatError(layout.path, part.line, f"the pixel data ends early: {where} has "
+                                  f"{max(0, size - part.start)} bytes of the {stored} compressed bytes its header "
                                   "announces")  # fmt: skip
+        if stored is not None:  # the header says how long the compressed stream is: the file holds all of it
+            continue
         counter = _Counter(bad, part) if bad.size and part.values else None
-        _inflate_whole(layout, part, where, part.start + stored if stored is not None else size, counter)
+        _inflate_whole(layout, part, where, size, counter)
     return int(bad.sum())
 
 

@@ -204,6 +204,8 @@ def open_image(path: str | os.PathLike[str], *, within: str | os.PathLike[str] |
     target = Path(path)
     check_regular_file(target, MAX_IMAGE_BYTES + HEADER_LIMIT)
     layout = image_layout(target, within=within)
+    if layout.sizes is None:  # PNG, JPEG, BMP, TIFF: sized by their own structure, which ITK needs whole to begin
+        check_whole(layout)
     reader = sitk.ImageFileReader()
     reader.SetFileName(os.fspath(target))
     reader.SetImageIO(layout.io)
@@ -284,9 +286,10 @@ def read_image(path: str | os.PathLike[str], *, within: str | os.PathLike[str] |
     ``open_image(path, within=within).read(pixel_type=pixel_type)``: the header checked (a header
     reads the files it names, as ITK does, unless ``within`` confines them), then the pixels read
     whole, or refused with a message that says the data ends early (how many bytes of how many, or
-    that a compressed stream stops before its end). NaN and infinite pixel values are read as they
-    are (a float image may mark "no data" with NaN); see :func:`~ffd_notebook.images.warp_image`
-    for what warping does with them.
+    that a compressed stream stops before its end). NaN and infinite pixel values are read as the
+    format's ITK reader gives them: as they are from NRRD, MetaImage and TIFF (a float image may
+    mark "no data" with NaN), as 0 from NIfTI (the NIfTI library ITK uses replaces them); a
+    displacement field with any is refused (:func:`~ffd_notebook.io.load_displacement_field`).
 
     Parameters
     ----------
