@@ -388,10 +388,19 @@ def _inflate_whole(layout: ImageLayout, part: DataPart, where: str, end: int, co
 
 
 # ------------------------------------------------------------------------------------------ text headers
-def _head(path: Path) -> bytes:
-    """The first :data:`HEADER_LIMIT` bytes of ``path`` (a regular file: checked on open)."""
+def _head(path: Path, ends: tuple[bytes, ...] = ()) -> bytes:
+    """The first :data:`HEADER_LIMIT` bytes of ``path`` (a regular file: checked on open), or fewer: read in
+    64 KiB pieces, it stops at the first piece that holds one of ``ends`` (what ends a header)."""
+    data = b""
     with open_regular(path, max_bytes=1 << 62) as f:
-        return f.read(HEADER_LIMIT)
+        while len(data) < HEADER_LIMIT:
+            piece = f.read(min(1 << 16, HEADER_LIMIT - len(data)))
+            if not piece:
+                break
+            data += piece
+            if any(end in data[max(0, len(data) - len(piece) - 4) :] for end in ends):
+                break
+    return data
 
 
 def _atof_int(word: str) -> int:
@@ -601,6 +610,8 @@ _NRRD_ENCODINGS = {"raw": "raw", "gzip": "gzip", "gz": "gzip", "ascii": "text", 
                    "hex": "text"}  # fmt: skip
 _NRRD_FIELDS = {"type", "dimension", "sizes", "encoding", "line skip", "lineskip", "byte skip", "byteskip",
                 "data file", "datafile"}  # fmt: skip  # the fields whose values place the data
+_NRRD_LOOSE = {re.sub(r"\s", "", field) for field in _NRRD_FIELDS}  # the same, blanks dropped
+_BLANK_LINES = (b"\n\n", b"\r\r", b"\n\r")  # two line ends in a row (teem's "\r\n" is one): a blank line
 
 
 def _nrrd_lines(head: bytes) -> list[tuple[int, str, int]]:
@@ -618,8 +629,9 @@ def _nrrd_lines(head: bytes) -> list[tuple[int, str, int]]:
 
 def _nrrd(path: Path, within: str | os.PathLike[str] | None) -> ImageLayout:
     """A NRRD header read as teem reads it, refusing every line it could read otherwise."""
-    head = _head(path)
-    lines = _nrrd_lines(head)
+    head = _head(path, _BLANK_LINES)
+    blank = [i for i in (head.find(end) for end in _BLANK_LINES) if i >= 0]
+    lines = _nrrd_lines(head[: min(blank) + 3] if blank else head)  # the header only (attached data follows)
     if not lines or not re.fullmatch(r"NRRD000[1-5]", lines[0][1]):
         raise FileFormatError(path, 1, "not a NRRD header (its first line must be NRRD0001 to NRRD0005)")
     fields: dict[str, tuple[int, str]] = {}
@@ -641,7 +653,7 @@ def _nrrd(path: Path, within: str | os.PathLike[str] | None) -> ImageLayout:
             continue
         key, sep, value = text.partition(": ")
         loose = re.sub(r"\s", "", text.partition(":")[0]).lower()
-        if loose in {re.sub(r"\s", "", f) for f in _NRRD_FIELDS} and (not sep or key.lower() not in _NRRD_FIELDS):
+        if loose in _NRRD_LOOSE and (not sep or key.lower() not in _NRRD_FIELDS):
             raise FileFormatError(path, number, f"{text.partition(':')[0]!r}: a field teem would read otherwise "
                                   "(spelling, blanks or a separator other than ': '): refused")  # fmt: skip
         if not sep:

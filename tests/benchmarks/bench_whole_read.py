@@ -16,13 +16,12 @@ figures are medians of ``--repeats`` runs, each on a file in the page cache.
 from __future__ import annotations
 
 import argparse
-import statistics
 import tempfile
-import time
 from pathlib import Path
 
 import numpy as np
 import SimpleITK as sitk
+from bench_io import median_seconds
 
 from ffd_notebook.images import open_image, read_image
 from ffd_notebook.images.data_files import check_whole
@@ -39,15 +38,6 @@ def _volume(size: int) -> sitk.Image:
     return sitk.GetImageFromArray(np.round(body + noise))
 
 
-def _median(fn, repeats: int) -> float:
-    times = []
-    for _ in range(repeats):
-        tic = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - tic)
-    return statistics.median(times)
-
-
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--size", type=int, default=256)
@@ -61,10 +51,10 @@ def main() -> None:
         path = folder / name
         sitk.WriteImage(image, str(path), compress)
         sitk.ReadImage(str(path))  # into the page cache
-        plain = _median(lambda p=path: sitk.ReadImage(str(p)), args.repeats)
-        ours = _median(lambda p=path: read_image(p), args.repeats)
+        plain = median_seconds(lambda p=path: sitk.ReadImage(str(p)), args.repeats)
+        ours = median_seconds(lambda p=path: read_image(p), args.repeats)
         layout = open_image(path).layout
-        check = _median(lambda layout=layout: check_whole(layout), args.repeats)
+        check = median_seconds(lambda layout=layout: check_whole(layout), args.repeats)
         mib = path.stat().st_size / 2**20
         print(f"{name:15s} {mib:6.1f} {plain:14.3f}s {ours:10.3f}s {ours / plain:6.2f} {check:11.3f}s")
 
