@@ -766,7 +766,6 @@ def _nrrd_name(path: Path, line: int, name: str) -> str:
 def _nifti(path: Path, suffix: str) -> ImageLayout:
     """A single-file NIfTI-1 or NIfTI-2 image: its pixels at ``vox_offset``, sized by its header (nibabel)."""
     import gzip
-    import io
 
     import nibabel
 
@@ -783,7 +782,8 @@ def _nifti(path: Path, suffix: str) -> ImageLayout:
     sizes = {struct.unpack("<i", raw[:4])[0], struct.unpack(">i", raw[:4])[0]}
     header_class = nibabel.Nifti2Header if 540 in sizes else nibabel.Nifti1Header
     try:
-        header = header_class.from_fileobj(io.BytesIO(raw), check=False)
+        size = 540 if header_class is nibabel.Nifti2Header else 348
+        header = header_class(binaryblock=raw[:size], check=False)  # the header only (extensions are not read)
         magic = bytes(header["magic"]).rstrip(b"\x00")
         shape = header.get_data_shape()
         dtype = header.get_data_dtype()

@@ -214,3 +214,19 @@ def test_a_header_end_that_is_not_found_is_refused(tmp_path):
     with pytest.raises(FileFormatError, match="the header's end is not found"):
         read_image(path)
     assert os.path.exists(path)
+
+
+def test_a_nifti_file_with_header_extensions_loads(tmp_path):
+    """dcm2niix, AFNI and FreeSurfer write extensions after the header; the check sizes the pixels from vox_offset."""
+    import nibabel
+
+    image = nibabel.Nifti1Image(np.arange(24, dtype=np.float32).reshape(2, 3, 4), np.eye(4))
+    image.header.extensions.append(nibabel.nifti1.Nifti1Extension(6, b"an extension of some length " * 7))
+    for name in ("ext.nii", "ext.nii.gz"):
+        nibabel.save(image, tmp_path / name)
+        ours = sitk.GetArrayFromImage(read_image(tmp_path / name))
+        np.testing.assert_array_equal(ours, sitk.GetArrayFromImage(sitk.ReadImage(str(tmp_path / name))))
+        data = (tmp_path / name).read_bytes()
+        (tmp_path / f"cut_{name}").write_bytes(data[:-6])
+        with pytest.raises(FileFormatError, match="ends early"):
+            read_image(tmp_path / f"cut_{name}")
