@@ -21,6 +21,7 @@ import numpy as np
 
 from ..errors import FileFormatError
 from ..ffd.deform import FFD
+from ..images.files import read_image_information
 from .displacement_field import (
     FIELD_SUFFIXES,
     DisplacementField,
@@ -62,6 +63,7 @@ def load_deformation(
     *,
     reference: Any = None,
     source: Any = None,
+    within: str | os.PathLike[str] | None = None,
 ) -> LoadedDeformation:
     """Read any deformation file (or a list of them, applied one after another) as what it means.
 
@@ -96,6 +98,11 @@ def load_deformation(
     Every deformation read from the NIfTI world lives in ITK's physical space (LPS millimetres), as SimpleITK
     reads the images it is applied to.
 
+    Files that name other files (an elastix chain's initial transforms, a field's MetaImage or
+    NRRD data files) read them as elastix and ITK do, or only inside ``within``: the app passes its
+    folder (or an upload's own folder), so a file in it cannot make the app read elsewhere. The
+    ``reference`` and ``source`` images given as paths are read inside ``within`` too.
+
     Parameters
     ----------
     path_or_list : str, os.PathLike or sequence of them
@@ -103,6 +110,9 @@ def load_deformation(
     reference, source : path or reference grid, optional
         The images an FSL transformation maps between (the NIfTI files, or any reference grid); the image a
         NiftyReg velocity grid is exponentiated on (``reference``); other formats do not use them.
+    within : str or os.PathLike, optional
+        The folder the files it names (and the ``reference`` and ``source`` files) must be in; ``None``:
+        anywhere.
 
     Returns
     -------
@@ -130,14 +140,16 @@ def load_deformation(
         paths = list(path_or_list)
         if not paths:
             raise ValueError("an empty list of deformation files")
-        steps = [_list_item(item, reference, source) for item in paths]
+        steps = [_list_item(item, reference, source, within) for item in paths]
         return steps[0] if len(steps) == 1 else TransformChain(steps)
     path = path_or_list
     suffix = _suffix(path)
+    if within is not None:  # the images FSL files and velocity grids are read against: inside the folder too
+        reference, source = (_grid_within(image, within) for image in (reference, source))
     if suffix in _NIFTI:
-        return _load_nifti(path, reference, source)
+        return _load_nifti(path, reference, source, within)
     if suffix in FIELD_SUFFIXES:
-        return load_displacement_field(path)
+        return load_displacement_field(path, within=within)
     if suffix == ".ffd":
         lattice = load_ffd(path)
         options = lattice.metadata.get("ffd_options") or {}
@@ -150,7 +162,7 @@ def load_deformation(
     if suffix == ".prm":
         return FFD(load_prm(path), "bernstein", only_inside=True)
     if suffix == ".txt" and is_parameter_file(path):
-        chain = load_elastix(path)
+        chain = load_elastix(path, within=within)
         try:
             return chain.to_ffd()
         except ValueError as exc:
@@ -158,7 +170,14 @@ def load_deformation(
     return transforms_to_deformation(path, read_transforms(path))
 
 
-def _list_item(item: Any, reference: Any, source: Any) -> LoadedDeformation:
+def _grid_within(image: Any, within: str | os.PathLike[str]) -> Any:
+    """An image named by a path, as its grid read inside ``within``; any other reference as it is."""
+    if isinstance(image, str | os.PathLike):
+        return read_image_information(image, within=within)
+    return image
+
+
+def _list_item(item: Any, reference: Any, source: Any, within: str | os.PathLike[str] | None) -> LoadedDeformation:
     """One file of a list: a path, or ``(path, True)`` for its inverse (ANTs' ``whichtoinvert``, an affine only)."""
     if isinstance(item, tuple):
         if len(item) != 2 or not isinstance(item[1], bool):
@@ -166,7 +185,7 @@ def _list_item(item: Any, reference: Any, source: Any) -> LoadedDeformation:
         path, invert = item
     else:
         path, invert = item, False
-    loaded = load_deformation(path, reference=reference, source=source)
+    loaded = load_deformation(path, reference=reference, source=source, within=within)
     if not invert:
         return loaded
     if not isinstance(loaded, AffineTransform):
@@ -175,11 +194,13 @@ def _list_item(item: Any, reference: Any, source: Any) -> LoadedDeformation:
     return loaded.inverse()
 
 
-def _load_nifti(path: str | os.PathLike[str], reference: Any, source: Any) -> LoadedDeformation:
+def _load_nifti(
+    path: str | os.PathLike[str], reference: Any, source: Any, within: str | os.PathLike[str] | None
+) -> LoadedDeformation:
     """A NIfTI file by what its header says it holds (see :func:`~.nifti_files.nifti_meaning`)."""
     kind, what = nifti_meaning(read_nifti_header(path))
     if kind == "itk":
-        return load_displacement_field(path)
+        return load_displacement_field(path, within=within)
     if kind == "spm":
         raise FileFormatError(path, None, f"an SPM deformation ({what}): it holds positions in millimetres in SPM's "
                               "conventions, not ITK displacements, and is not read")  # fmt: skip

@@ -26,11 +26,11 @@ from numpy.typing import ArrayLike, NDArray
 from .._util.points import as_points
 from ..errors import FileFormatError
 from ..ffd.grid import GridEvaluator
+from ..images.files import open_image
 from ..images.geometry import ImageGrid
 from ..images.pixels import Interpolator
 from ..images.reference import reference_grid
 from ._atomic import atomic_path
-from ._safety import check_regular_file
 
 __all__ = [
     "FIELD_SUFFIXES",
@@ -442,13 +442,24 @@ def save_displacement_field(path: str | os.PathLike[str], deformation: Any, refe
             staging.unlink(missing_ok=True)
 
 
-def load_displacement_field(path: str | os.PathLike[str]) -> DisplacementField:
-    """Read a displacement field file (``.nii``, ``.nii.gz``, ``.nrrd``, ``.mha``) with SimpleITK.
+def load_displacement_field(path: str | os.PathLike[str], *, within: str | os.PathLike[str] | None = None
+                            ) -> DisplacementField:  # fmt: skip
+    """Read a displacement field file (``.nii``, ``.nii.gz``, ``.nrrd``, ``.mha``), whole or not at all.
+
+    The file goes through the package's one image reader (:func:`~ffd_notebook.images.open_image`):
+    its header is checked before ITK reads it (a MetaImage or NRRD header that names data files
+    reads them only inside ``within``), and its vectors are read whole or refused (a file cut
+    short says how many bytes of how many it holds). A field with a NaN or infinite component
+    anywhere is refused, naming how many vectors have one: SimpleITK's NIfTI reader turns them
+    into 0 (no displacement) without a word, so they are counted in the file's own data.
 
     Parameters
     ----------
     path : str or os.PathLike
         A ``.nii``, ``.nii.gz``, ``.nrrd`` or ``.mha`` file of 3-vectors.
+    within : str or os.PathLike, optional
+        The folder the files its header names must be in (the app passes its folder); ``None``:
+        anywhere, as ITK reads it.
 
     Returns
     -------
@@ -458,8 +469,8 @@ def load_displacement_field(path: str | os.PathLike[str]) -> DisplacementField:
     Raises
     ------
     FileFormatError
-        Not an image SimpleITK reads, not 3D, not 3 components per voxel, too large, or
-        non-finite values; names the file.
+        Not an image the package reads, not 3D, not 3 components per voxel, too large, data that
+        ends early, a data file refused, or non-finite vectors; names the file.
 
     Examples
     --------
@@ -473,27 +484,26 @@ def load_displacement_field(path: str | os.PathLike[str]) -> DisplacementField:
     >>> save_displacement_field(path, field)
     >>> load_displacement_field(path).deform([[1.0, 1.0, 1.0]]).tolist()
     [[2.0, 1.0, 1.0]]
+    >>> vectors[1, 1, 1] = np.nan
+    >>> import SimpleITK as sitk
+    >>> sitk.WriteImage(sitk.GetImageFromArray(vectors, isVector=True), str(path))
+    >>> load_displacement_field(path)
+    Traceback (most recent call last):
+    ...
+    ffd_notebook.errors.FileFormatError: ...warp.nii.gz: 1 of its 27 vectors hold NaN or infinite values: refused
     """
     import SimpleITK as sitk
 
     _check_suffix(path)
-    check_regular_file(path)
-    reader = sitk.ImageFileReader()
-    reader.SetFileName(os.fspath(path))
-    reader.SetImageIO(FIELD_SUFFIXES[field_suffix(path)])  # type: ignore[index]
-    try:
-        reader.ReadImageInformation()
-        dims, components = reader.GetDimension(), reader.GetNumberOfComponents()
-        size = tuple(reader.GetSize())
-        if dims != 3 or components != 3:
-            raise FileFormatError(path, None, f"expected a 3D image of 3-vectors (a displacement field), got "
-                                  f"{dims}D with {components} component(s) per voxel")  # fmt: skip
-        if int(np.prod(size)) > _MAX_VOXELS:
-            raise FileFormatError(path, None, f"a field of {size} voxels is larger than the limit ({_MAX_VOXELS})")
-        reader.SetOutputPixelType(sitk.sitkVectorFloat64)
-        image = reader.Execute()
-    except RuntimeError as exc:
-        raise FileFormatError(path, None, f"not a displacement field SimpleITK can read: {_first_line(exc)}") from None
+    image_file = open_image(path, within=within)
+    dims, components = image_file.dimension, image_file.components
+    if dims != 3 or components != 3:
+        raise FileFormatError(path, None, f"expected a 3D image of 3-vectors (a displacement field), got "
+                              f"{dims}D with {components} component(s) per voxel")  # fmt: skip
+    size = image_file.grid.size
+    if int(np.prod(size)) > _MAX_VOXELS:
+        raise FileFormatError(path, None, f"a field of {size} voxels is larger than the limit ({_MAX_VOXELS})")
+    image = image_file.read(pixel_type=sitk.sitkVectorFloat64, finite=True)
     try:
         return DisplacementField.from_sitk(image)
     except ValueError as exc:

@@ -85,7 +85,7 @@ def test_bad_fields_are_refused_and_nothing_is_half_written(tmp_path):
     with pytest.raises(FileFormatError, match=r"scalar\.nii: expected a 3D image of 3-vectors"):
         load_deformation(tmp_path / "scalar.nii")
     (tmp_path / "junk.nrrd").write_bytes(b"NRRD0004\ntype: what\n\n")
-    with pytest.raises(FileFormatError, match=r"junk\.nrrd: not a displacement field"):
+    with pytest.raises(FileFormatError, match=r"junk\.nrrd: no 'dimension' field"):
         load_deformation(tmp_path / "junk.nrrd")
     save_displacement_field(tmp_path / "ok.nii", _ffd(), REFERENCE)
     before = (tmp_path / "ok.nii").read_bytes()

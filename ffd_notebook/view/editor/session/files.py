@@ -101,16 +101,17 @@ class SessionFiles:
     def __init__(self, session: EditingSession) -> None:
         self.session = session
 
-    def read_deformation(self, path: StrPath | Any) -> tuple[FFD, str]:
+    def read_deformation(self, path: StrPath | Any, *, within: StrPath | None = None) -> tuple[FFD, str]:
         """Read and check a deformation file for ``session`` without changing anything: ``(ffd, source)``.
 
         ``path`` may also be a deformation already loaded (an FFD, a field, an affine, a chain: what
         :func:`ffd_notebook.io.load_deformation` returns). ``source`` is how the lattice is placed: ``"ffd-placed"``
         (a .ffd with its own placement), ``"ffd-min"`` (a .ffd without one, put at the current mesh's minimum
         corner) or ``"file"`` (every other format: by its own numbers). Safe to run in a worker thread.
+        ``within``: the folder the files it names must be in (:func:`ffd_notebook.io.load_deformation`; the app's).
         """
         if isinstance(path, str | os.PathLike):
-            loaded = _load_deformation(path)
+            loaded = _load_deformation(path, within=within)
         else:
             loaded = path
         shape = cast("tuple[int, int, int]", tuple(max(4, n) for n in self.session.lattice.shape))

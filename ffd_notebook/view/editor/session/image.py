@@ -158,7 +158,12 @@ class SessionImage:
         self.session.notify("image", None, "load image")
 
     def load(self, image: Any, *, interpolation: str = "linear") -> None:
-        """Read and show an image; a bad file leaves the session as it was (a message says why, and it raises)."""
+        """Read and show an image; a bad file leaves the session as it was (a message says why, and it raises).
+
+        A path is read by :func:`~ffd_notebook.images.read_image`: whole or refused, and a MetaImage or NRRD
+        header reads the data files it names wherever they are, as ITK does (the standalone app reads only
+        those inside its folder).
+        """
         slices = self.read(image, interpolation=interpolation)
         name = os.path.basename(os.fspath(image)) if isinstance(image, str | os.PathLike) else "image"
         self.use(slices, image, name, interpolation)
