@@ -14,7 +14,6 @@ other region (a mesh's vertices, a mask, weights) goes through the sparse normal
 
 from __future__ import annotations
 
-from collections.abc import Mapping
 from typing import Any, cast
 
 import numpy as np
@@ -23,9 +22,11 @@ from numpy.typing import ArrayLike, NDArray
 from .._util.points import as_points
 from ..ffd.basis import bspline, bspline_cells
 from ..ffd.deform import FFD
+from ..ffd.grid import axis_matrix, grid_axes
 from ..ffd.lattice import Lattice
+from ..images.geometry import ImageGrid
+from ..images.reference import is_reference_grid
 from .displacement_field import DisplacementField, sample_displacement_field
-from .tensor_grid import apply_along, axis_weights
 
 __all__ = ["fit_lattice"]
 
@@ -41,31 +42,29 @@ def _as_shape(shape: Any) -> tuple[int, int, int]:
     return values
 
 
-def _orthonormal(direction: NDArray[np.float64]) -> NDArray[np.float64] | None:
-    """The direction itself if its columns are orthonormal (to rounding), else ``None``."""
-    if np.abs(direction.T @ direction - np.eye(3)).max() > 1e-9:
+def _unit_columns(direction: NDArray[np.float64]) -> NDArray[np.float64] | None:
+    """The direction itself if its columns are unit vectors (to rounding): a lattice's axes, sheared or not."""
+    if np.abs(np.linalg.norm(direction, axis=0) - 1.0).max() > 1e-9:
         return None
     return direction
 
 
 def _lattice_over_grid(field: DisplacementField, shape: tuple[int, int, int]) -> Lattice:
-    """A zero-border lattice whose domain is the field's grid box exactly, its axes along the grid's."""
-    rotation = _orthonormal(field.direction)
+    """A zero-border lattice whose domain is the field's grid box exactly, its axes along the grid's (sheared too)."""
+    rotation = _unit_columns(field.direction)
     if rotation is None:
         return Lattice.around(field.grid_points(), shape, margin=0.0)
-    extent = (np.array(field.shape) - 1) * field.spacing
+    extent = (np.array(field.size) - 1) * field.spacing
     extent = np.where(extent > 0, extent, field.spacing)  # a single-voxel axis still spans one spacing
     spacing = extent / (np.array(shape) - 3)
     return Lattice(shape, spacing, field.origin - rotation @ spacing, rotation)
 
 
-def _aligned(field: DisplacementField, lattice: Lattice) -> list[NDArray[np.float64]] | None:
-    """Per-axis lattice coordinates of the field's voxels if the grid runs along the lattice axes, else ``None``."""
-    if not np.allclose(field.direction, lattice.rotation, rtol=0, atol=1e-12):
-        return None
-    start = lattice.to_lattice(field.origin[None])[0]
-    step = field.spacing / lattice.spacing
-    return [start[a] + np.arange(field.shape[a]) * step[a] for a in range(3)]
+def _apply_along(matrix: NDArray[np.float64], data: NDArray[np.float64], axis: int) -> NDArray[np.float64]:
+    """``matrix`` applied along one of the first three axes of ``data`` (``(n0, n1, n2, ...)``)."""
+    moved = np.moveaxis(data, axis, 0)
+    out = (matrix @ moved.reshape(moved.shape[0], -1)).reshape((matrix.shape[0],) + moved.shape[1:])
+    return np.moveaxis(out, 0, axis)
 
 
 def _affine_fit(points: NDArray[np.float64], targets: NDArray[np.float64], weights: NDArray[np.float64] | None):
@@ -78,22 +77,30 @@ def _affine_fit(points: NDArray[np.float64], targets: NDArray[np.float64], weigh
     return solution[:3].T, solution[3]
 
 
-def _grid_fit(field, lattice, coords, affine):
-    """The separable solve on a full aligned grid; returns offsets, affine (A, b) and the residual vectors."""
+def _grid_fit(field, lattice, axes, affine):
+    """The separable solve on a full grid along the lattice; returns offsets, affine (A, b) and the residual vectors.
+
+    ``axes`` (:func:`~ffd_notebook.ffd.grid.grid_axes`): per grid axis ``i, j, k`` the lattice axis along
+    it and its coordinates. The B-spline matrix is ``W_i (x) W_j (x) W_k`` (:func:`~ffd_notebook.ffd.grid.axis_matrix`,
+    the engine's weights, "zero" border), so its pseudo-inverse is the per-axis ones'. The field's
+    vectors ``[k, j, i]`` are put in grid order ``(i, j, k)``, solved, and the offsets in the lattice's order."""
     targets = field.vectors
     a, b = np.eye(3), np.zeros(3)
     if affine:
         points = field.grid_points()
         a, b = _affine_fit(points, points + targets.reshape(-1, 3), None)
         targets = (points + targets.reshape(-1, 3) - points @ a.T - b).reshape(targets.shape)
-    mats = [axis_weights(coords[axis], lattice.shape[axis]) for axis in range(3)]
+    targets = targets.transpose(2, 1, 0, 3)
+    mats = [axis_matrix("bspline", u, lattice.shape[axis], "zero") for axis, u in axes]
     offsets = targets
-    for axis in range(3):
-        offsets = apply_along(np.linalg.pinv(mats[axis]), offsets, axis)
+    for g in range(3):
+        offsets = _apply_along(np.linalg.pinv(mats[g]), offsets, g)
     predicted = offsets
-    for axis in range(3):
-        predicted = apply_along(mats[axis], predicted, axis)
-    return offsets, (a, b), (targets - predicted).reshape(-1, 3)
+    for g in range(3):
+        predicted = _apply_along(mats[g], predicted, g)
+    order = [axis for axis, _ in axes]  # the lattice axis along each grid axis
+    offsets = np.transpose(offsets, (*np.argsort(order), 3))
+    return offsets, (a, b), (targets - predicted).transpose(2, 1, 0, 3).reshape(-1, 3)
 
 
 def _sparse_fit(points, targets, lattice, weights, affine):
@@ -138,7 +145,7 @@ def _sparse_fit(points, targets, lattice, weights, affine):
 
 def _samples(deformation: Any, region: Any) -> tuple[DisplacementField | None, NDArray | None, NDArray | None]:
     """What to fit: a field on a grid (and a mask), or scattered points and their targets."""
-    if isinstance(region, Mapping) or _is_image(region):
+    if region is not None and is_reference_grid(region):
         return sample_displacement_field(deformation, region), None, None
     if isinstance(deformation, DisplacementField):
         if region is None:
@@ -149,10 +156,8 @@ def _samples(deformation: Any, region: Any) -> tuple[DisplacementField | None, N
                 raise ValueError(f"a mask region must have the field's shape {deformation.shape}, got {mask.shape}")
             return deformation, mask, None
     if region is None:
-        geometry = getattr(deformation, "geometry", None)  # an elastix chain: its fixed image grid
-        if geometry and all(k in geometry for k in ("Size", "Spacing", "Origin", "Direction")):
-            grid = {"size": geometry["Size"], "spacing": geometry["Spacing"], "origin": geometry["Origin"],
-                    "direction": np.reshape(geometry["Direction"], (3, 3)).T}  # fmt: skip
+        grid = getattr(deformation, "grid", None)  # an elastix chain: its fixed image grid
+        if isinstance(grid, ImageGrid):
             return sample_displacement_field(deformation, grid), None, None
         raise ValueError("a region is needed: points, a mesh, a mask on a field, or a reference grid")
     points = as_points(region)
@@ -168,10 +173,6 @@ def _samples(deformation: Any, region: Any) -> tuple[DisplacementField | None, N
     if targets.shape != points.shape or not np.all(np.isfinite(targets)):
         raise ValueError(f"the deformation returned {targets.shape} values for {points.shape} points (or non-finite)")
     return None, points, targets
-
-
-def _is_image(value: Any) -> bool:
-    return type(value).__module__.startswith("SimpleITK")
 
 
 def fit_lattice(
@@ -195,11 +196,13 @@ def fit_lattice(
         one; or a :class:`~ffd_notebook.Lattice` to fit onto (its placement; offsets replaced).
     region : optional
         Where the deformation must be matched: ``None`` (a field's own voxels, an elastix chain's
-        fixed image grid), a boolean mask on a field's grid, ``(N, 3)`` points or a mesh, or a
-        reference grid (a mapping ``{"size", "spacing", "origin", "direction"}`` or a SimpleITK
-        image) on which the deformation is sampled.
+        fixed image grid), a boolean mask on a field's grid (its array shape ``(nz, ny, nx)``),
+        ``(N, 3)`` points or a mesh, or a reference grid on which the deformation is sampled
+        (anything :func:`~ffd_notebook.images.reference_grid` reads: an image or image file, an
+        ``ImageGrid``, a field, a mapping ``{"size", "spacing", "origin", "direction"}``).
     weights : array_like, optional
-        Non-negative weight per sample (on a field: the grid's shape, or one per masked voxel).
+        Non-negative weight per sample (on a field: the array's shape ``(nz, ny, nx)``, or one per
+        masked voxel).
     affine : bool
         Separate the affine part first (least squares), so the lattice holds only what no
         affine map does; else the FFD's affine part is the identity.
@@ -238,9 +241,9 @@ def fit_lattice(
     if field is not None:
         if lattice is None:
             lattice = _lattice_over_grid(field, counts)
-        coords = _aligned(field, lattice) if mask_or_points is None and w is None else None
-        if coords is not None:
-            offsets, (a, b), residual = _grid_fit(field, lattice, coords, affine)
+        axes = grid_axes(lattice, field.grid.index_to_physical(), field.size)
+        if axes is not None and mask_or_points is None and w is None:
+            offsets, (a, b), residual = _grid_fit(field, lattice, axes, affine)
         else:
             points = field.grid_points()
             moved = points + field.vectors.reshape(-1, 3)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 import pyvista as pv
 import SimpleITK as sitk
 from editor_testing import full_slices
@@ -193,3 +194,22 @@ def test_the_notebook_panel_loads_an_image_and_sets_its_window(ct):
         assert editor.session.image.slices.positions[0] == 7
     finally:
         editor.close()
+
+
+def test_the_meshs_vertex_weights_are_not_the_images(ct):
+    """Vertex weights are one per vertex: the image follows the lattice fully (its slices and its saved file)."""
+    session = EditingSession(pv.Sphere(radius=0.5), mesh_io=PYVISTA_MESH_IO, shape=(7, 7, 7))
+    session.ffd.weights = np.linspace(0.0, 1.0, session.mesh.n_points)
+    session.image.load(ct)  # the slices took the mesh's weights for the voxels' (ValueError) before
+    drag(session, (3, 3, 4), (0.15, 0.0, -0.1))
+    session.ffd.weights = np.zeros(session.mesh.n_points)  # weights painted after the image is shown
+    drag(session, (3, 4, 3), (0.0, 0.1, 0.05))
+    image = session.image
+    whole = image.deformation()
+    assert whole.weights is None and whole.lattice is session.lattice
+    expected = full_slices(read_image(ct), whole, image.slices.positions)
+    for axis in range(3):
+        np.testing.assert_allclose(image.slices.values[axis], expected[axis], atol=1e-3, rtol=0)
+    np.testing.assert_array_equal(sitk.GetArrayFromImage(image.warped()), sitk.GetArrayFromImage(warp_image(ct, whole)))
+    with pytest.raises(ValueError, match="one per voxel"):
+        warp_image(ct, session.ffd)  # warp_image itself does not take a mesh's weights for an image's

@@ -6,7 +6,9 @@ regular files of bounded size, the right extension to write) and every message t
 through :func:`~ffd_notebook.view.serving.file_root.client_message` (no file content, the root-relative
 name). A remote user needs no server path at all: lattice files (.ffd, ITK .tfm/.txt/.h5/.hdf5,
 PyGeM .prm), meshes and photos of a face (the mesh upload makes the face in a photo) can be uploaded
-from the browser, and the lattice and the deformed mesh downloaded to it.
+from the browser, and the lattice and the deformed mesh downloaded to it. A file that names other
+files (an elastix chain, a MetaImage or NRRD header) reads them only inside the app's folder, and an
+upload, stored alone in a private folder, cannot name any.
 
 Reading and writing files run in a worker thread (:meth:`AppFiles.in_background`) so the
 event loop keeps answering (HTTP, other clients, the page's own messages) and the page shows a
@@ -167,10 +169,12 @@ class AppFiles:
             return None
 
     # ------------------------------------------------------------------ reading
-    def _read_ffd(self, path: Path, shown: str, name: str | None = None) -> None:
-        """Load a deformation file; ``name`` is what the session's code reads (the path shown by default)."""
+    def _read_ffd(self, path: Path, shown: str, within: Path, name: str | None = None) -> None:
+        """Read a deformation file in a worker; the files it names (an elastix chain, a field's data files) must be
+        in ``within``: the app's folder for a typed path, the upload's own folder for an upload. ``name`` is what
+        the session's code reads (the path shown by default)."""
         files = self.session.files
-        self.in_background(f"reading {shown}", lambda: files.read_deformation(path),
+        self.in_background(f"reading {shown}", lambda: files.read_deformation(path, within=within),
                             lambda result: files.use_deformation(*result, shown, path=name), shown, "load")  # fmt: skip
 
     def _read_mesh(self, path: Path, shown: str, name: str | None = None) -> None:
@@ -304,28 +308,23 @@ class AppFiles:
         in the app's messages (nothing is returned)."""
         target = self._typed(path, self.root.for_reading, "load")
         if target is not None:
-            self._read_ffd(target, self.root.shown(target))
+            self._read_ffd(target, self.root.shown(target), self.root.path)
 
     def load_image_in_background(self, path: str) -> None:
         """Start showing an image (NIfTI, NRRD, MetaImage, PNG...) from a path in the app's folder (a worker thread).
 
-        A header that names a data file (MetaImage, NRRD) is refused unless that file is in the folder too.
+        A header that names data files (MetaImage, NRRD: one name, a ``LIST`` or a pattern) is read only if every
+        one of them is in the folder too (:func:`~ffd_notebook.images.read_image` with ``within=`` the folder).
         """
-        target = self._typed(path, self._image_for_reading, "load")
+        from ....images import read_image
+
+        target = self._typed(path, self.root.for_reading, "load")
         if target is None:
             return
-        shown = self.root.shown(target)
+        shown, folder = self.root.shown(target), self.root.path
         image = self.session.image
-        self.in_background(f"reading {shown}", lambda: image.read(target),
+        self.in_background(f"reading {shown}", lambda: image.read(read_image(target, within=folder)),
                             lambda slices: image.use(slices, target, shown), shown, "load")  # fmt: skip
-
-    def _image_for_reading(self, typed: str) -> Path:
-        from ....images import image_data_files
-
-        target = self.root.for_reading(typed)
-        for data_file in image_data_files(target):
-            self.root.for_reading(data_file)  # PathRefused if it is outside the root
-        return target
 
     def save_image_in_background(self, path: str) -> None:
         """Start writing the warped image in the app's folder (format from the extension, atomically)."""
@@ -404,7 +403,9 @@ class AppFiles:
             if len(content) > self.root.max_bytes:
                 raise PathRefused(f"{Path(name).name!r} is bigger than the limit of "
                                   f"{self.root.max_bytes / 2**20:.0f} MiB")  # fmt: skip
-            target = self._scratch_file(name)
+            if self._scratch is None:
+                self._scratch = ScratchFolder()
+            target = self._scratch.private_file(name)  # alone in its folder: it can name no other file
             target.write_bytes(content)
             refuse_special_or_oversize(target, self.root.max_bytes)
         except (PathRefused, OSError) as exc:
@@ -416,7 +417,8 @@ class AppFiles:
         """A .ffd file arrived from the browser's file input: load it."""
         received = self._receive(ffd_upload, FFD_SUFFIXES, "ffd_upload")
         if received is not None:
-            self._read_ffd(*received, name=received[0].name)  # (the code reads the file by its own name)
+            target, shown = received
+            self._read_ffd(target, shown, target.parent, name=target.name)  # (the code reads it by its own name)
 
     def receive_mesh_upload(self, mesh_upload: Any, **_: Any) -> None:
         """A mesh arrived from the browser's file input: load it; a photo (JPEG, PNG...): the face in it."""

@@ -306,7 +306,7 @@ def _browser_files() -> None:
 
     html.Div("Your computer's files", classes="text-caption mt-3")
     for name, label, accept, ident in (
-        ("ffd_upload", "upload a lattice (.ffd, .tfm, .h5, .prm)", _LATTICE_ACCEPT, "ffd-upload"),
+        ("ffd_upload", "upload a lattice (.ffd, .tfm, .h5, .mat, .prm, .nii.gz)", _LATTICE_ACCEPT, "ffd-upload"),
         ("mesh_upload", "upload a mesh, or a photo of a face", _MESH_ACCEPT, "ffd-mesh-upload"),
     ):
         with html.Div(classes="ffd-row"):

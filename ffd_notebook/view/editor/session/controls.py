@@ -393,7 +393,8 @@ CONTROLS: tuple[Control, ...] = (
         args=("ffd_path",),
         element_id="ffd-load",
         app_trigger="ffd_load_ffd",
-        tooltip="Load a lattice file: .ffd, ITK .tfm/.txt/.h5/.hdf5, PyGeM .prm (by extension)",
+        tooltip="Load a deformation file: .ffd, ITK and ANTs .tfm/.txt/.h5/.mat, elastix, PyGeM .prm, NiftyReg "
+        "grids and fields (.nii.gz); a field or chain becomes a fitted lattice",
     ),
     Control(
         "save_ffd",

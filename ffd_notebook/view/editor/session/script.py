@@ -121,12 +121,16 @@ class BrushStroke:
 class LoadedFile:
     """A deformation file loaded onto the lattice: read again by the script.
 
-    ``placement`` is the session's lattice source (``"ffd-placed"``, ``"ffd-min"``, ``"file"``); ``fitted``
-    the shape of the lattice fitted to a displacement field (:func:`ffd_notebook.fit_lattice`), or None.
+    ``placement`` is the session's lattice source (``"ffd-placed"``, ``"ffd-min"``, ``"file"``); ``kind`` what the
+    file gave: ``"ffd"`` (the FFD it holds, read again by :func:`ffd_notebook.load_deformation`), ``"field"`` (a
+    displacement field, with a lattice of shape ``fitted`` fitted to it: :func:`ffd_notebook.fit_lattice`) or
+    ``"other"`` (an affine transform, a chain of transforms, a deformation given as an object: the script writes
+    the lattice it gave).
     """
 
     path: str
     placement: str
+    kind: str = "ffd"
     fitted: tuple[int, int, int] | None = None
 
 
@@ -626,8 +630,10 @@ class SessionScript:
     ) -> Statement:
         after: FFD = step.after[0]
         how = step.how
-        if isinstance(how, LoadedFile):
+        if isinstance(how, LoadedFile) and how.kind != "other":
             return self._file_statement(how, after, comment)
+        if isinstance(how, LoadedFile):
+            comment = f"{comment}: {how.path or 'a deformation given from code'} (the lattice it gave, written out)"
         if isinstance(how, BrushStroke) and _same_geometry(state, after) and _same_options(state, after):
             stroke = self._stroke_statement(how, state, after, points)
             if stroke is not None:
