@@ -170,7 +170,7 @@ class ControlPanel(widgets.VBox):
                 made.layout = widgets.Layout(width="100%")
         if not isinstance(made, list):
             self._fields[control.state[0] if control.state else control.key] = made
-            if kind in ("text", "choice", "upload"):
+            if kind in ("text", "choice", "upload", "log"):
                 made.add_class(css)
         setattr(self, control.key, made)
         self._widgets[control.key] = made
