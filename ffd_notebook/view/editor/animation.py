@@ -18,7 +18,6 @@ writes one frame per step, so a front-end shows a progress bar and keeps answeri
 from __future__ import annotations
 
 import os
-import tempfile
 from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
 from typing import Any
@@ -29,7 +28,9 @@ from numpy.typing import NDArray
 from ..._util.paths import StrPath
 from ...ffd.basis import BasisName
 from ...ffd.deform import FFD
+from ...io._atomic import atomic_path
 from ..rendering.camera import frame_camera
+from .meshes import PYVISTA_MESH_IO, surface_of
 from .scene.scene import FRONT, EditorScene
 from .session.lattices import copy_ffd
 from .session.session import EditingSession
@@ -133,15 +134,13 @@ class Recording:
         colors: bool = True,
         points_shown: str = "auto",
     ) -> None:
-        from .editor import PYVISTA_MESH_IO, _surface_of
-
         self.states = _states(deformations)
         self.poses = frame_poses(int(frames), len(self.states))
         if not (np.isfinite(fps) and fps > 0):
             raise ValueError(f"fps must be a positive number, got {fps!r}")
         self.fps = float(fps)
         self.orbit = 360.0 if orbit is True else float(orbit or 0.0)
-        surface = _surface_of(mesh)
+        surface = surface_of(mesh)
         first = self.states[0]
         basis: BasisName = "bernstein" if first.basis == "bernstein" else "bspline"  # (its own options below)
         self.session = EditingSession(surface, mesh_io=PYVISTA_MESH_IO, lattice=first.lattice.copy(), basis=basis)
@@ -199,34 +198,30 @@ class Recording:
         if suffix not in ANIMATION_SUFFIXES:
             raise ValueError(f"{os.fspath(path)!r}: an animation is one of {', '.join(ANIMATION_SUFFIXES)}")
         plotter = self.scene.plotter
-        fd, name = tempfile.mkstemp(suffix=suffix, prefix=f".{target.stem}-", dir=target.parent)
-        os.close(fd)
-        temporary = Path(name)
-        written = False
-        try:
-            if suffix == ".gif":  # (Pillow gives each frame its palette: 50-120 ms a 640x480 frame, as a render)
-                plotter.open_gif(temporary, loop=0, fps=self.fps)
-            else:  # even sizes for the yuv420p pixels players read; no resizing to blocks of 16
-                plotter.open_movie(temporary, framerate=self.fps, quality=7, macro_block_size=2)
-            step = self.orbit / len(self) if self.orbit else 0.0
-            for index in range(len(self)):
-                plotter.mwriter.append_data(self.frame(index))
-                if step:
-                    plotter.camera.Azimuth(step)
-                if progress is not None:
-                    progress(index + 1, len(self))
-                yield index + 1
-            plotter.mwriter.close()
-            os.replace(temporary, target)
-            written = True
-        finally:
-            if not written and plotter.mwriter is not None:
-                try:  # (a GIF writer writes its frames when closed: close it before the file goes)
-                    plotter.mwriter.close()
-                except Exception:
-                    pass
-            plotter.mwriter = None  # closed: the plotter must not close it again
-            temporary.unlink(missing_ok=True)
+        with atomic_path(target) as temporary:  # (the package's atomic writes: same folder, fsync, rename)
+            written = False
+            try:
+                if suffix == ".gif":  # (Pillow gives each frame its palette: 50-120 ms a 640x480 frame, as a render)
+                    plotter.open_gif(temporary, loop=0, fps=self.fps)
+                else:  # even sizes for the yuv420p pixels players read; no resizing to blocks of 16
+                    plotter.open_movie(temporary, framerate=self.fps, quality=7, macro_block_size=2)
+                step = self.orbit / len(self) if self.orbit else 0.0
+                for index in range(len(self)):
+                    plotter.mwriter.append_data(self.frame(index))
+                    if step:
+                        plotter.camera.Azimuth(step)
+                    if progress is not None:
+                        progress(index + 1, len(self))
+                    yield index + 1
+                plotter.mwriter.close()
+                written = True
+            finally:
+                if not written and plotter.mwriter is not None:
+                    try:  # (a GIF writer writes its frames when closed: close it before the file goes)
+                        plotter.mwriter.close()
+                    except Exception:
+                        pass
+                plotter.mwriter = None  # closed: the plotter must not close it again
 
     def run(self, path: StrPath, progress: Callable[[int, int], None] | None = None) -> Path:
         """Write every frame to ``path`` (see :meth:`write`), then release the plotter; returns the path."""

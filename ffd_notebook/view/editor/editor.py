@@ -37,82 +37,19 @@ from ..._util.paths import StrPath
 from ...ffd.basis import BasisName
 from ...ffd.deform import FFD
 from ...ffd.lattice import Lattice
-from ...io import write_mesh
-from ...meshing import as_surface, color_array_name, decimate_keeping_colors, deformed_copy
 from ..serving.lifetime import Lifetime, weak_method
+from .meshes import PYVISTA_MESH_IO, face_surface, surface_of
 from .scene.proxy import INTERACTIVE_CELLS
 from .scene.scene import EditorScene
 from .session.lattices import copy_ffd
 from .session.message_log import MessageLog
 from .session.script import MeshOrigin
-from .session.session import EditingSession, Field, MeshIO, PointsShown
+from .session.session import EditingSession, Field, PointsShown
 
 if TYPE_CHECKING:
     from .animation import Recording
 
 __all__ = ["PYVISTA_MESH_IO", "Editor", "edit", "face_surface"]
-
-
-def read_surface(path: StrPath) -> pv.PolyData:
-    """A mesh file's surface, checked (:func:`ffd_notebook.io.read_mesh` + :func:`ffd_notebook.meshing.as_surface`)."""
-    from ...io import read_mesh
-
-    return as_surface(read_mesh(path))
-
-
-def face_surface(photo: Any) -> pv.PolyData:
-    """The coloured face in a photo (path, array or ``face.Photo``): :func:`ffd_notebook.face_from_photo`."""
-    from ...face import face_from_photo
-
-    return face_from_photo(photo)
-
-
-#: PyVista's mesh operations, for sessions of PyVista meshes
-PYVISTA_MESH_IO = MeshIO(
-    read=read_surface,
-    write=write_mesh,
-    decimate=decimate_keeping_colors,
-    with_points=deformed_copy,
-    color_array=color_array_name,
-    face=face_surface,
-)
-
-
-def image_box(image: Any) -> pv.PolyData:
-    """The box of an image's voxel centres as a surface (subdivided so it bends with the lattice), in physical
-    space; a flat rectangle for a 2D image. The editor's mesh when it edits a lattice over an image alone."""
-    from ...images.pixels import as_pixels
-
-    if isinstance(image, tuple):
-        _, grid, _ = as_pixels(image[0], **image[1])
-    else:
-        _, grid, _ = as_pixels(image)
-    size = list(grid.size) + [1] * (3 - grid.dim)
-    if grid.dim == 3:
-        box = pv.Box(bounds=(0, size[0] - 1, 0, size[1] - 1, 0, size[2] - 1), level=8, quads=False)
-    else:
-        centre = ((size[0] - 1) / 2, (size[1] - 1) / 2, 0.0)
-        box = pv.Plane(center=centre, i_size=size[0] - 1, j_size=size[1] - 1, i_resolution=16, j_resolution=16)
-        box = box.triangulate()
-    to_physical = grid.index_to_physical()
-    box.points = box.points @ to_physical[:3, :3].T + to_physical[:3, 3]
-    return box
-
-
-def _surface_of(mesh_or_path: Any, image: Any = None) -> pv.PolyData:
-    from ...face import is_photo
-
-    if mesh_or_path is None and image is not None:
-        return image_box(image)
-    if mesh_or_path is None:
-        from ...datasets import sample_mesh
-
-        return as_surface(sample_mesh())
-    if is_photo(mesh_or_path):  # a photo path (.jpg, .png...) or an (H, W, 3) uint8 array: the face in it
-        return face_surface(mesh_or_path)
-    if isinstance(mesh_or_path, (str, os.PathLike)):
-        return read_surface(mesh_or_path)
-    return as_surface(mesh_or_path)
 
 
 def _origin_of(mesh_or_path: Any, image: Any = None) -> MeshOrigin:
@@ -203,7 +140,7 @@ class Editor:
         else:
             path = None
         self.session = EditingSession(
-            _surface_of(mesh_or_path, image), mesh_io=PYVISTA_MESH_IO, lattice=lattice, shape=shape, basis=basis
+            surface_of(mesh_or_path, image), mesh_io=PYVISTA_MESH_IO, lattice=lattice, shape=shape, basis=basis
         )
         self.session.script.origin = _origin_of(mesh_or_path, image)
         if image is not None and mesh_or_path is None:
@@ -692,7 +629,30 @@ class Editor:
         states: Sequence[FFD] | None = None,
     ) -> Recording:
         """A :class:`~.animation.Recording` of the deformation as the editor shows it (see :meth:`animate`), to
-        write frame by frame (the panels do, with a progress bar)."""
+        write frame by frame (the panels do, with a progress bar).
+
+        Parameters
+        ----------
+        frames, fps, orbit, lattice, states
+            As for :meth:`animate`.
+
+        Returns
+        -------
+        Recording
+            Its :meth:`~.animation.Recording.write` yields after each frame; :meth:`~.animation.Recording.run`
+            writes them all.
+
+        Examples
+        --------
+        >>> import os, tempfile
+        >>> import pyvista as pv
+        >>> from ffd_notebook.view import Editor
+        >>> editor = Editor(pv.Sphere(theta_resolution=8, phi_resolution=8), shape=(4, 4, 4), window_size=(64, 48))
+        >>> recording = editor.recording(frames=3)
+        >>> list(recording.write(os.path.join(tempfile.mkdtemp(), "rest.gif")))
+        [1, 2, 3]
+        >>> recording.close(); editor.close()
+        """
         from .animation import Recording
 
         session = self.session

@@ -25,7 +25,7 @@ from hypothesis import strategies as st
 
 from ffd_notebook import FFD, Lattice, save_deformation, save_displacement_field, save_prm
 from ffd_notebook.view.editor import EditingSession
-from ffd_notebook.view.editor.editor import PYVISTA_MESH_IO, read_surface
+from ffd_notebook.view.editor.meshes import PYVISTA_MESH_IO, read_surface
 from ffd_notebook.view.editor.session.script import OUTSIDE_HISTORY, MeshOrigin
 
 REPO = Path(__file__).resolve().parents[3]

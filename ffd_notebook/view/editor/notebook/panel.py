@@ -208,6 +208,18 @@ class ControlPanel(widgets.VBox):
         A click in a widget cannot add a cell to the notebook (IPython's ``set_next_input`` answers the request
         that ran a cell, and a click runs none; JupyterLab shows it only after the next cell runs): the panel
         shows the code, and ``editor.code_cell()`` run in a cell puts it in a new cell below.
+
+        Examples
+        --------
+        >>> import pyvista as pv
+        >>> from ffd_notebook.view import Editor, ControlPanel
+        >>> editor = Editor(pv.Sphere(theta_resolution=8, phi_resolution=8), shape=(4, 4, 4), window_size=(64, 48))
+        >>> panel = ControlPanel(editor)
+        >>> editor.session.move_control_point((1, 2, 1), (0.0, 0.0, 0.25))
+        >>> panel.show_code()
+        >>> "lattice.offsets[1, 2, 1] = (0.0, 0.0, 0.25)" in panel.code_text.value
+        True
+        >>> editor.close()
         """
         self.code_text.value = self.editor.to_code()
         self.code_text.layout.display = "block"
@@ -217,6 +229,25 @@ class ControlPanel(widgets.VBox):
         """Record the deformation into ``path`` (a ``.gif`` or a movie, in the kernel's folder) with a progress bar.
 
         A failure (a bad name, a folder that cannot be written) becomes the editor's message.
+
+        Parameters
+        ----------
+        path : str
+            The file to write (the panel's "animation file" field).
+        orbit : bool, default False
+            Turn the camera by a whole turn over the animation.
+
+        Examples
+        --------
+        >>> import os, tempfile
+        >>> import pyvista as pv
+        >>> from ffd_notebook.view import Editor, ControlPanel
+        >>> editor = Editor(pv.Sphere(theta_resolution=8, phi_resolution=8), shape=(4, 4, 4), window_size=(64, 48))
+        >>> panel = ControlPanel(editor)
+        >>> panel.record(os.path.join(tempfile.mkdtemp(), "rest.gif"))
+        >>> editor.messages[-1]  # doctest: +ELLIPSIS
+        'recorded .../rest.gif: 36 frames'
+        >>> editor.close()
         """
         editor = self.editor
         session = editor.session

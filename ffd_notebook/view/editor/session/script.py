@@ -30,7 +30,7 @@ import os
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from pathlib import PurePath
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 from numpy.typing import NDArray
@@ -196,6 +196,14 @@ def _rows_assignment(ijk: NDArray[np.int64], values: NDArray[np.float64], shape:
     box = _box_index(ijk, shape)
     if box is not None and all(_same_bits(row, values[0]) for row in values):
         return [f"lattice.offsets[{box}] = {_vec(values[0])}"]
+    # a few boxes, each set to one value (planes moved apart, say): a line each
+    _, group = np.unique(np.ascontiguousarray(values).view(np.uint64).reshape(len(values), 3), axis=0,
+                         return_inverse=True)  # fmt: skip
+    boxes = [_box_index(ijk[group.ravel() == g], shape) for g in range(int(group.max()) + 1)]
+    if len(boxes) <= 4 and all(b is not None for b in boxes):
+        first = [int(np.flatnonzero(group.ravel() == g)[0]) for g in range(len(boxes))]  # (in the rows' order)
+        order = sorted(range(len(boxes)), key=first.__getitem__)
+        return [f"lattice.offsets[{boxes[g]}] = {_vec(values[first[g]])}" for g in order]
     axes = ", ".join("[" + ", ".join(str(int(v)) for v in ijk[:, a]) + "]" for a in range(3))
     return [f"lattice.offsets[{axes}] = " + _wrapped([_vec(row) for row in values])]
 
@@ -354,7 +362,8 @@ class SessionScript:
         self.session = session
         self.origin = MeshOrigin()
         self._saves: list[tuple[Any, str, str]] = []  # (the last step done then, or None; what; path), in order
-        self._decimations: list[tuple[tuple[Any, ...], float]] = []  # (the steps done then, the reduction)
+        #: (the steps done then, the reduction, whether it dropped painted weights)
+        self._decimations: list[tuple[tuple[Any, ...], float, bool]] = []
         self._start = copy_ffd(session.ffd)  # the state the kept history starts from
         self._cache: dict[int, tuple[HistoryStep, Any, Any, Any, Statement]] = {}
         self._last: tuple[Any, FFD, list[Statement]] | None = None  # the history's steps, the start, their code
@@ -373,7 +382,7 @@ class SessionScript:
         self._start = self._advance(self._start, step)
         self._cache.pop(id(step), None)
         self._saves = [save for save in self._saves if save[0] is not None and save[0] is not step]
-        self._decimations = [(tuple(s for s in done if s is not step), r) for done, r in self._decimations]
+        self._decimations = [(tuple(s for s in done if s is not step), r, w) for done, r, w in self._decimations]
 
     def saved(self, what: str, path: str | os.PathLike[str]) -> None:
         """The user saved ``what`` (``"lattice"`` or ``"mesh"``) to ``path``: the script saves it too, after the
@@ -381,27 +390,30 @@ class SessionScript:
         steps = self.session.history.steps
         self._saves = [*self._saves[-(MAX_SAVES - 1) :], (steps[-1] if steps else None, what, os.fspath(path))]
 
-    def decimated(self, reduction: float) -> None:
+    def decimated(self, reduction: float, *, dropped_weights: bool = False) -> None:
         """The shown mesh was decimated by ``reduction`` (0: back to the mesh as loaded), after the last step done:
-        the script decimates its mesh there too (and drops painted weights, as the session did)."""
-        self._decimations = [*self._decimations[-(MAX_SAVES - 1) :], (self.session.history.steps, float(reduction))]
+        the script decimates its mesh there too (and drops painted weights where the session did)."""
+        event = (self.session.history.steps, float(reduction), bool(dropped_weights))
+        self._decimations = [*self._decimations[-(MAX_SAVES - 1) :], event]
 
     # ------------------------------------------------------------------ the code
-    def _decimation_anchors(self) -> list[tuple[Any, float]]:
+    def _decimation_anchors(self) -> list[tuple[Any, tuple[float, bool]]]:
         """Each decimation after the last step it shares with the history as it stands (steps undone since and
-        done again came after it), the last one again at the end if others would follow it (the shown mesh)."""
+        done again came after it), the last one again at the end if others would follow it (the shown mesh).
+        The event is ``(reduction, drop the weights)``: weights are dropped only where it happened (moved, it
+        would drop weights the history brought back; the end of the script sets what differs)."""
         done = self.session.history.steps
-        out: list[tuple[Any, float]] = []
-        for then, reduction in self._decimations:
+        out: list[tuple[Any, tuple[float, bool]]] = []
+        for then, reduction, dropped in self._decimations:
             shared = 0
             while shared < min(len(then), len(done)) and then[shared] is done[shared]:
                 shared += 1
-            out.append((done[shared - 1] if shared else None, reduction))
+            out.append((done[shared - 1] if shared else None, (reduction, dropped and shared == len(then))))
         if out:
             position = {id(step): k for k, step in enumerate(done)}
             last = max(range(len(out)), key=lambda k: (-1 if out[k][0] is None else position[id(out[k][0])], k))
             if last != len(out) - 1:
-                out.append((done[-1] if done else None, out[-1][1]))
+                out.append((done[-1] if done else None, (out[-1][1][0], False)))
         return out
 
     def _anchored(self, events: list[tuple[Any, Any]]) -> dict[int | None, list[Any]]:
@@ -413,41 +425,48 @@ class SessionScript:
             out.setdefault(id(at) if at is not None and id(at) in done else None, []).append(event)
         return out
 
-    def _mesh_points(self) -> tuple[list[Any], list[NDArray[np.float64] | None]]:
-        """For each step (and the start, first): which mesh the script deforms there (``"loaded"`` or the number
-        of the decimation) and its points (None where they are not known: then nothing is computed from them)."""
+    def _meshes(self) -> tuple[list[int], list[NDArray[np.float64] | None], list[list[tuple[float, bool]]]]:
+        """For the start and after each step: how many decimations the script has made there (which mesh it
+        deforms), that mesh's points (None where they are not known here: nothing is computed from them), and the
+        decimations made there (``(reduction, drop the weights)``)."""
         steps = self.session.history.steps
         anchors = self._decimation_anchors()
         by_step = self._anchored(anchors)
-        last = len(anchors) - 1
         loaded = np.asarray(self.session.source_mesh.points, dtype=np.float64)
-        tags: list[Any] = []
+        tags: list[int] = []
         points: list[NDArray[np.float64] | None] = []
-        tag: Any = "loaded"
-        n = 0  # decimations passed
+        events: list[list[tuple[float, bool]]] = []
+        n, now = 0, cast("NDArray[np.float64] | None", loaded)
         for anchor in [None, *(id(step) for step in steps)]:
-            for reduction in by_step.get(anchor, []):
-                tag = "loaded" if reduction == 0.0 else n
+            here = by_step.get(anchor, [])
+            for reduction, _ in here:
                 n += 1
-            tags.append(tag)
-            if tag == "loaded":
-                points.append(loaded)
-            else:
-                points.append(np.asarray(self.session.rest_points, dtype=np.float64) if tag == last else None)
-        return tags, points
+                last = n == len(anchors)
+                now = loaded if reduction == 0.0 else np.asarray(self.session.rest_points) if last else None
+            tags.append(n)
+            points.append(now)
+            events.append(here)
+        return tags, points, events
+
+    @staticmethod
+    def _after_events(state: FFD, events: list[tuple[float, bool]]) -> None:
+        """The replayed state after decimations: painted weights dropped where the session dropped them."""
+        if any(dropped for _, dropped in events):
+            state.weights = None
 
     def statements(self) -> list[Statement]:
         """One :class:`Statement` per step of the undo history as it stands, oldest first."""
         steps = self.session.history.steps
-        tags, meshes = self._mesh_points()  # (a step's statement follows the events before it: tags[k] precedes it)
+        tags, meshes, events = self._meshes()  # (step k's statement follows the decimations at position k)
         key = [(step, step.after, step.how, tag) for step, tag in zip(steps, tags[:-1], strict=True)]
         last = self._last
         if last is not None and last[1] is self._start and len(last[0]) == len(key):
             if all(_same_key(was, now) for was, now in zip(last[0], key, strict=True)):
                 return list(last[2])  # (the panels ask at every sync: nothing changed since)
         state = copy_ffd(self._start)
+        self._after_events(state, events[0])
         out, live = [], set()
-        for (step, _, _, tag), points in zip(key, meshes[:-1], strict=True):
+        for k, ((step, _, _, tag), points) in enumerate(zip(key, meshes[:-1], strict=True)):
             live.add(id(step))
             cached = self._cache.get(id(step))
             if cached is not None and _same_key(cached[:4], (step, step.after, step.how, tag)):
@@ -457,6 +476,7 @@ class SessionScript:
                 self._cache[id(step)] = (step, step.after, step.how, tag, statement)
             out.append(statement)
             state = self._advance(state, step, in_place=True)
+            self._after_events(state, events[k + 1])
         for gone in set(self._cache) - live:
             del self._cache[gone]
         self._last = (key, self._start, out)
@@ -502,15 +522,15 @@ class SessionScript:
         return "\n".join(body) + "\n"
 
     @staticmethod
-    def _event_lines(decimations: list[float], saves: list[tuple[str, str]], state: FFD) -> list[str]:
+    def _event_lines(decimations: list[tuple[float, bool]], saves: list[tuple[str, str]], state: FFD) -> list[str]:
         """What the user did after a step besides undoable edits: decimations of the mesh, then saves."""
         lines = []
-        for reduction in decimations:
+        for reduction, dropped in decimations:
             if reduction == 0.0:
                 lines.append("mesh = loaded.copy()  # the mesh as loaded again (the editor's decimation undone)")
             else:
                 lines.append(f"mesh = decimate_keeping_colors(loaded, {_num(reduction)})  # decimated in the editor")
-            if _weights_of(state) is not None:  # painted on the vertices that went
+            if dropped and _weights_of(state) is not None:  # painted on the vertices that went
                 lines.append("ffd.weights = None  # the decimation dropped the painted weights")
                 state.weights = None
         for what, path in saves:
@@ -567,9 +587,12 @@ class SessionScript:
 
     def _outside_history(self, steps: list[Statement]) -> Statement | None:
         """Statements that set what the history does not explain (the state replayed differs from the session's)."""
+        _, _, events = self._meshes()
         state = copy_ffd(self._start)
-        for step in self.session.history.steps:
+        self._after_events(state, events[0])
+        for k, step in enumerate(self.session.history.steps):
             state = self._advance(state, step, in_place=True)
+            self._after_events(state, events[k + 1])
         now = self.session.ffd
         if _same_geometry(state, now) and _same_options(state, now) and _same_weights(state, now):
             if _same_bits(state.lattice.offsets, now.lattice.offsets):

@@ -319,7 +319,24 @@ class EditingSession:
 
     def shown_control_points(self) -> NDArray[np.float64]:
         """Control points as shown: :meth:`control_points`, or with a :attr:`blend` below 1 ``rest + blend *
-        offsets``, flat ``(M, 3)``."""
+        offsets``.
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(M, 3)`` positions, flat C order.
+
+        Examples
+        --------
+        >>> import pyvista as pv
+        >>> from ffd_notebook.view.editor.editor import PYVISTA_MESH_IO
+        >>> sphere = pv.Sphere(theta_resolution=8, phi_resolution=8)
+        >>> session = EditingSession(sphere, mesh_io=PYVISTA_MESH_IO, shape=(4, 4, 4))
+        >>> session.move_control_point((0, 0, 0), (0.0, 0.0, 0.4))
+        >>> session.set_blend(0.5)
+        >>> (session.shown_control_points() - session.lattice.control_points().reshape(-1, 3))[0].tolist()
+        [0.0, 0.0, 0.2]
+        """
         if self.blend == 1.0:
             return self.control_points()
         return self._rest_control + self.blend * self.lattice.offsets.reshape(-1, 3)
@@ -1459,14 +1476,15 @@ class EditingSession:
         if done.source is not self.source_mesh or done.ffd is not self.ffd:
             raise ChangedMeanwhile("the mesh or the lattice changed meanwhile; decimate again")
         self.paint.end()  # a brush stroke under way is a step of the mesh it was painted on
-        if self.ffd.weights is not None:  # one per vertex of the mesh as it was
+        dropped = self.ffd.weights is not None
+        if dropped:  # one per vertex of the mesh as it was
             self.ffd.weights = None
             self.info(WEIGHTS_CLEARED)
         deformer = done.deformer
         if deformer is None or not np.array_equal(done.offsets, self.ffd.lattice.offsets):  # (edited meanwhile)
             deformer = self.ffd.bind(done.mesh.points)
         self.replace_mesh(done.mesh, deformer, label="decimate", new_document=False)
-        self.script.decimated(done.reduction)
+        self.script.decimated(done.reduction, dropped_weights=dropped)
         self.info(f"decimated by {done.reduction:.0%}: {done.mesh.n_points} vertices, {done.mesh.n_cells} faces")
         return done.mesh
 
