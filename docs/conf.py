@@ -87,42 +87,13 @@ nb_execution_mode = "off"
 myst_enable_extensions = ["dollarmath"]
 suppress_warnings = ["mystnb.unknown_mime_type"]
 
-# --- the gallery: short scripts, each renders a picture
-
-
-class AnimationScraper:
-    """The animations an example wrote (``fn.animate(..., "x.gif")`` in its folder) shown as its pictures, moving.
-
-    PyVista's scraper shows the plotters left open; an animation's plotter is closed when the file is written,
-    so the files are picked up instead (sphinx-gallery's "detecting image files on disk" scraper).
-    """
-
-    def __init__(self) -> None:
-        self.seen: set[str] = set()
-
-    def __repr__(self) -> str:  # sphinx-gallery compares configurations by their repr
-        return "AnimationScraper"
-
-    def __call__(self, block, block_vars, gallery_conf):
-        from sphinx_gallery.scrapers import figure_rst
-
-        folder = Path(block_vars["src_file"]).parent
-        names = []
-        for gif in sorted(folder.glob("*.gif")):
-            if str(gif) in self.seen:
-                continue
-            self.seen.add(str(gif))
-            target = Path(next(block_vars["image_path_iterator"])).with_suffix(".gif")
-            shutil.move(gif, target)
-            names.append(str(target))
-        return figure_rst(names, gallery_conf["src_dir"])
-
-
+# --- the gallery: short scripts, each renders a picture (or an animation: PyVista's scraper moves a plotter's GIF,
+# which ffd_notebook.animate leaves registered on its plotter)
 sphinx_gallery_conf = {
     "examples_dirs": ["gallery"],
     "gallery_dirs": ["auto_examples"],
     "filename_pattern": r"/plot_",
-    "image_scrapers": (pyvista.Scraper(), "matplotlib", AnimationScraper()),
+    "image_scrapers": (pyvista.Scraper(), "matplotlib"),
     "download_all_examples": False,
     "remove_config_comments": True,
     "within_subsection_order": "FileNameSortKey",

@@ -4,7 +4,8 @@ The deformation as an animation
 
 A lesson's deformation as a GIF for the slides: :func:`ffd_notebook.animate` draws the mesh going from rest to an
 FFD (or through saved states) off-screen, as the editor shows it, the camera turning a little, and writes the
-frames through PyVista's movie writing (a ``.mp4`` works the same way). The editor's **Record** button and
+frames through PyVista's movie writing (a ``.mp4`` works the same way; the gallery shows the GIF as PyVista's own
+animated examples do). The editor's **Record** button and
 ``editor.animate(path)`` do this for the deformation on screen.
 """
 

@@ -222,6 +222,11 @@ class Recording:
                     except Exception:
                         pass
                 plotter.mwriter = None  # closed: the plotter must not close it again
+                # open_gif registered the temporary file for sphinx-gallery's PyVista scraper (which moves a plotter's
+                # GIF into the gallery): the file written, or none
+                plotter._gif_filename = None
+        if suffix == ".gif":
+            plotter._gif_filename = target.resolve()
 
     def run(self, path: StrPath, progress: Callable[[int, int], None] | None = None) -> Path:
         """Write every frame to ``path`` (see :meth:`write`), then release the plotter; returns the path."""
