@@ -4,8 +4,6 @@ from __future__ import annotations
 
 from typing import Any
 
-import numpy as np
-
 from ....ffd.basis import BasisName
 from ....ffd.deform import FFD
 from ....ffd.interpolation import check_basis
@@ -29,12 +27,5 @@ def fitted_lattice(mesh: Any, shape: tuple[int, ...], basis: BasisName | tuple[s
 def copy_ffd(ffd: FFD, lattice: Lattice | None = None, **changes: Any) -> FFD:
     """A new FFD with ``ffd``'s basis, border, affine part, ``only_inside``, ``outside``, strength and
     weights on a copy of its lattice (or on ``lattice``); ``changes`` replace some of them
-    (``basis=...``, ``strength=...``, ``weights=...``)."""
-    lattice = ffd.lattice.copy() if lattice is None else lattice
-    weights = ffd.weights.copy() if isinstance(ffd.weights, np.ndarray) else ffd.weights
-    options: dict[str, Any] = {"basis": ffd.basis, "border": ffd.border, "affine": ffd.affine.copy(),
-                               "only_inside": ffd.only_inside, "outside": ffd.outside, "strength": ffd.strength,
-                               "weights": weights}  # fmt: skip
-    options.update(changes)
-    basis = options.pop("basis")
-    return FFD(lattice, basis, **options)
+    (``basis=...``, ``strength=...``, ``weights=...``): :meth:`FFD.copy <ffd_notebook.FFD.copy>`."""
+    return ffd.copy(lattice, **changes)
