@@ -19,6 +19,7 @@ from .files import image_data_files, image_suffix, read_image, read_image_inform
 from .geometry import ImageGrid
 from .inverse import invert_points
 from .pixels import IMAGE_INTERPOLATIONS
+from .reference import reference_grid
 from .slices import WarpedSlices
 from .warp import warp_image
 
@@ -31,6 +32,7 @@ __all__ = [
     "invert_points",
     "read_image",
     "read_image_information",
+    "reference_grid",
     "warp_image",
     "write_image",
 ]

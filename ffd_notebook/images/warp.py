@@ -16,16 +16,14 @@ field image per slab; ``tests/benchmarks/bench_images.py`` measures both.
 
 from __future__ import annotations
 
-import os
 from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike
 
 from .._util.blas import one_blas_thread
-from .files import read_image_information
-from .geometry import ImageGrid
 from .pixels import Interpolator, as_pixels, check_image_interpolation
+from .reference import reference_grid
 from .sample import Deformation, slab_rows
 from .separable import index_sampler
 
@@ -56,8 +54,9 @@ def warp_image(
         ``T``: an :class:`~ffd_notebook.FFD` or anything that maps ``(N, 3)`` physical points
         to ``(N, 3)`` points. A 2D image lies in the plane ``z = 0``; ``T``'s z component is
         not used for it (a lattice in the image's plane moves nothing out of it).
-    reference : SimpleITK.Image, path or ImageGrid, optional
-        The output grid; the input's own grid by default.
+    reference : ImageGrid, SimpleITK.Image, path, DisplacementField or mapping, optional
+        The output grid (anything :func:`~ffd_notebook.images.reference_grid` reads); the input's own grid
+        by default.
     interpolation : {"linear", "nearest", "bspline"}
         ``"nearest"`` for label maps (no new values), ``"linear"``, or cubic ``"bspline"``.
     default_value : float
@@ -95,12 +94,7 @@ def warp_image(
     """
     check_image_interpolation(interpolation, default_value)
     pixels, source, sitk_image = as_pixels(image, spacing=spacing, origin=origin, direction=direction)
-    if reference is None:
-        grid = source
-    elif isinstance(reference, str | os.PathLike):
-        grid = read_image_information(reference)
-    else:
-        grid = ImageGrid.of(reference)
+    grid = source if reference is None else reference_grid(reference)
     if grid.dim != source.dim:
         raise ValueError(f"the reference grid is {grid.dim}D and the image {source.dim}D")
     reader = Interpolator(pixels, source, interpolation, default_value)

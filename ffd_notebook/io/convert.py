@@ -21,7 +21,7 @@ from typing import Any
 from ..errors import FileFormatError
 from ..ffd.deform import FFD
 from .deformation_files import DEFORMATION_FORMATS, DEFORMATION_SUFFIXES, load_deformation, save_deformation
-from .displacement_field import DisplacementField, field_suffix, reference_grid, save_displacement_field
+from .displacement_field import DisplacementField, field_suffix, save_displacement_field
 from .elastix import ElastixTransform, load_elastix
 from .elastix_text import is_parameter_file
 from .lattice_fitting import fit_lattice
@@ -58,14 +58,6 @@ def _source(path: str) -> tuple[Any, FFD | None, str | None]:
     if isinstance(loaded, DisplacementField):
         return loaded, None, "a displacement field is not a lattice"
     return loaded, loaded, None
-
-
-def _chain_grid(chain: ElastixTransform) -> dict[str, Any] | None:
-    g = chain.geometry
-    if not all(k in g for k in ("Size", "Spacing", "Origin", "Direction")):
-        return None
-    return {"size": g["Size"], "spacing": g["Spacing"], "origin": g["Origin"],
-            "direction": [g["Direction"][i::3] for i in range(3)]}  # fmt: skip
 
 
 def convert(source: str, target: str, *, to: str | None = None, fit: str | None = None, affine: bool = False,
@@ -113,7 +105,7 @@ def convert(source: str, target: str, *, to: str | None = None, fit: str | None 
         if grid is None and isinstance(deformation, DisplacementField):
             grid = deformation
         if grid is None and isinstance(deformation, ElastixTransform):
-            grid = _chain_grid(deformation)
+            grid = deformation.grid
         if grid is None:
             raise ValueError(f"{target}: a displacement field needs a voxel grid: give --reference IMAGE")
         save_displacement_field(target, deformation, grid)
@@ -124,12 +116,10 @@ def convert(source: str, target: str, *, to: str | None = None, fit: str | None 
             region = reference
         if isinstance(deformation, FFD) and region is None:
             raise ValueError("--fit on a lattice file needs --reference IMAGE: the grid to fit over")
-        if isinstance(deformation, ElastixTransform) and region is None and _chain_grid(deformation) is None:
+        if isinstance(deformation, ElastixTransform) and region is None and deformation.grid is None:
             raise ValueError(f"{source}: no fixed image grid (Size, Spacing, Origin, Direction) to fit over: give "
                              "--reference IMAGE")  # fmt: skip
-        ffd = fit_lattice(
-            deformation, parse_shape(fit), region=None if region is None else reference_grid(region), affine=affine
-        )
+        ffd = fit_lattice(deformation, parse_shape(fit), region=region, affine=affine)
         report = ffd.lattice.metadata["fit"]
         notes.append(f"fitted a {'x'.join(map(str, ffd.lattice.shape))} lattice to {report['samples']} samples: "
                      f"residual RMS {report['rms']:.6g}, max {report['max']:.6g}")  # fmt: skip

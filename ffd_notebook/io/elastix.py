@@ -45,6 +45,7 @@ from .._util.points import as_points
 from ..ffd import oneshot as _oneshot
 from ..ffd.deform import FFD
 from ..ffd.lattice import Lattice, nearest_rotation
+from ..images.geometry import ImageGrid
 from .elastix_text import ParameterMap, read_parameter_file, write_parameter_file
 from .itk_model import strip_padding
 
@@ -147,6 +148,30 @@ class ElastixTransform:
         self.steps = list(steps)
         self.combine = list(combine)
         self.geometry = dict(geometry or {})
+
+    @property
+    def grid(self) -> ImageGrid | None:
+        """The fixed image's grid the last file names (``Size``, ``Spacing``, ``Origin``, ``Direction``), or None.
+
+        elastix writes ``Direction`` column by column. A chain with a grid is a reference grid itself
+        (:func:`~ffd_notebook.images.reference_grid`): fields and fitted lattices default to it.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> step = LinearStep("TranslationTransform", np.eye(3), np.zeros(3))
+        >>> geometry = {"Size": [4, 5, 6], "Spacing": [1.0, 1.0, 2.0], "Origin": [0.0, 0.0, 0.0],
+        ...             "Direction": [0.0, 1.0, 0.0, -1.0, 0.0, 0.0, 0.0, 0.0, 1.0]}
+        >>> grid = ElastixTransform([step], [], geometry).grid
+        >>> grid.size, grid.direction[:, 0].tolist()      # the first axis runs along +y
+        ((4, 5, 6), [0.0, 1.0, 0.0])
+        >>> ElastixTransform([step], []).grid is None
+        True
+        """
+        g = self.geometry
+        if not all(k in g for k in ("Size", "Spacing", "Origin", "Direction")):
+            return None
+        return ImageGrid(g["Size"], g["Spacing"], g["Origin"], np.reshape(g["Direction"], (3, 3)).T)
 
     def deform(self, points: ArrayLike) -> NDArray[np.float64]:
         """Where the chain takes ``(N, 3)`` points (transformix's ``OutputPoint``).

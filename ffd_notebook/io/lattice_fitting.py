@@ -14,7 +14,6 @@ other region (a mesh's vertices, a mask, weights) goes through the sparse normal
 
 from __future__ import annotations
 
-from collections.abc import Mapping
 from typing import Any, cast
 
 import numpy as np
@@ -24,6 +23,8 @@ from .._util.points import as_points
 from ..ffd.basis import bspline, bspline_cells
 from ..ffd.deform import FFD
 from ..ffd.lattice import Lattice
+from ..images.geometry import ImageGrid
+from ..images.reference import is_reference_grid
 from .displacement_field import DisplacementField, sample_displacement_field
 from .tensor_grid import apply_along, axis_weights
 
@@ -53,7 +54,7 @@ def _lattice_over_grid(field: DisplacementField, shape: tuple[int, int, int]) ->
     rotation = _orthonormal(field.direction)
     if rotation is None:
         return Lattice.around(field.grid_points(), shape, margin=0.0)
-    extent = (np.array(field.shape) - 1) * field.spacing
+    extent = (np.array(field.size) - 1) * field.spacing
     extent = np.where(extent > 0, extent, field.spacing)  # a single-voxel axis still spans one spacing
     spacing = extent / (np.array(shape) - 3)
     return Lattice(shape, spacing, field.origin - rotation @ spacing, rotation)
@@ -65,7 +66,7 @@ def _aligned(field: DisplacementField, lattice: Lattice) -> list[NDArray[np.floa
         return None
     start = lattice.to_lattice(field.origin[None])[0]
     step = field.spacing / lattice.spacing
-    return [start[a] + np.arange(field.shape[a]) * step[a] for a in range(3)]
+    return [start[a] + np.arange(field.size[a]) * step[a] for a in range(3)]
 
 
 def _affine_fit(points: NDArray[np.float64], targets: NDArray[np.float64], weights: NDArray[np.float64] | None):
@@ -79,13 +80,16 @@ def _affine_fit(points: NDArray[np.float64], targets: NDArray[np.float64], weigh
 
 
 def _grid_fit(field, lattice, coords, affine):
-    """The separable solve on a full aligned grid; returns offsets, affine (A, b) and the residual vectors."""
+    """The separable solve on a full aligned grid; returns offsets, affine (A, b) and the residual vectors.
+
+    The lattice is indexed ``(i, j, k)``; the field's vectors ``[k, j, i]`` are transposed to match."""
     targets = field.vectors
     a, b = np.eye(3), np.zeros(3)
     if affine:
         points = field.grid_points()
         a, b = _affine_fit(points, points + targets.reshape(-1, 3), None)
         targets = (points + targets.reshape(-1, 3) - points @ a.T - b).reshape(targets.shape)
+    targets = targets.transpose(2, 1, 0, 3)
     mats = [axis_weights(coords[axis], lattice.shape[axis]) for axis in range(3)]
     offsets = targets
     for axis in range(3):
@@ -93,7 +97,7 @@ def _grid_fit(field, lattice, coords, affine):
     predicted = offsets
     for axis in range(3):
         predicted = apply_along(mats[axis], predicted, axis)
-    return offsets, (a, b), (targets - predicted).reshape(-1, 3)
+    return offsets, (a, b), (targets - predicted).transpose(2, 1, 0, 3).reshape(-1, 3)
 
 
 def _sparse_fit(points, targets, lattice, weights, affine):
@@ -138,7 +142,7 @@ def _sparse_fit(points, targets, lattice, weights, affine):
 
 def _samples(deformation: Any, region: Any) -> tuple[DisplacementField | None, NDArray | None, NDArray | None]:
     """What to fit: a field on a grid (and a mask), or scattered points and their targets."""
-    if isinstance(region, Mapping) or _is_image(region):
+    if region is not None and is_reference_grid(region):
         return sample_displacement_field(deformation, region), None, None
     if isinstance(deformation, DisplacementField):
         if region is None:
@@ -149,10 +153,8 @@ def _samples(deformation: Any, region: Any) -> tuple[DisplacementField | None, N
                 raise ValueError(f"a mask region must have the field's shape {deformation.shape}, got {mask.shape}")
             return deformation, mask, None
     if region is None:
-        geometry = getattr(deformation, "geometry", None)  # an elastix chain: its fixed image grid
-        if geometry and all(k in geometry for k in ("Size", "Spacing", "Origin", "Direction")):
-            grid = {"size": geometry["Size"], "spacing": geometry["Spacing"], "origin": geometry["Origin"],
-                    "direction": np.reshape(geometry["Direction"], (3, 3)).T}  # fmt: skip
+        grid = getattr(deformation, "grid", None)  # an elastix chain: its fixed image grid
+        if isinstance(grid, ImageGrid):
             return sample_displacement_field(deformation, grid), None, None
         raise ValueError("a region is needed: points, a mesh, a mask on a field, or a reference grid")
     points = as_points(region)
@@ -168,10 +170,6 @@ def _samples(deformation: Any, region: Any) -> tuple[DisplacementField | None, N
     if targets.shape != points.shape or not np.all(np.isfinite(targets)):
         raise ValueError(f"the deformation returned {targets.shape} values for {points.shape} points (or non-finite)")
     return None, points, targets
-
-
-def _is_image(value: Any) -> bool:
-    return type(value).__module__.startswith("SimpleITK")
 
 
 def fit_lattice(
@@ -195,11 +193,13 @@ def fit_lattice(
         one; or a :class:`~ffd_notebook.Lattice` to fit onto (its placement; offsets replaced).
     region : optional
         Where the deformation must be matched: ``None`` (a field's own voxels, an elastix chain's
-        fixed image grid), a boolean mask on a field's grid, ``(N, 3)`` points or a mesh, or a
-        reference grid (a mapping ``{"size", "spacing", "origin", "direction"}`` or a SimpleITK
-        image) on which the deformation is sampled.
+        fixed image grid), a boolean mask on a field's grid (its array shape ``(nz, ny, nx)``),
+        ``(N, 3)`` points or a mesh, or a reference grid on which the deformation is sampled
+        (anything :func:`~ffd_notebook.images.reference_grid` reads: an image or image file, an
+        ``ImageGrid``, a field, a mapping ``{"size", "spacing", "origin", "direction"}``).
     weights : array_like, optional
-        Non-negative weight per sample (on a field: the grid's shape, or one per masked voxel).
+        Non-negative weight per sample (on a field: the array's shape ``(nz, ny, nx)``, or one per
+        masked voxel).
     affine : bool
         Separate the affine part first (least squares), so the lattice holds only what no
         affine map does; else the FFD's affine part is the identity.
