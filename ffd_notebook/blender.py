@@ -481,8 +481,8 @@ def ffd_from_record(record: dict[str, Any]) -> Any:
     lattice.offsets[...] = (deformed - rest) @ linear.T
     interpolation = tuple(str(kind) for kind in record["interpolation"])
     basis: Any = "bspline" if interpolation == ("bspline",) * 3 else interpolation
-    options = {"outside": bool(record.get("outside", False)), "strength": float(record.get("strength", 1.0))}
-    return FFD(lattice, basis=basis, border="clamp", weights=record.get("weights"), **options)
+    outside, strength = bool(record.get("outside", False)), float(record.get("strength", 1.0))
+    return FFD(lattice, basis=basis, border="clamp", outside=outside, strength=strength, weights=record.get("weights"))
 
 
 def record_from_ffd(ffd: Any) -> dict[str, Any]:
