@@ -44,7 +44,7 @@ class _BsplineJacobian:
         uvw = ffd.lattice.to_lattice(points)
         self.cells = CellGroups(uvw, ffd.lattice.shape, ffd.border)
         # in sorted order, like the cell sums; None when every point may move
-        outside = ~in_domain(ffd.basis, ffd.lattice.shape, uvw) if ffd.only_inside else None
+        outside = ~in_domain(ffd.basis, ffd.lattice.shape, uvw, ffd.only_inside) if ffd.only_inside else None
         self.outside = None if outside is None else outside[self.cells.order]
         t = self.cells.t
         assert t is not None  # a fresh grouping keeps its t

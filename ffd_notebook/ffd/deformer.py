@@ -169,7 +169,7 @@ class Deformer:
         t = sorted_uvw[:, 2] - np.floor(sorted_uvw[:, 2])
         bw = axis_bases(self.ffd.basis)[2].weights(t)
         if self.ffd.only_inside:
-            bw[~in_domain(self.ffd.basis, lat.shape, sorted_uvw)] = 0.0
+            bw[~in_domain(self.ffd.basis, lat.shape, sorted_uvw, self.ffd.only_inside)] = 0.0
         factor = influence(self.strength, self._weights, n)
         if factor is not None:
             bw *= factor[order, None]
@@ -205,7 +205,7 @@ class Deformer:
         uvw = lat.to_lattice(self.points)
         self._cells: CellGroups | None = None
         # points the lattice may displace (all unless only_inside): the others get zero weights
-        movable = in_domain(self.ffd.basis, lat.shape, uvw) if self.ffd.only_inside else None
+        movable = in_domain(self.ffd.basis, lat.shape, uvw, self.ffd.only_inside) if self.ffd.only_inside else None
         # strength * weight per point: the displacement is linear in one weight factor, scale that
         factor = influence(self.strength, self._weights, n)
         if self.ffd.basis != "bernstein":
@@ -380,7 +380,7 @@ class Deformer:
         bases = axis_bases(self.ffd.basis)
         d_uvw = bspline_lattice_jacobian(self._cells, self._offsets(), uvw - np.floor(uvw), bases=bases)
         if self.ffd.only_inside:
-            d_uvw[~in_domain(self.ffd.basis, self.ffd.lattice.shape, uvw)] = 0.0
+            d_uvw[~in_domain(self.ffd.basis, self.ffd.lattice.shape, uvw, self.ffd.only_inside)] = 0.0
         jacobian = jacobian_to_world(self.ffd.lattice, self.ffd.affine, d_uvw)
         factor = influence(self.strength, self._weights, len(self.points))
         if factor is not None:  # I + f (J - I): the weights are constants of the points

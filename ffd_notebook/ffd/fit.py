@@ -80,7 +80,7 @@ def control_weights(ffd: FFD, points: ArrayLike) -> tuple[NDArray[np.int64], NDA
     if ffd.outside:  # inner control points follow the surface ones: their weights go to those
         index, weight = outside_weights(lat.shape, index, weight)
     if ffd.only_inside:  # the lattice moves no point outside its domain: nothing moves those rows
-        weight[~in_domain(ffd.basis, lat.shape, uvw)] = 0.0
+        weight[~in_domain(ffd.basis, lat.shape, uvw, ffd.only_inside)] = 0.0
     return index, weight
 
 

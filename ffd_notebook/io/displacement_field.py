@@ -6,7 +6,11 @@ what ``sitk.DisplacementFieldTransform``, ANTs and nitransforms read. Between vo
 :class:`DisplacementField` interpolates linearly as ITK's ``VectorLinearInterpolateImageFunction``
 does (the neighbours clamped to the grid), inside the buffer's half-voxel margin
 (``-0.5 <= index < n - 0.5`` on every axis, ``ImageFunction::IsInsideBuffer``); a point outside it
-does not move (``DisplacementFieldTransform::TransformPoint``).
+does not move (``DisplacementFieldTransform::TransformPoint``). That is the images' interpolator,
+:class:`~ffd_notebook.images.pixels.Interpolator` (linear, default value zero), reading the vectors.
+NiftyReg's own fields follow another rule beyond their grid (``outside="nearest"``): the displacement of
+the nearest border voxel goes on (``get_SlidedValues`` in NiftyReg's ``_reg_splineBasis.cpp``), the same
+interpolator reading at the index clamped onto the grid.
 """
 
 from __future__ import annotations
@@ -21,12 +25,12 @@ from numpy.typing import ArrayLike, NDArray
 
 from .._util.points import as_points
 from ..errors import FileFormatError
-from ..ffd.deform import FFD
+from ..ffd.grid import GridEvaluator
+from ..images.files import open_image
 from ..images.geometry import ImageGrid
+from ..images.pixels import Interpolator
 from ..images.reference import reference_grid
 from ._atomic import atomic_path
-from ._safety import check_regular_file
-from .tensor_grid import apply_along, axis_weights
 
 __all__ = [
     "FIELD_SUFFIXES",
@@ -37,6 +41,8 @@ __all__ = [
     "save_displacement_field",
 ]
 
+#: What moves a point beyond a field's grid (:class:`DisplacementField`'s ``outside``).
+FIELD_OUTSIDE_RULES = ("zero", "nearest")
 #: Displacement-field file names, and the ITK image IO that reads and writes each.
 FIELD_SUFFIXES = {".nii": "NiftiImageIO", ".nii.gz": "NiftiImageIO", ".nrrd": "NrrdImageIO", ".mha": "MetaImageIO"}
 _MAX_VOXELS = 2**28  # 268M voxels: 6.4 GB of float64 vectors, far above any registration field
@@ -71,6 +77,10 @@ class DisplacementField:
         Voxel spacing and the position of voxel ``(0, 0, 0)`` (x first); 1 and 0 by default.
     direction : array_like, optional
         3x3 matrix whose columns are the grid axes (identity by default).
+    outside : {"zero", "nearest"}
+        What moves a point outside the buffer: nothing (``"zero"``, ITK's ``DisplacementFieldTransform``, ANTs)
+        or the displacement of the nearest border voxel (``"nearest"``, NiftyReg's fields, which interpolate with
+        their border voxels repeated beyond the grid).
 
     Examples
     --------
@@ -87,7 +97,12 @@ class DisplacementField:
         spacing: ArrayLike | None = None,
         origin: ArrayLike | None = None,
         direction: ArrayLike | None = None,
+        *,
+        outside: str = "zero",
     ) -> None:
+        if outside not in FIELD_OUTSIDE_RULES:
+            raise ValueError(f"outside must be one of {', '.join(FIELD_OUTSIDE_RULES)}, got {outside!r}")
+        self.outside = outside
         v = np.asarray(vectors, dtype=np.float64)
         if v.ndim != 4 or v.shape[3] != 3 or min(v.shape[:3]) < 1:
             raise ValueError(f"vectors must be an (nz, ny, nx, 3) array (array order, as images), got shape {v.shape}")
@@ -102,6 +117,8 @@ class DisplacementField:
         self.vectors: NDArray[np.float64] = v
         self.grid: ImageGrid = grid
         self._to_index = grid.physical_to_index()[:3]
+        self._interpolator: Interpolator | None = None
+        self._interpolator_of: NDArray[np.float64] | None = None
 
     @classmethod
     def from_sitk(cls, image: Any) -> DisplacementField:
@@ -246,26 +263,18 @@ class DisplacementField:
         [[1.0, 0.0, 0.0]]
         """
         index = self.to_index(points)
-        dims = np.array(self.size, dtype=np.float64)
-        inside = np.all((index >= -0.5) & (index < dims - 0.5), axis=1)
-        out = np.zeros_like(index)
-        if not inside.any():
-            return out
-        c = np.clip(index[inside], 0.0, dims - 1.0)
-        base = np.minimum(np.floor(c), np.maximum(dims - 2.0, 0.0)).astype(np.int64)
-        t = c - base
-        upper = np.minimum(base + 1, np.array(self.size) - 1)
-        acc = np.zeros((len(c), 3))
-        for corner in range(8):
-            bits = [(corner >> a) & 1 for a in range(3)]
-            weight = np.ones(len(c))
-            ijk = []
-            for a, bit in enumerate(bits):
-                weight *= t[:, a] if bit else 1.0 - t[:, a]
-                ijk.append(upper[:, a] if bit else base[:, a])
-            acc += weight[:, None] * self.vectors[ijk[2], ijk[1], ijk[0]]
-        out[inside] = acc
+        if self.outside == "nearest":  # NiftyReg: beyond the grid, the border voxels' displacement goes on
+            index = np.clip(index, 0.0, np.array(self.size, dtype=np.float64) - 1.0)  # NaN stays NaN: zero
+        out = np.empty_like(index)
+        self._reader().read(np.ascontiguousarray(index.T[::-1]), out=out)  # array order (k, j, i)
         return out
+
+    def _reader(self) -> Interpolator:
+        """The images' linear interpolator on the vectors (made again if ``vectors`` was replaced)."""
+        if self._interpolator is None or self._interpolator_of is not self.vectors:
+            self._interpolator = Interpolator(self.vectors, self.grid, "linear", 0.0)
+            self._interpolator_of = self.vectors
+        return self._interpolator
 
     def deform(self, points: ArrayLike) -> NDArray[np.float64]:
         """Where the field takes ``(N, 3)`` points: ``x + displacement(x)``.
@@ -294,7 +303,9 @@ class DisplacementField:
     __call__ = deform
 
     def __repr__(self) -> str:
-        return f"DisplacementField(size={self.size}, spacing={self.spacing.tolist()}, origin={self.origin.tolist()})"
+        rule = "" if self.outside == "zero" else f", outside={self.outside!r}"
+        return (f"DisplacementField(size={self.size}, spacing={self.spacing.tolist()}, "
+                f"origin={self.origin.tolist()}{rule})")  # fmt: skip
 
 
 def _first_line(exc: BaseException) -> str:
@@ -302,11 +313,21 @@ def _first_line(exc: BaseException) -> str:
     return lines[-1][:200] if lines else type(exc).__name__
 
 
-def _deformer(deformation: Any) -> Callable[[NDArray[np.float64]], NDArray[np.float64]]:
-    if hasattr(deformation, "deform"):
-        return deformation.deform
-    if callable(deformation):
+class _Callable:
+    """A callable on ``(N, 3)`` points as a deformation (``deform``)."""
+
+    def __init__(self, function: Callable[[NDArray[np.float64]], Any]) -> None:
+        self.function = function
+
+    def deform(self, points: NDArray[np.float64]) -> Any:
+        return self.function(points)
+
+
+def _as_deformation(deformation: Any) -> Any:
+    if callable(getattr(deformation, "deform", None)):
         return deformation
+    if callable(deformation):
+        return _Callable(deformation)
     raise TypeError(f"expected a deformation (an object with deform(points), or a callable), got "
                     f"{type(deformation).__name__}")  # fmt: skip
 
@@ -316,16 +337,18 @@ def sample_displacement_field(deformation: Any, reference: Any) -> DisplacementF
 
     ``deformation`` is anything with ``deform(points)`` (an :class:`~ffd_notebook.FFD`, an
     :class:`~ffd_notebook.io.ElastixTransform`, a field) or a callable on ``(N, 3)`` points;
-    ``reference`` an image file, a SimpleITK image, a :class:`DisplacementField` or a mapping
-    ``{"size": (nx, ny, nz), "spacing": ..., "origin": ..., "direction": ...}``.
+    ``reference`` anything :func:`~ffd_notebook.images.reference_grid` reads. It is evaluated by the
+    engine's one evaluator on a grid (:class:`~ffd_notebook.ffd.grid.GridEvaluator`): separably for an
+    FFD whose lattice runs along the grid, with every option of the FFD (an FFD's per-point weights
+    are then one per voxel, in array order), point by point otherwise.
 
     Parameters
     ----------
     deformation : FFD, ElastixTransform, DisplacementField or callable
         What moves points (a callable maps ``(N, 3)`` points to moved points).
-    reference : image, DisplacementField or mapping
-        The grid: a SimpleITK image or image file, a field, or a mapping with ``size`` and optionally
-        ``spacing``, ``origin``, ``direction``.
+    reference : ImageGrid, image, image file, DisplacementField or mapping
+        The grid: anything :func:`~ffd_notebook.images.reference_grid` reads (a mapping with ``size`` and
+        optionally ``spacing``, ``origin``, ``direction``).
 
     Returns
     -------
@@ -339,59 +362,22 @@ def sample_displacement_field(deformation: Any, reference: Any) -> DisplacementF
     >>> field = sample_displacement_field(FFD(lat), {"size": (2, 2, 2)})
     >>> field.vectors[1, 1, 1].round(12).tolist()
     [0.5, 0.0, 0.0]
+    >>> sample_displacement_field(FFD(lat, strength=0.5), {"size": (2, 2, 2)}).vectors[1, 1, 1].round(12).tolist()
+    [0.25, 0.0, 0.0]
     """
     grid = reference_grid(reference)
     if grid.dim != 3:
         raise ValueError(f"a displacement field needs a 3D reference grid, got a {grid.dim}D one")
     if int(np.prod(grid.size)) > _MAX_VOXELS:
         raise ValueError(f"a reference grid of {grid.size} voxels: expected at most {_MAX_VOXELS} voxels")
-    fast = _aligned_ffd(deformation, grid)
-    if fast is not None:
-        return DisplacementField(fast, grid.spacing, grid.origin, grid.direction)
-    deform = _deformer(deformation)
-    nx, ny, nz = grid.size
-    placement = grid.index_to_physical()[:3, :3]
+    evaluator = GridEvaluator(_as_deformation(deformation), grid.index_to_physical(), grid.shape)
+    nz, ny, nx = grid.shape
     vectors = np.empty((nz, ny, nx, 3))
     per_slab = max(1, _SLAB_POINTS // (ny * nx))
-    ji = np.stack(np.meshgrid(np.arange(ny, dtype=np.float64), np.arange(nx, dtype=np.float64), indexing="ij"), -1)
-    plane = ji[..., ::-1].reshape(-1, 2) @ placement[:, :2].T + grid.origin  # the voxel centres of the k = 0 layer
     for start in range(0, nz, per_slab):
         stop = min(nz, start + per_slab)
-        layers = np.arange(start, stop, dtype=np.float64)[:, None, None] * placement[:, 2]
-        points = (plane[None] + layers).reshape(-1, 3)
-        moved = np.asarray(deform(points), dtype=np.float64)
-        vectors[start:stop] = (moved - points).reshape(stop - start, ny, nx, 3)
+        vectors[start:stop] = np.moveaxis(evaluator.displacements(start, stop), 0, -1)
     return DisplacementField(vectors, grid.spacing, grid.origin, grid.direction)
-
-
-def _aligned_ffd(deformation: Any, grid: ImageGrid) -> NDArray | None:
-    """An FFD's displacement on a grid along its lattice axes, axis by axis (see :mod:`.tensor_grid`), or ``None``.
-
-    Returns the ``(nz, ny, nx, 3)`` vectors (array order)."""
-    if not isinstance(deformation, FFD) or deformation.basis != "bspline" or deformation.border != "zero":
-        return None
-    lat = deformation.lattice
-    if not np.allclose(grid.direction, lat.rotation, rtol=0, atol=1e-12):
-        return None
-    size = grid.size
-    start = lat.to_lattice(grid.origin[None])[0]
-    step = (np.diag(lat.rotation.T @ grid.direction) * grid.spacing) / lat.spacing
-    local = lat.offsets  # (i, j, k) order, as the lattice's
-    for axis in range(3):
-        u = start[axis] + np.arange(size[axis]) * step[axis]
-        weights = axis_weights(u, lat.shape[axis])
-        if deformation.only_inside:  # the domain is a box: a sample outside it on any axis gets nothing
-            weights[(u < 1.0) | (u > lat.shape[axis] - 2.0)] = 0.0
-        local = apply_along(weights, local, axis)
-    linear = deformation.affine[:3, :3] - np.eye(3)
-    if linear.any() or deformation.affine[:3, 3].any():
-        placement = grid.direction * grid.spacing
-        local = local + (linear @ grid.origin + deformation.affine[:3, 3])
-        for axis in range(3):
-            shape = [1, 1, 1, 3]
-            shape[axis] = size[axis]
-            local += (np.arange(size[axis], dtype=np.float64)[:, None] * (linear @ placement[:, axis])).reshape(shape)
-    return np.ascontiguousarray(local.transpose(2, 1, 0, 3))
 
 
 # ---------------------------------------------------------------------------------------- files
@@ -456,13 +442,24 @@ def save_displacement_field(path: str | os.PathLike[str], deformation: Any, refe
             staging.unlink(missing_ok=True)
 
 
-def load_displacement_field(path: str | os.PathLike[str]) -> DisplacementField:
-    """Read a displacement field file (``.nii``, ``.nii.gz``, ``.nrrd``, ``.mha``) with SimpleITK.
+def load_displacement_field(path: str | os.PathLike[str], *, within: str | os.PathLike[str] | None = None
+                            ) -> DisplacementField:  # fmt: skip
+    """Read a displacement field file (``.nii``, ``.nii.gz``, ``.nrrd``, ``.mha``), whole or not at all.
+
+    The file goes through the package's one image reader (:func:`~ffd_notebook.images.open_image`):
+    its header is checked before ITK reads it (a MetaImage or NRRD header that names data files
+    reads them only inside ``within``), and its vectors are read whole or refused (a file cut
+    short says how many bytes of how many it holds). A field with a NaN or infinite component
+    anywhere is refused, naming how many vectors have one: SimpleITK's NIfTI reader turns them
+    into 0 (no displacement) without a word, so they are counted in the file's own data.
 
     Parameters
     ----------
     path : str or os.PathLike
         A ``.nii``, ``.nii.gz``, ``.nrrd`` or ``.mha`` file of 3-vectors.
+    within : str or os.PathLike, optional
+        The folder the files its header names must be in (the app passes its folder); ``None``:
+        anywhere, as ITK reads it.
 
     Returns
     -------
@@ -472,8 +469,8 @@ def load_displacement_field(path: str | os.PathLike[str]) -> DisplacementField:
     Raises
     ------
     FileFormatError
-        Not an image SimpleITK reads, not 3D, not 3 components per voxel, too large, or
-        non-finite values; names the file.
+        Not an image the package reads, not 3D, not 3 components per voxel, too large, data that
+        ends early, a data file refused, or non-finite vectors; names the file.
 
     Examples
     --------
@@ -487,27 +484,26 @@ def load_displacement_field(path: str | os.PathLike[str]) -> DisplacementField:
     >>> save_displacement_field(path, field)
     >>> load_displacement_field(path).deform([[1.0, 1.0, 1.0]]).tolist()
     [[2.0, 1.0, 1.0]]
+    >>> vectors[1, 1, 1] = np.nan
+    >>> import SimpleITK as sitk
+    >>> sitk.WriteImage(sitk.GetImageFromArray(vectors, isVector=True), str(path))
+    >>> load_displacement_field(path)
+    Traceback (most recent call last):
+    ...
+    ffd_notebook.errors.FileFormatError: ...warp.nii.gz: 1 of its 27 vectors hold NaN or infinite values: refused
     """
     import SimpleITK as sitk
 
     _check_suffix(path)
-    check_regular_file(path)
-    reader = sitk.ImageFileReader()
-    reader.SetFileName(os.fspath(path))
-    reader.SetImageIO(FIELD_SUFFIXES[field_suffix(path)])  # type: ignore[index]
-    try:
-        reader.ReadImageInformation()
-        dims, components = reader.GetDimension(), reader.GetNumberOfComponents()
-        size = tuple(reader.GetSize())
-        if dims != 3 or components != 3:
-            raise FileFormatError(path, None, f"expected a 3D image of 3-vectors (a displacement field), got "
-                                  f"{dims}D with {components} component(s) per voxel")  # fmt: skip
-        if int(np.prod(size)) > _MAX_VOXELS:
-            raise FileFormatError(path, None, f"a field of {size} voxels is larger than the limit ({_MAX_VOXELS})")
-        reader.SetOutputPixelType(sitk.sitkVectorFloat64)
-        image = reader.Execute()
-    except RuntimeError as exc:
-        raise FileFormatError(path, None, f"not a displacement field SimpleITK can read: {_first_line(exc)}") from None
+    image_file = open_image(path, within=within)
+    dims, components = image_file.dimension, image_file.components
+    if dims != 3 or components != 3:
+        raise FileFormatError(path, None, f"expected a 3D image of 3-vectors (a displacement field), got "
+                              f"{dims}D with {components} component(s) per voxel")  # fmt: skip
+    size = image_file.grid.size
+    if int(np.prod(size)) > _MAX_VOXELS:
+        raise FileFormatError(path, None, f"a field of {size} voxels is larger than the limit ({_MAX_VOXELS})")
+    image = image_file.read(pixel_type=sitk.sitkVectorFloat64, finite=True)
     try:
         return DisplacementField.from_sitk(image)
     except ValueError as exc:

@@ -22,11 +22,11 @@ from numpy.typing import ArrayLike, NDArray
 from .._util.points import as_points
 from ..ffd.deform import FFD
 from ..ffd.fit import control_weights
+from ..ffd.grid import axis_matrix, grid_axes
 from ..ffd.lattice import Lattice
 from ..images.geometry import ImageGrid
 from ..images.reference import is_reference_grid
 from .displacement_field import DisplacementField, sample_displacement_field
-from .tensor_grid import apply_along, axis_weights
 
 __all__ = ["fit_lattice"]
 
@@ -48,16 +48,16 @@ def _as_shape(shape: Any) -> tuple[int, int, int]:
     return values
 
 
-def _orthonormal(direction: NDArray[np.float64]) -> NDArray[np.float64] | None:
-    """The direction itself if its columns are orthonormal (to rounding), else ``None``."""
-    if np.abs(direction.T @ direction - np.eye(3)).max() > 1e-9:
+def _unit_columns(direction: NDArray[np.float64]) -> NDArray[np.float64] | None:
+    """The direction itself if its columns are unit vectors (to rounding): a lattice's axes, sheared or not."""
+    if np.abs(np.linalg.norm(direction, axis=0) - 1.0).max() > 1e-9:
         return None
     return direction
 
 
 def _lattice_over_grid(field: DisplacementField, shape: tuple[int, int, int]) -> Lattice:
-    """A zero-border lattice whose domain is the field's grid box exactly, its axes along the grid's."""
-    rotation = _orthonormal(field.direction)
+    """A zero-border lattice whose domain is the field's grid box exactly, its axes along the grid's (sheared too)."""
+    rotation = _unit_columns(field.direction)
     if rotation is None:
         return Lattice.around(field.grid_points(), shape, margin=0.0)
     extent = (np.array(field.size) - 1) * field.spacing
@@ -66,13 +66,11 @@ def _lattice_over_grid(field: DisplacementField, shape: tuple[int, int, int]) ->
     return Lattice(shape, spacing, field.origin - rotation @ spacing, rotation)
 
 
-def _aligned(field: DisplacementField, lattice: Lattice) -> list[NDArray[np.float64]] | None:
-    """Per-axis lattice coordinates of the field's voxels if the grid runs along the lattice axes, else ``None``."""
-    if not np.allclose(field.direction, lattice.rotation, rtol=0, atol=1e-12):
-        return None
-    start = lattice.to_lattice(field.origin[None])[0]
-    step = field.spacing / lattice.spacing
-    return [start[a] + np.arange(field.size[a]) * step[a] for a in range(3)]
+def _apply_along(matrix: NDArray[np.float64], data: NDArray[np.float64], axis: int) -> NDArray[np.float64]:
+    """``matrix`` applied along one of the first three axes of ``data`` (``(n0, n1, n2, ...)``)."""
+    moved = np.moveaxis(data, axis, 0)
+    out = (matrix @ moved.reshape(moved.shape[0], -1)).reshape((matrix.shape[0],) + moved.shape[1:])
+    return np.moveaxis(out, 0, axis)
 
 
 def _affine_fit(points: NDArray[np.float64], targets: NDArray[np.float64], weights: NDArray[np.float64] | None):
@@ -85,10 +83,13 @@ def _affine_fit(points: NDArray[np.float64], targets: NDArray[np.float64], weigh
     return solution[:3].T, solution[3]
 
 
-def _grid_fit(field, lattice, coords, affine):
-    """The separable solve on a full aligned grid; returns offsets, affine (A, b) and the residual vectors.
+def _grid_fit(field, lattice, axes, affine):
+    """The separable solve on a full grid along the lattice; returns offsets, affine (A, b) and the residual vectors.
 
-    The lattice is indexed ``(i, j, k)``; the field's vectors ``[k, j, i]`` are transposed to match."""
+    ``axes`` (:func:`~ffd_notebook.ffd.grid.grid_axes`): per grid axis ``i, j, k`` the lattice axis along
+    it and its coordinates. The B-spline matrix is ``W_i (x) W_j (x) W_k`` (:func:`~ffd_notebook.ffd.grid.axis_matrix`,
+    the engine's weights, "zero" border), so its pseudo-inverse is the per-axis ones'. The field's
+    vectors ``[k, j, i]`` are put in grid order ``(i, j, k)``, solved, and the offsets in the lattice's order."""
     targets = field.vectors
     a, b = np.eye(3), np.zeros(3)
     if affine:
@@ -96,13 +97,15 @@ def _grid_fit(field, lattice, coords, affine):
         a, b = _affine_fit(points, points + targets.reshape(-1, 3), None)
         targets = (points + targets.reshape(-1, 3) - points @ a.T - b).reshape(targets.shape)
     targets = targets.transpose(2, 1, 0, 3)
-    mats = [axis_weights(coords[axis], lattice.shape[axis]) for axis in range(3)]
+    mats = [axis_matrix("bspline", u, lattice.shape[axis], "zero") for axis, u in axes]
     offsets = targets
-    for axis in range(3):
-        offsets = apply_along(np.linalg.pinv(mats[axis]), offsets, axis)
+    for g in range(3):
+        offsets = _apply_along(np.linalg.pinv(mats[g]), offsets, g)
     predicted = offsets
-    for axis in range(3):
-        predicted = apply_along(mats[axis], predicted, axis)
+    for g in range(3):
+        predicted = _apply_along(mats[g], predicted, g)
+    order = [axis for axis, _ in axes]  # the lattice axis along each grid axis
+    offsets = np.transpose(offsets, (*np.argsort(order), 3))
     return offsets, (a, b), (targets - predicted).transpose(2, 1, 0, 3).reshape(-1, 3)
 
 
@@ -263,9 +266,9 @@ def fit_lattice(
     if field is not None:
         if lattice is None:
             lattice = _lattice_over_grid(field, counts)
-        coords = _aligned(field, lattice) if mask_or_points is None and w is None else None
-        if coords is not None:
-            offsets, (a, b), residual = _grid_fit(field, lattice, coords, affine)
+        axes = grid_axes(lattice, field.grid.index_to_physical(), field.size)
+        if axes is not None and mask_or_points is None and w is None:
+            offsets, (a, b), residual = _grid_fit(field, lattice, axes, affine)
         else:
             points = field.grid_points()
             moved = points + field.vectors.reshape(-1, 3)

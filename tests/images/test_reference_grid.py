@@ -8,7 +8,14 @@ import SimpleITK as sitk
 
 from ffd_notebook import FFD, Lattice
 from ffd_notebook.images import ImageGrid, reference_grid, warp_image
-from ffd_notebook.io import fit_lattice, load_displacement_field, sample_displacement_field, save_displacement_field
+from ffd_notebook.io import (
+    fit_lattice,
+    load_displacement_field,
+    load_elastix,
+    sample_displacement_field,
+    save_displacement_field,
+    save_elastix,
+)
 
 ROTATED = np.array([[0.8, -0.6, 0.0], [0.6, 0.8, 0.0], [0.0, 0.0, 1.0]])
 GRID = ImageGrid((7, 6, 5), spacing=(1.5, 2.0, 2.5), origin=(-4.0, -5.0, -6.0), direction=ROTATED)
@@ -20,6 +27,11 @@ def _forms(tmp_path):
     sitk.WriteImage(image, str(tmp_path / "reference.nrrd"))
     field = sample_displacement_field(lambda p: p, GRID)
     mapping = {"size": GRID.size, "spacing": GRID.spacing, "origin": GRID.origin, "direction": GRID.direction}
+    # an elastix run's file names its fixed image's grid (Direction written column by column)
+    lattice = Lattice((4, 4, 4), 5.0, origin=(-9.0, -9.0, -9.0))
+    geometry = {"Size": list(GRID.size), "Index": [0, 0, 0], "Spacing": list(GRID.spacing)}
+    lattice.metadata["elastix"] = dict(geometry, Origin=list(GRID.origin), Direction=list(GRID.direction.T.ravel()))
+    save_elastix(tmp_path / "TransformParameters.0.txt", FFD(lattice))
     return {
         "ImageGrid": GRID,
         "SimpleITK image": image,
@@ -27,6 +39,7 @@ def _forms(tmp_path):
         "str path": str(tmp_path / "reference.nrrd"),
         "DisplacementField": field,
         "mapping": mapping,
+        "elastix chain": load_elastix(tmp_path / "TransformParameters.0.txt"),
     }
 
 

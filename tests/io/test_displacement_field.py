@@ -85,7 +85,7 @@ def test_bad_fields_are_refused_and_nothing_is_half_written(tmp_path):
     with pytest.raises(FileFormatError, match=r"scalar\.nii: expected a 3D image of 3-vectors"):
         load_deformation(tmp_path / "scalar.nii")
     (tmp_path / "junk.nrrd").write_bytes(b"NRRD0004\ntype: what\n\n")
-    with pytest.raises(FileFormatError, match=r"junk\.nrrd: not a displacement field"):
+    with pytest.raises(FileFormatError, match=r"junk\.nrrd: no 'dimension' field"):
         load_deformation(tmp_path / "junk.nrrd")
     save_displacement_field(tmp_path / "ok.nii", _ffd(), REFERENCE)
     before = (tmp_path / "ok.nii").read_bytes()
@@ -151,3 +151,25 @@ def test_a_field_refuses_a_vector_image_that_is_not_one():
         DisplacementField.from_sitk(sitk.GetImageFromArray(np.zeros((3, 4, 2)), isVector=True))
     with pytest.raises(ValueError, match=r"\(nz, ny, nx, 3\)"):
         DisplacementField(np.zeros((3, 4, 5)))
+
+
+def test_the_field_reads_its_vectors_with_the_images_interpolator():
+    """One linear interpolator for images and fields: the field's displacement is warp_image of its vectors."""
+    from ffd_notebook.images import warp_image
+
+    rng = np.random.default_rng(5)
+    field = DisplacementField(rng.normal(size=(5, 6, 7, 3)), spacing=(1.0, 1.5, 0.5), origin=(2.0, -1.0, 0.0))
+    index = rng.random((500, 3)) * (np.array(field.size) + 2) - 1.5  # inside, the half-voxel margin, beyond
+    points = index @ (field.direction * field.spacing).T + field.origin
+
+    class Points:  # T of a 1 x 1 x 500 grid: the points themselves
+        def deform(self, grid_points):
+            return points
+
+    read = warp_image(field.vectors, Points(), reference={"size": (500, 1, 1)}, spacing=field.spacing,
+                      origin=field.origin)  # fmt: skip
+    np.testing.assert_array_equal(field.displacement(points), read.reshape(-1, 3))
+    far = field.displacement([[1e300, 0.0, 0.0], [-1e300, 1e300, 0.0]])  # indices beyond any integer: outside
+    assert far.tolist() == [[0.0, 0.0, 0.0], [0.0, 0.0, 0.0]]
+    field.vectors = field.vectors * 2.0  # a new array: read again
+    np.testing.assert_allclose(field.displacement(points), 2.0 * read.reshape(-1, 3), rtol=1e-15)

@@ -142,6 +142,10 @@ class Editor:
         (``editor.session.image``: slice positions, window/level, saving the warped image); a NumPy
         array comes with its geometry as ``(array, {"spacing": ..., "origin": ..., "direction": ...})``.
         Without a mesh (``mesh_or_path=None``), the lattice is fitted to the image's box alone.
+    deformation : path or deformation, optional
+        A deformation file to start from (any format :func:`ffd_notebook.io.load_deformation` reads: its
+        lattice, editable, where it is one), or a deformation already loaded (an FSL FNIRT file needs its
+        images: ``load_deformation(path, reference=..., source=...)``); see :meth:`load_deformation`.
 
     Examples
     --------
@@ -169,6 +173,7 @@ class Editor:
         off_screen: bool | None = None,
         interactive_cells: int | None = INTERACTIVE_CELLS,
         image: Any = None,
+        deformation: Any = None,
     ) -> None:
         if isinstance(image, str | os.PathLike):
             from ...images import read_image
@@ -184,6 +189,8 @@ class Editor:
         if image is not None:
             self.session.image.use(self.session.image.read(image), path if path is not None else image,
                                    os.path.basename(os.fspath(path)) if path is not None else "image")  # fmt: skip
+        if deformation is not None:  # a file or a loaded deformation: its lattice, or one fitted to it
+            self.session.files.load_deformation(deformation)
         # the scene's VTK callbacks are held by C++ objects, out of the garbage collector's sight: they refer to
         # the editor weakly, and nothing the lifetime closes refers to it, so an editor nobody uses is freed
         self.scene = EditorScene(
@@ -425,15 +432,20 @@ class Editor:
         """
         self.session.show_points(which)
 
-    def load_deformation(self, path: StrPath) -> FFD:
-        """Load a deformation file (.ffd, ITK .tfm/.txt/.h5/.hdf5, PyGeM .prm; one undo step) and return the FFD.
+    def load_deformation(self, path: StrPath | Any) -> FFD:
+        """Load a deformation file (.ffd, ITK and ANTs .tfm/.txt/.h5/.hdf5/.mat, elastix, PyGeM .prm, NiftyReg
+        grids, displacement fields; one undo step), or a deformation already loaded, and return the FFD.
+
+        A lattice file gives its lattice; a field, or a chain of transforms, a lattice of the editor's shape fitted
+        to it (the message tells the residual); an affine transform the FFD's affine part.
 
         A bad file raises and changes nothing (:meth:`.session.files.SessionFiles.load_deformation`).
 
         Parameters
         ----------
-        path : str or os.PathLike
-            The file; its extension says the format.
+        path : str, os.PathLike or deformation
+            The file (its extension, and a NIfTI file's header, say the format), or what
+            :func:`ffd_notebook.io.load_deformation` returned.
 
         Returns
         -------

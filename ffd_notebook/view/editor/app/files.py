@@ -6,7 +6,9 @@ regular files of bounded size, the right extension to write) and every message t
 through :func:`~ffd_notebook.view.serving.file_root.client_message` (no file content, the root-relative
 name). A remote user needs no server path at all: lattice files (.ffd, ITK .tfm/.txt/.h5/.hdf5,
 PyGeM .prm), meshes and photos of a face (the mesh upload makes the face in a photo) can be uploaded
-from the browser, and the lattice and the deformed mesh downloaded to it.
+from the browser, and the lattice and the deformed mesh downloaded to it. A file that names other
+files (an elastix chain, a MetaImage or NRRD header) reads them only inside the app's folder, and an
+upload, stored alone in a private folder, cannot name any.
 
 Reading and writing files run in a worker thread (:meth:`AppFiles.in_background`) so the
 event loop keeps answering (HTTP, other clients, the page's own messages) and the page shows a
@@ -37,8 +39,9 @@ from ...serving.file_root import (
     refuse_special_or_oversize,
 )
 from ..scene.scene import prepare_display
-from ..session.controls import numbers
+from ..session.controls import number, numbers
 from ..session.lattices import copy_ffd
+from ..session.session import ChangedMeanwhile
 
 __all__ = ["MESH_FORMATS", "AppFiles", "upload_bytes"]
 
@@ -166,9 +169,11 @@ class AppFiles:
             return None
 
     # ------------------------------------------------------------------ reading
-    def _read_ffd(self, path: Path, shown: str) -> None:
+    def _read_ffd(self, path: Path, shown: str, within: Path) -> None:
+        """Read a deformation file in a worker; the files it names (an elastix chain, a field's data files) must be
+        in ``within``: the app's folder for a typed path, the upload's own folder for an upload."""
         files = self.session.files
-        self.in_background(f"reading {shown}", lambda: files.read_deformation(path),
+        self.in_background(f"reading {shown}", lambda: files.read_deformation(path, within=within),
                             lambda result: files.use_deformation(*result, shown), shown, "load")  # fmt: skip
 
     def _read_mesh(self, path: Path, shown: str) -> None:
@@ -200,7 +205,10 @@ class AppFiles:
     # ------------------------------------------------------------------ lattice
     def rebuild(self, *values: Any) -> None:
         """Fit a lattice of the typed size (``nx, ny, nz``) around the mesh; binding it to the mesh
-        (seconds on a big mesh) runs in a worker thread."""
+        (seconds on a big mesh) runs in a worker thread.
+
+        Edits made meanwhile stay: weights painted or set are weighed into the result; another strength or
+        interpolation starts the fit again with it (:class:`~..session.session.ChangedMeanwhile`)."""
         session = self.session
         try:
             shape = numbers(list(values), "lattice size", int)
@@ -215,7 +223,11 @@ class AppFiles:
         def done(deformer: Any) -> None:
             if session.mesh is not mesh:
                 raise ValueError("the mesh changed meanwhile; rebuild again")
-            session.set_shape(shape, deformer)
+            try:
+                session.set_shape(shape, deformer)
+            except ChangedMeanwhile as exc:
+                session.info(f"{exc}: fitting again")
+                self.rebuild(*values)
 
         self.in_background(f"fitting a {name} lattice", lambda: ffd.bind(mesh.points), done,
                             f"the {name} lattice", "rebuild")  # fmt: skip
@@ -240,7 +252,8 @@ class AppFiles:
         self.in_background(f"{verb}: binding the lattice to the mesh", prepared.bind, act, "the lattice", verb)
 
     def set_basis(self, basis: Any) -> None:
-        """Switch the basis; the refitted lattice is bound to the mesh in a worker thread."""
+        """Switch the basis; the refitted lattice is bound to the mesh in a worker thread (edits made meanwhile
+        stay, as for :meth:`rebuild`)."""
         session = self.session
         if basis == session.basis:
             return
@@ -254,15 +267,26 @@ class AppFiles:
         def done(deformer: Any) -> None:
             if session.mesh is not mesh:
                 raise ValueError("the mesh changed meanwhile; choose the basis again")
-            session.set_basis(str(basis), deformer)
+            try:
+                session.set_basis(str(basis), deformer)
+            except ChangedMeanwhile as exc:
+                session.info(f"{exc}: switching again")
+                self.set_basis(basis)
 
         self.in_background(f"switching to the {basis} basis", lambda: ffd.bind(mesh.points), done,
                             f"the {basis} basis", "switch the basis")  # fmt: skip
 
     def decimate(self, reduction: Any) -> None:
         """Decimate the mesh in a worker thread (seconds on a 500k-point mesh), with the lattice bound to the
-        result and its plotted copy prepared there too; the loop only swaps them in."""
+        result and its plotted copy prepared there too; the loop only swaps them in. A reduction that is not
+        a number is refused at once; what fails in the worker is one message, posted from the loop."""
         session, scene = self.session, self.editor.scene
+        try:
+            reduction = number(reduction, "the reduction")
+        except ValueError as exc:
+            session.error(f"could not decimate: {exc}")
+            self.sync()
+            return
 
         def work() -> tuple[Any, Any]:
             done = session.decimation(reduction)
@@ -283,28 +307,23 @@ class AppFiles:
         in the app's messages (nothing is returned)."""
         target = self._typed(path, self.root.for_reading, "load")
         if target is not None:
-            self._read_ffd(target, self.root.shown(target))
+            self._read_ffd(target, self.root.shown(target), self.root.path)
 
     def load_image_in_background(self, path: str) -> None:
         """Start showing an image (NIfTI, NRRD, MetaImage, PNG...) from a path in the app's folder (a worker thread).
 
-        A header that names a data file (MetaImage, NRRD) is refused unless that file is in the folder too.
+        A header that names data files (MetaImage, NRRD: one name, a ``LIST`` or a pattern) is read only if every
+        one of them is in the folder too (:func:`~ffd_notebook.images.read_image` with ``within=`` the folder).
         """
-        target = self._typed(path, self._image_for_reading, "load")
+        from ....images import read_image
+
+        target = self._typed(path, self.root.for_reading, "load")
         if target is None:
             return
-        shown = self.root.shown(target)
+        shown, folder = self.root.shown(target), self.root.path
         image = self.session.image
-        self.in_background(f"reading {shown}", lambda: image.read(target),
+        self.in_background(f"reading {shown}", lambda: image.read(read_image(target, within=folder)),
                             lambda slices: image.use(slices, target, shown), shown, "load")  # fmt: skip
-
-    def _image_for_reading(self, typed: str) -> Path:
-        from ....images import image_data_files
-
-        target = self.root.for_reading(typed)
-        for data_file in image_data_files(target):
-            self.root.for_reading(data_file)  # PathRefused if it is outside the root
-        return target
 
     def save_image_in_background(self, path: str) -> None:
         """Start writing the warped image in the app's folder (format from the extension, atomically)."""
@@ -313,8 +332,8 @@ class AppFiles:
         target = self._typed(path, lambda p: self.root.for_writing(p, IMAGE_WRITE_SUFFIXES), "save")
         if target is not None:
             shown = self.root.shown(target)
-            image = self.session.image
-            self.in_background(f"writing {shown}", lambda: image.save(target, announce=False),
+            image, ffd = self.session.image, copy_ffd(self.session.ffd)  # the deformation as it is now
+            self.in_background(f"writing {shown}", lambda: image.save(target, announce=False, ffd=ffd),
                                 lambda _: self.session.messages.append(f"saved the warped image to {shown}"),
                                 shown, "save")  # fmt: skip
 
@@ -380,7 +399,9 @@ class AppFiles:
             if len(content) > self.root.max_bytes:
                 raise PathRefused(f"{Path(name).name!r} is bigger than the limit of "
                                   f"{self.root.max_bytes / 2**20:.0f} MiB")  # fmt: skip
-            target = self._scratch_file(name)
+            if self._scratch is None:
+                self._scratch = ScratchFolder()
+            target = self._scratch.private_file(name)  # alone in its folder: it can name no other file
             target.write_bytes(content)
             refuse_special_or_oversize(target, self.root.max_bytes)
         except (PathRefused, OSError) as exc:
@@ -392,7 +413,8 @@ class AppFiles:
         """A .ffd file arrived from the browser's file input: load it."""
         received = self._receive(ffd_upload, FFD_SUFFIXES, "ffd_upload")
         if received is not None:
-            self._read_ffd(*received)
+            target, shown = received
+            self._read_ffd(target, shown, target.parent)
 
     def receive_mesh_upload(self, mesh_upload: Any, **_: Any) -> None:
         """A mesh arrived from the browser's file input: load it; a photo (JPEG, PNG...): the face in it."""

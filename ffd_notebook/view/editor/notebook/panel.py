@@ -18,7 +18,7 @@ import ipywidgets as widgets
 
 from ..session import controls as panel_controls
 from ..session.changes import Change, DragSync
-from ..session.controls import Control, run, session_state
+from ..session.controls import SECTION_HINTS, Control, run, session_state
 
 if TYPE_CHECKING:
     from ..editor import Editor
@@ -26,13 +26,6 @@ if TYPE_CHECKING:
 __all__ = ["ControlPanel"]
 
 PANEL_WIDTH = "410px"
-SECTION_TITLES = {
-    "toolbar": "",
-    "Lattice": "<b>Lattice</b>",
-    "Control point": "<b>Control point</b> <small>(drag a sphere, or pick one and type)</small>",
-    "Files": "<b>Files</b>",
-    "Display": "<b>Display</b>",
-}
 ICONS = {"undo": "undo", "redo": "repeat"}
 WIDTHS = {"ints": "58px", "floats": "84px", "choice": "170px", "choices": "110px"}
 
@@ -42,9 +35,11 @@ def _stretch() -> widgets.Layout:
     return widgets.Layout(flex="1 1 auto", width="auto", min_width="90px")
 
 
-def _label(text: str) -> widgets.Label:
-    # at least the common width, so rows line up; a longer label ("interpolation x, y, z") grows, never cut off
-    return widgets.Label(text, layout=widgets.Layout(width="auto", min_width="104px", flex="0 0 auto"))
+def _label(text: str, own_line: bool = False) -> widgets.Label:
+    # at least the common width, so rows line up; a longer label grows, never cut off. Above three choices
+    # ("interpolation x, y, z"), on a line of its own: they fit together below it, not beside it
+    flex = "0 0 calc(100% - 4px)" if own_line else "0 0 auto"  # (its margins: 2 px each side)
+    return widgets.Label(text, layout=widgets.Layout(width="auto", min_width="104px", flex=flex))
 
 
 class ControlPanel(widgets.VBox):
@@ -87,8 +82,9 @@ class ControlPanel(widgets.VBox):
             rows.setdefault((control.section, control.row), []).extend(self._build(control))
         children: list[widgets.Widget] = []
         for section in dict.fromkeys(section for section, _ in rows):
-            if SECTION_TITLES.get(section, section):
-                children.append(widgets.HTML(SECTION_TITLES.get(section, f"<b>{section}</b>")))
+            if section != "toolbar":
+                hint = f" <small>({SECTION_HINTS[section]})</small>" if section in SECTION_HINTS else ""
+                children.append(widgets.HTML(f"<b>{html.escape(section)}</b>{hint}"))
             wrapping = widgets.Layout(flex_flow="row wrap")  # a row wider than the panel continues below
             children += [widgets.HBox(row, layout=wrapping) for (s, _), row in rows.items() if s == section]
         super().__init__(children, layout=widgets.Layout(padding="0 0 0 12px", width=PANEL_WIDTH, flex="0 0 auto"))
@@ -173,7 +169,8 @@ class ControlPanel(widgets.VBox):
             for widget in made if isinstance(made, list) else [made]:
                 widget.observe(lambda _change, c=control: self._on_input(c), names="value")
         shown = made if isinstance(made, list) else [made]
-        return ([_label(control.label)] if kind in ("ints", "floats", "choice", "choices", "slider") else []) + shown
+        labelled = kind in ("ints", "floats", "choice", "choices", "slider")
+        return ([_label(control.label, own_line=kind == "choices")] if labelled else []) + shown
 
     # ------------------------------------------------------------------ actions (one editor call each)
     def act(self, control: Control, values: Sequence[Any]) -> None:

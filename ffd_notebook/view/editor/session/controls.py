@@ -37,6 +37,7 @@ __all__ = [
     "MODE_CHOICES",
     "N_MESSAGES",
     "POINTS_CHOICES",
+    "SECTION_HINTS",
     "Control",
     "by_key",
     "number",
@@ -46,6 +47,8 @@ __all__ = [
 ]
 
 N_MESSAGES = 5  # messages the panels list (newest first)
+#: what the panels say beside a section's name (the section of :attr:`Control.section`)
+SECTION_HINTS = {"Control point": "drag a sphere, or pick one and type"}
 BOTH = frozenset({"notebook", "app"})
 
 
@@ -377,7 +380,8 @@ CONTROLS: tuple[Control, ...] = (
         args=("ffd_path",),
         element_id="ffd-load",
         app_trigger="ffd_load_ffd",
-        tooltip="Load a lattice file: .ffd, ITK .tfm/.txt/.h5/.hdf5, PyGeM .prm (by extension)",
+        tooltip="Load a deformation file: .ffd, ITK and ANTs .tfm/.txt/.h5/.mat, elastix, PyGeM .prm, NiftyReg "
+        "grids and fields (.nii.gz); a field or chain becomes a fitted lattice",
     ),
     Control(
         "save_ffd",

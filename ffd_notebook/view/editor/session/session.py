@@ -37,12 +37,23 @@ from .changes import Change, Subscribers
 from .files import SessionFiles
 from .history import History, LatticeSwap
 from .image import SessionImage
-from .lattices import copy_ffd, fitted_lattice
+from .lattices import copy_ffd, fitted_lattice, refitted
 from .message_log import MessageLog
 from .surface_drag import SurfaceDrag
 from .weights import WeightPaint
 
-__all__ = ["FIELDS", "POINTS_SHOWN", "Decimation", "EditingSession", "Field", "MeshIO", "PointsShown", "PreparedStep"]
+__all__ = [
+    "FIELDS",
+    "POINTS_SHOWN",
+    "WEIGHTS_CLEARED",
+    "ChangedMeanwhile",
+    "Decimation",
+    "EditingSession",
+    "Field",
+    "MeshIO",
+    "PointsShown",
+    "PreparedStep",
+]
 
 #: what the mesh can be colored by: nothing (its own colors), |displacement|, folding (det J <= 0), the
 #: vertices' weights (how much of the deformation each follows, see :mod:`.weights`)
@@ -53,6 +64,15 @@ Field = Literal["displacement", "jacobian", "weights"]
 POINTS_SHOWN = ("auto", "all", "near", "hull")
 #: The type of a choice of control points shown: one of :data:`POINTS_SHOWN`.
 PointsShown = Literal["auto", "all", "near", "hull"]
+#: what the editor says when painted weights go with the vertices they were painted on (a decimation, a new mesh)
+WEIGHTS_CLEARED = "the vertex weights were cleared: the mesh has other vertices now"
+
+
+class ChangedMeanwhile(ValueError):
+    """Work prepared from the session (in a worker thread, say) no longer fits it: the session changed meanwhile.
+
+    The app then does the work again from the session as it is now, or says so.
+    """
 
 
 @dataclass(frozen=True)
@@ -117,6 +137,19 @@ class Decimation:
     offsets: NDArray[np.float64]
     mesh: Any
     deformer: Deformer | None  # None: bound when used (the lattice had vertex weights)
+
+
+def _inside(ijk: NDArray[Any], shape: tuple[int, ...]) -> bool:
+    """Whether every row of ``ijk`` (whole numbers) indexes a control point of a lattice of ``shape``."""
+    return bool(np.all(np.isfinite(ijk)) and np.all(ijk == np.round(ijk)) and np.all(ijk >= 0)
+                and np.all(ijk < shape))  # fmt: skip
+
+
+def _same_weights(a: Any, b: Any) -> bool:
+    """Whether two FFDs' vertex weights (arrays or None) are the same."""
+    if a is None or b is None:
+        return a is None and b is None
+    return bool(np.array_equal(a, b))
 
 
 class EditingSession:
@@ -337,9 +370,48 @@ class EditingSession:
         """
         arr = np.asarray(ijk)
         shape = self.lattice.shape
-        if arr.shape != (3,) or not np.all(arr == np.round(arr)) or np.any(arr < 0) or np.any(arr >= shape):
+        if arr.shape != (3,) or not _inside(arr, shape):
             raise ValueError(f"control point index must be (i, j, k) within the lattice {shape}, got {ijk!r}")
         return tuple(int(v) for v in arr)  # type: ignore[return-value]
+
+    def check_points(self, points: ArrayLike) -> NDArray[np.int64]:
+        """``points`` (a list of ``(i, j, k)``) as an ``(n, 3)`` int array inside the lattice; a ValueError otherwise.
+
+        Commands check their control points with it before they change anything.
+
+        Parameters
+        ----------
+        points : array_like
+            Rows of three whole numbers, each within the lattice's shape on its axis (may be empty).
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(n, 3)`` int64.
+
+        Examples
+        --------
+        >>> import pyvista as pv
+        >>> from ffd_notebook.view.editor.editor import PYVISTA_MESH_IO
+        >>> sphere = pv.Sphere(theta_resolution=8, phi_resolution=8)
+        >>> session = EditingSession(sphere, mesh_io=PYVISTA_MESH_IO, shape=(4, 4, 4))
+        >>> session.check_points([(1, 2, 3), (0, 0, 0)]).tolist()
+        [[1, 2, 3], [0, 0, 0]]
+        >>> session.check_points([(-1, 0, 0)])
+        Traceback (most recent call last):
+        ...
+        ValueError: control points must be (i, j, k) rows within the lattice (4, 4, 4), got [(-1, 0, 0)]
+        """
+        shape = self.lattice.shape
+        try:
+            arr = np.asarray(points if points is not None else [], dtype=np.float64)
+        except (TypeError, ValueError):  # ragged rows, or not numbers
+            arr = np.empty((0, 0))
+        if arr.size == 0 and arr.ndim <= 2 and arr.shape[-1:] in ((0,), (3,)):
+            return np.empty((0, 3), dtype=np.int64)
+        if arr.ndim != 2 or arr.shape[1] != 3 or not _inside(arr, shape):
+            raise ValueError(f"control points must be (i, j, k) rows within the lattice {shape}, got {points!r}")
+        return arr.astype(np.int64)
 
     # ------------------------------------------------------------------ notification and messages
     def subscribe(self, callback: Callable[[Change], None]) -> Callable[[], None]:
@@ -609,17 +681,17 @@ class EditingSession:
         >>> len(session.history), float(abs(session.deformed_points - session.rest_points).max()) > 0
         (1, True)
         """
-        self.history.close()
         lat = self.lattice
         if lat.shape != self._committed.shape[:3]:
             raise ValueError("the lattice's shape changed: assign a new lattice with set_lattice(...)")
+        hint = self.check_points(changed)  # before anything changes
+        self.history.close()
         self._rest_control = lat.control_points().reshape(-1, 3)
         moved = np.argwhere(np.any(lat.offsets != self._committed, axis=-1))  # the one comparison of copies
         if len(moved):
             idx = tuple(moved.T)
             self.history.record(moved, self._committed[idx], lat.offsets[idx], label="code")
             self._committed[idx] = lat.offsets[idx]
-        hint = np.asarray(changed if changed is not None else np.empty((0, 3)), dtype=np.int64).reshape(-1, 3)
         todo = np.unique(np.vstack([moved, hint]), axis=0)
         if changed is None and not len(todo):
             self.deformed_points = self.deformer.update(None)
@@ -708,11 +780,19 @@ class EditingSession:
         >>> session.lattice.offsets[0, 0, 1:3].tolist(), session.undo()
         ([[0.0, 0.0, 0.1], [0.0, 0.0, 0.2]], True)
         """
+        ijk = self.check_points(points)  # everything is checked before anything is written
+        try:
+            rows = np.broadcast_to(np.asarray(values, dtype=np.float64), (len(ijk), 3))
+        except (TypeError, ValueError):
+            raise ValueError(f"offsets must be one row of three numbers or one per control point ({len(ijk)}), "
+                             f"got {values!r}") from None  # fmt: skip
+        if not np.all(np.isfinite(rows)):
+            raise ValueError(f"offsets must be finite numbers, got {values!r}")
         self.history.close()
-        idx = tuple(np.array(points).reshape(-1, 3).T)
+        idx = tuple(ijk.T)
         before = self.lattice.offsets[idx].copy()
-        self.lattice.offsets[idx] = values
-        self.history.record(points, before, self.lattice.offsets[idx], label=label)
+        self.lattice.offsets[idx] = rows
+        self.history.record(ijk, before, self.lattice.offsets[idx], label=label)
         self.commit_rows(idx, label)
 
     def commit_rows(
@@ -874,8 +954,9 @@ class EditingSession:
         return ffd
 
     def _apply(self, pop: Callable[[], Any], prepared: PreparedStep | None, forward: bool) -> bool:
+        self.paint.end()  # a brush stroke under way is a step: the one undone next
         if prepared is not None and (self.history.peek(forward) is not prepared.step or prepared.mesh is not self.mesh):
-            raise ValueError("the history or the mesh changed meanwhile; try again")
+            raise ChangedMeanwhile("the history or the mesh changed meanwhile; try again")
         step = pop()
         if step is None:
             return False
@@ -981,6 +1062,7 @@ class EditingSession:
         """
         if not isinstance(ffd, FFD):
             raise TypeError(f"ffd must be an FFD, got {type(ffd).__name__}")
+        self.paint.end()  # a brush stroke under way is a step of the lattice it was painted on
         self.history.close()
         before = (copy_ffd(self.ffd), self.lattice_source)
         self.lattice_source = source
@@ -1015,9 +1097,7 @@ class EditingSession:
         ((5, 4, 4), (4, 4, 4))
         """
         try:
-            lattice = fitted_lattice(self.mesh, tuple(int(s) for s in np.ravel(shape)), self.basis)
-            # the per-axis interpolation, strength and vertex weights stay; the offsets start at zero
-            return copy_ffd(self.ffd, lattice, border=None, affine=None, only_inside=False)
+            return refitted(self.ffd, self.mesh, tuple(int(s) for s in np.ravel(shape)))
         except (ValueError, TypeError) as exc:
             self.error(f"cannot build a {shape!r} lattice: {exc}")
             raise
@@ -1042,10 +1122,13 @@ class EditingSession:
         >>> session.lattice.shape, list(session.messages)[-1]
         ((5, 4, 4), 'new 5x4x4 lattice around the mesh')
         """
+        self.paint.end()  # a brush stroke under way is a step of the lattice it was painted on
         if deformer is None:
             deformer = self.fitted_ffd(shape).bind(self.mesh.points)
         elif deformer.ffd.lattice.shape != tuple(np.ravel(shape)) or len(deformer.points) != len(self.rest_points):
             raise ValueError(f"the deformer is not a {shape!r} lattice bound to this mesh")
+        else:
+            self._adopt(deformer, "fitting the lattice", basis=True)
         self.swap_ffd(deformer.ffd, label="shape", source="fit", deformer=deformer)
         self.info(f"new {'x'.join(map(str, deformer.ffd.lattice.shape))} lattice around the mesh")
 
@@ -1063,7 +1146,8 @@ class EditingSession:
         Returns
         -------
         FFD
-            A lattice of the current shape fitted around the mesh for ``basis``, offsets at zero.
+            A lattice of the current shape fitted around the mesh for ``basis``, offsets at zero; the strength,
+            the "outside" rule and the vertex weights stay (as for a new size: :func:`.lattices.refitted`).
 
         Examples
         --------
@@ -1076,7 +1160,7 @@ class EditingSession:
         ('bernstein', (4, 4, 4), 'bspline')
         """
         try:
-            return FFD(fitted_lattice(self.mesh, self.lattice.shape, basis), basis)
+            return refitted(self.ffd, self.mesh, self.lattice.shape, basis)
         except ValueError as exc:
             self.error(f"cannot switch to the {basis!r} basis: {exc}")
             raise
@@ -1103,12 +1187,33 @@ class EditingSession:
         """
         if basis == self.basis:
             return
+        self.paint.end()  # a brush stroke under way is a step of the lattice it was painted on
         if deformer is None:
             deformer = self.basis_ffd(basis).bind(self.mesh.points)
         elif deformer.ffd.basis != basis or len(deformer.points) != len(self.rest_points):
             raise ValueError(f"the deformer is not a {basis!r} lattice bound to this mesh")
+        else:
+            self._adopt(deformer, f"switching to the {basis} basis", basis=False)
         self.swap_ffd(deformer.ffd, label="basis", source="fit", deformer=deformer)
         self.info(f"basis: {basis}")
+
+    def _adopt(self, deformer: Deformer, what: str, *, basis: bool) -> None:
+        """Bring ``deformer`` (made by :meth:`fitted_ffd` or :meth:`basis_ffd` from this session's FFD, bound in
+        a worker thread) up to the options changed while it was bound, so installing it overwrites none of them.
+
+        Weights painted or set meanwhile are weighed in (milliseconds); another strength, "outside" rule or
+        (``basis``) interpolation needs the binding done again: a :class:`ChangedMeanwhile` naming them.
+        """
+        ffd, current = deformer.ffd, self.ffd
+        changed = [name for name, differs in (("interpolation", basis and ffd.basis != current.basis),
+                                              ("strength", ffd.strength != current.strength),
+                                              ("outside rule", ffd.outside != current.outside)) if differs]  # fmt: skip
+        if changed:
+            raise ChangedMeanwhile(f"the {' and '.join(changed)} changed while {what}")
+        weights = self.paint.weights  # a copy
+        if not _same_weights(ffd.weights, weights):
+            ffd.weights = weights
+            deformer.weights = weights
 
     def set_interpolation(self, interpolation: Any) -> None:
         """Blender's interpolation per axis (``("bspline", "catmull-rom", "linear")``; one name: every axis).
@@ -1202,12 +1307,18 @@ class EditingSession:
         >>> session.decimate(0.5).n_cells, session.decimate(0.5).n_cells, session.decimate(0).n_cells
         (48, 48, 96)
         """
-        return self.use_decimated(self.decimation(reduction))
+        try:
+            done = self.decimation(reduction)
+        except (TypeError, ValueError) as exc:
+            self.error(f"could not decimate: {exc}")
+            raise
+        return self.use_decimated(done)
 
     def decimation(self, reduction: float) -> Decimation:
-        """The work of :meth:`decimate`, changing nothing (a worker thread may do it).
+        """The work of :meth:`decimate`, changing nothing and telling nobody (a worker thread may do it).
 
-        A message and a ValueError if it cannot be done.
+        A ValueError if it cannot be done (the caller says so: :meth:`decimate` in the messages, the app on
+        its page, each once and from its own thread).
 
         Parameters
         ----------
@@ -1229,15 +1340,11 @@ class EditingSession:
         >>> done.mesh.n_cells, session.mesh.n_cells
         (48, 96)
         """
-        try:
-            reduction = float(reduction)
-            source = self.source_mesh
-            mesh = source.copy(deep=True) if reduction == 0.0 else self.mesh_io.decimate(source, reduction)
-            if mesh.n_points == 0:
-                raise ValueError("nothing left after decimation")
-        except (TypeError, ValueError) as exc:
-            self.error(f"could not decimate: {exc}")
-            raise
+        reduction = float(reduction)
+        source = self.source_mesh
+        mesh = source.copy(deep=True) if reduction == 0.0 else self.mesh_io.decimate(source, reduction)
+        if mesh.n_points == 0:
+            raise ValueError("nothing left after decimation")
         ffd = self.ffd
         # vertex weights belong to the mesh as it was: they are cleared when the result is used, and the lattice
         # is bound then (the weights would not fit the new vertices)
@@ -1268,10 +1375,11 @@ class EditingSession:
         (48, 'decimated by 50%: 26 vertices, 48 faces')
         """
         if done.source is not self.source_mesh or done.ffd is not self.ffd:
-            raise ValueError("the mesh or the lattice changed meanwhile; decimate again")
+            raise ChangedMeanwhile("the mesh or the lattice changed meanwhile; decimate again")
+        self.paint.end()  # a brush stroke under way is a step of the mesh it was painted on
         if self.ffd.weights is not None:  # one per vertex of the mesh as it was
             self.ffd.weights = None
-            self.info("the vertex weights were cleared: the mesh has other vertices now")
+            self.info(WEIGHTS_CLEARED)
         deformer = done.deformer
         if deformer is None or not np.array_equal(done.offsets, self.ffd.lattice.offsets):  # (edited meanwhile)
             deformer = self.ffd.bind(done.mesh.points)
@@ -1396,7 +1504,9 @@ class EditingSession:
         >>> [change.kind for change in changes], session.mesh.n_points
         (['mesh'], 8)
         """
+        self.paint.end()  # a brush stroke under way is a step of the mesh it was painted on
         new_lattice, selected = deformer.ffd is not self.ffd, self.selected
+        weights_cleared = new_lattice and self.ffd.weights is not None and deformer.ffd.weights is None
         if new_document:
             self.history.clear()
             self.surface.drop_pins()  # pins are points of the old mesh
@@ -1406,6 +1516,8 @@ class EditingSession:
         self.notify("mesh", None, label)
         if new_lattice:
             self.notify("lattice", None, label)
+        if weights_cleared:
+            self.info(WEIGHTS_CLEARED)
 
     def _bind_mesh(self, mesh: Any, deformer: Deformer, source: Any = None) -> None:
         """Use ``mesh`` (rest shape) with ``deformer`` (its FFD bound to ``mesh.points``)."""

@@ -96,7 +96,6 @@ class WeightPaint:
         except ValueError as exc:
             session.error(f"cannot set the weights: {exc}")
             raise
-        self._stroke = None
         session.swap_ffd(copy_ffd(session.ffd, weights=checked), label=label, source=session.lattice_source)
 
     def clear(self) -> None:
