@@ -1,9 +1,10 @@
 """Batch runs from deformation files keep every option the files hold, and the files are part of a run's identity.
 
-Every format :func:`~ffd_notebook.io.save_deformation` writes, with every option it can hold (strength, Blender's
-"outside" mode and per-axis interpolations, the clamp border in .ffd files; PyGeM's Bernstein box; ITK and elastix
-transforms with an affine part), gives samples equal to the FFD that was saved, on the cached evaluators as on the
-direct path, after a fold check's scaling too, and in ``replay``.
+Every format :func:`~ffd_notebook.io.save_deformation` writes a lattice in, with every option it can hold (strength,
+Blender's "outside" mode and per-axis interpolations, the clamp border in .ffd files; PyGeM's Bernstein box; ITK,
+elastix and NiftyReg transforms with an affine part), gives samples equal to the FFD that was saved, on the cached
+evaluators as on the direct path, after a fold check's scaling too, and in ``replay``. (FNIRT coefficients need the
+images they map between, which a list of files does not give: load_deformation refuses them alone.)
 """
 
 from __future__ import annotations
@@ -47,6 +48,7 @@ def _every_option(points) -> dict[str, FFD]:
         "itk.tfm": _random_ffd(points, rng, affine=affine, strength=0.5),  # written as its baked FFD
         "itk.h5": _random_ffd(points, rng, shape=6, affine=affine),
         "elastix.txt": _random_ffd(points, rng, affine=affine, strength=0.8),
+        "niftyreg.nii.gz": _random_ffd(points, rng, affine=affine, outside=True, strength=0.6),  # a float32 grid
         "pygem.prm": _random_ffd(points, rng, shape=3, basis="bernstein", only_inside=True, outside=True, strength=0.6),
     }
 
@@ -90,7 +92,8 @@ def test_a_run_from_files_in_every_format_with_every_option(tmp_path, ant):
     files = []
     for name, ffd in ffds.items():
         files.append(tmp_path / name)
-        save_deformation(files[-1], ffd, format="elastix" if name.startswith("elastix") else None)
+        by_content = name.startswith(("elastix", "niftyreg"))  # formats chosen by name, not by extension
+        save_deformation(files[-1], ffd, format=name.split(".")[0] if by_content else None)
     loaded = [load_deformation(f) for f in files]
     assert loaded[0].strength == 0.4 and loaded[0].outside and loaded[0].border == "clamp"
     out = tmp_path / "out"
@@ -100,7 +103,7 @@ def test_a_run_from_files_in_every_format_with_every_option(tmp_path, ant):
     for i, (name, ffd) in enumerate(ffds.items()):
         saved = read_mesh(out / "meshes" / f"sample_{i:06d}.vtp").points
         assert np.abs(saved - ant).max() > 1e-3 * np.ptp(ant), name  # each file really moved the mesh
-        # the FFD that was saved, to the vtp's float32 (and for elastix its text's rounding)
+        # the FFD that was saved, to the vtp's float32 (and for elastix its text's, NiftyReg its float32 rounding)
         np.testing.assert_allclose(saved, ffd.deform(ant), rtol=0, atol=1e-5 * np.ptp(ant), err_msg=name)
         np.testing.assert_allclose(saved, loaded[i].deform(ant), rtol=0, atol=1e-9 * np.ptp(ant), err_msg=name)
         assert np.array_equal(replay(out, i).points, saved), name
