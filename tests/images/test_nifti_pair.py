@@ -52,7 +52,7 @@ def test_the_img_is_a_file_the_header_names(tmp_path):
         read_image(folder / "scan.hdr", within=folder)
     assert read_image(folder / "scan.hdr").GetSize() == (6, 5, 4)  # in a notebook: read as ITK reads it
     (folder / "scan.img").unlink()
-    with pytest.raises(FileFormatError, match="scan.img"):
+    with pytest.raises(FileFormatError, match=r"scan\.img"):
         read_image(folder / "scan.hdr")
     os.mkfifo(folder / "scan.img")
     with pytest.raises(FileFormatError, match="FIFO"):
@@ -62,9 +62,9 @@ def test_the_img_is_a_file_the_header_names(tmp_path):
 def test_two_candidate_data_files_and_analyze_headers_are_refused(tmp_path):
     _pair(tmp_path)
     (tmp_path / "scan.img.gz").write_bytes(b"")
-    with pytest.raises(FileFormatError, match="both scan.img and scan.img.gz"):
+    with pytest.raises(FileFormatError, match=r"both scan\.img and scan\.img\.gz"):
         read_image(tmp_path / "scan.hdr")
     analyze = nibabel.AnalyzeImage(np.zeros((3, 4, 5), np.int16), np.eye(4))
     nibabel.save(analyze, str(tmp_path / "old.hdr"))
-    with pytest.raises(FileFormatError, match="Analyze 7.5 header"):
+    with pytest.raises(FileFormatError, match=r"Analyze 7\.5 header"):
         read_image(tmp_path / "old.hdr")
