@@ -165,6 +165,49 @@ class FFD:
         offsets = self.lattice.offsets
         return outside_offsets(offsets) if self.outside else offsets
 
+    def copy(self, lattice: Lattice | None = None, **changes: Any) -> FFD:
+        """A new FFD with every option of this one, on a copy of its lattice or on ``lattice``.
+
+        The options are the basis, the border rule in use, the affine part, ``only_inside``,
+        ``outside``, the strength and the per-point weights (copied); ``changes`` replace some
+        of them by name, as :func:`dataclasses.replace` does. Whatever makes a second FFD like
+        a first one (a batch sample on its own lattice, an undo step) goes through here, so a
+        new option is carried everywhere by being added once.
+
+        Parameters
+        ----------
+        lattice : Lattice, optional
+            The lattice of the new FFD (used as it is, not copied); a copy of this one's by default.
+        **changes
+            New values for some of ``basis``, ``border``, ``affine``, ``only_inside``,
+            ``outside``, ``strength``, ``weights``.
+
+        Returns
+        -------
+        FFD
+            The new FFD; this one is unchanged.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from ffd_notebook import Lattice, FFD
+        >>> ffd = FFD(Lattice((4, 4, 4), 1.0), border="clamp", outside=True, strength=0.4)
+        >>> other = ffd.copy(Lattice((5, 5, 5), 2.0))
+        >>> other.border, other.outside, other.strength, other.lattice.shape
+        ('clamp', True, 0.4, (5, 5, 5))
+        >>> ffd.copy(strength=1.0).strength, ffd.copy().lattice is ffd.lattice
+        (1.0, False)
+        """
+        weights = self.weights.copy() if isinstance(self.weights, np.ndarray) else self.weights
+        options: dict[str, Any] = {"basis": self.basis, "border": self.border, "affine": self.affine.copy(),
+                                   "only_inside": self.only_inside, "outside": self.outside,
+                                   "strength": self.strength, "weights": weights}  # fmt: skip
+        unknown = set(changes) - set(options)
+        if unknown:
+            raise TypeError(f"FFD.copy() got unknown options {sorted(unknown)}; known: {sorted(options)}")
+        options.update(changes)
+        return FFD(self.lattice.copy() if lattice is None else lattice, **options)
+
     def baked(self) -> FFD:
         """The same deformation with strength 1 and no ``outside`` rule: their effect put in the offsets and affine.
 
@@ -197,7 +240,7 @@ class FFD:
             lattice.offsets *= s
             affine[:3, :3] = np.eye(3) + s * (affine[:3, :3] - np.eye(3))
             affine[:3, 3] *= s
-        return FFD(lattice, self.basis, border=self.border, affine=affine, only_inside=self.only_inside)
+        return self.copy(lattice, affine=affine, outside=False, strength=1.0, weights=None)
 
     def _factor(self, points: Any, n: int, strength: Any, weights: Any) -> NDArray[np.float64] | None:
         """Per-point ``strength * weight`` of a call (the FFD's own where the call gives none)."""

@@ -51,6 +51,8 @@ HEADER_LIMIT = 1 << 20
 IMAGE_READ_SUFFIXES = {
     ".nii": "NiftiImageIO",
     ".nii.gz": "NiftiImageIO",
+    ".hdr": "NiftiImageIO",  # a NIfTI pair: the header, its pixels in the .img beside it
+    ".img": "NiftiImageIO",
     ".nrrd": "NrrdImageIO",
     ".nhdr": "NrrdImageIO",
     ".mha": "MetaImageIO",
@@ -191,7 +193,7 @@ def image_layout(path: str | os.PathLike[str], *, within: str | os.PathLike[str]
     if io == "NrrdImageIO":
         return _nrrd(target, within)
     if io == "NiftiImageIO":
-        return _nifti(target, suffix)
+        return _nifti(target, suffix, within)
     size = os.stat(target).st_size
     if io == "PNGImageIO":
         return ImageLayout(target, "PNG", io, (DataPart(target, 0, _png_end(target, size)),))
@@ -763,22 +765,35 @@ def _nrrd_name(path: Path, line: int, name: str) -> str:
 
 
 # NIfTI ------------------------------------------------------------------------------------------
-def _nifti(path: Path, suffix: str) -> ImageLayout:
-    """A single-file NIfTI-1 or NIfTI-2 image: its pixels at ``vox_offset``, sized by its header (nibabel)."""
+def _nifti(path: Path, suffix: str, within: str | os.PathLike[str] | None) -> ImageLayout:
+    """A NIfTI-1 or NIfTI-2 image, one file or a ``.hdr``/``.img`` pair: its pixels sized by its header (nibabel).
+
+    A pair's pixels are in the ``.img`` beside the ``.hdr`` (the name ``nifti1_io`` takes, in the case of the
+    name given): a file the header names, checked by the one rule (inside ``within``). A pair whose data could
+    be read from two files (``.img`` and ``.img.gz``) is refused, as is an Analyze 7.5 header (no NIfTI magic:
+    its orientation is not in the file, ITK would guess it).
+    """
     import gzip
 
     import nibabel
 
-    with open_regular(path, max_bytes=1 << 62) as f:
+    pair = suffix in (".hdr", ".img")
+    header_path = path
+    if pair:
+        upper = path.suffix.isupper()
+        header_path = path.with_suffix(".HDR" if upper else ".hdr")
+        if header_path != path:
+            header_path = named_file(path, header_path.name, within=within, what="header (the .hdr of a NIfTI pair)")
+    with open_regular(header_path, max_bytes=1 << 62) as f:
         compressed = f.read(2) == b"\x1f\x8b"
         f.seek(0)
         try:
             raw = gzip.GzipFile(fileobj=f).read(544) if compressed else f.read(544)
         except (OSError, EOFError, zlib.error) as exc:
-            raise FileFormatError(path, None, f"not a NIfTI file: its compressed header cannot be read "
+            raise FileFormatError(header_path, None, f"not a NIfTI file: its compressed header cannot be read "
                                   f"({exc})") from None  # fmt: skip
     if len(raw) < 348:
-        raise FileFormatError(path, None, f"not a NIfTI file: {len(raw)} bytes, shorter than a NIfTI header")
+        raise FileFormatError(header_path, None, f"not a NIfTI file: {len(raw)} bytes, shorter than a NIfTI header")
     sizes = {struct.unpack("<i", raw[:4])[0], struct.unpack(">i", raw[:4])[0]}
     header_class = nibabel.Nifti2Header if 540 in sizes else nibabel.Nifti1Header
     try:
@@ -789,10 +804,30 @@ def _nifti(path: Path, suffix: str) -> ImageLayout:
         dtype = header.get_data_dtype()
         offset = int(header.get_data_offset())
     except Exception as exc:  # nibabel's errors on a damaged header are of many kinds
-        raise FileFormatError(path, None, f"not a NIfTI header nibabel understands ({exc})") from None
+        raise FileFormatError(header_path, None, f"not a NIfTI header nibabel understands ({exc})") from None
+    if pair:
+        if magic not in (b"ni1", b"ni2"):
+            what = "an Analyze 7.5 header (no NIfTI magic): its orientation is not in the file, ITK would guess it"
+            raise FileFormatError(header_path, None, what if not magic else f"NIfTI magic {magic!r} in a .hdr file "
+                                  "(a pair's header says ni1 or ni2)")  # fmt: skip
+        if compressed:
+            raise FileFormatError(header_path, None, "a compressed .hdr: the pair is read uncompressed only")
+        data_name = header_path.with_suffix(".IMG" if header_path.suffix.isupper() else ".img").name
+        if (header_path.parent / (data_name + ".gz")).exists() and (header_path.parent / data_name).exists():
+            raise FileFormatError(header_path, None, f"both {data_name} and {data_name}.gz are beside it: which "
+                                  "holds its pixels is not certain")  # fmt: skip
+        data_path = named_file(header_path, data_name, within=within, what="data file (the .img of a NIfTI pair)")
+        values = _product([int(n) for n in shape])
+        length = values * dtype.itemsize
+        floats = dtype.str if dtype.kind == "f" else None
+        part = DataPart(data_path, max(offset, 0), length, values=floats)
+        components = int(shape[4]) if len(shape) >= 5 else 1
+        layout_path = path
+        return ImageLayout(layout_path, "NIfTI pair", "NiftiImageIO", (part,), tuple(int(n) for n in shape),
+                           pixels=values // max(components, 1))  # fmt: skip
     if magic not in (b"n+1", b"n+2"):
-        raise FileFormatError(path, None, f"NIfTI magic {magic!r}: only single-file NIfTI (n+1, n+2) is read; a "
-                              "header whose pixels are in another file (.hdr/.img) is not")  # fmt: skip
+        raise FileFormatError(path, None, f"NIfTI magic {magic!r} in a single-file NIfTI (it says n+1 or n+2); a "
+                              "header whose pixels are in another file is a .hdr/.img pair")  # fmt: skip
     offset = max(offset, 352 if magic == b"n+1" else 544)
     values = _product([int(n) for n in shape])
     length = values * dtype.itemsize

@@ -50,7 +50,7 @@ from .._util.file_access import is_inside, named_file, read_bytes
 from .._util.points import as_points
 from ..ffd import oneshot as _oneshot
 from ..ffd.deform import FFD
-from ..ffd.lattice import Lattice
+from ..ffd.lattice import Lattice, nearest_rotation
 from ..ffd.support import in_domain
 from ..images.geometry import ImageGrid
 from .elastix_text import ParameterMap, read_parameter_file, write_parameter_file
@@ -64,7 +64,6 @@ _MAX_AXIS = 4096
 _LINEAR = ("AffineTransform", "EulerTransform", "SimilarityTransform", "TranslationTransform")
 _BSPLINE = ("BSplineTransform", "RecursiveBSplineTransform")
 _PAD = 3  # zero layers that make the valid region cover a zero-border lattice's reach (as for ITK files)
-_ORTHOGONAL = 1e-12
 #: The fixed-image keys kept from a loaded file and written back (transformix resamples onto that grid).
 GEOMETRY_KEYS = ("Size", "Index", "Spacing", "Origin", "Direction")
 
@@ -293,14 +292,11 @@ class ElastixTransform:
 def _lattice(rotation: NDArray[np.float64], spacing: NDArray[np.float64], origin: NDArray[np.float64],
              offsets: NDArray[np.float64]) -> Lattice:  # fmt: skip
     """The lattice with control point ``ijk`` at ``origin + rotation @ (spacing * ijk)`` (sheared if need be)."""
-    error = np.abs(rotation.T @ rotation - np.eye(3)).max()
-    if _ORTHOGONAL < error <= 1e-6:  # rounded direction cosines: the nearest rotation
-        u, _, vt = np.linalg.svd(rotation)
-        rotation = u @ vt
-    elif error > 1e-6:  # a sheared grid: unit columns exactly, their lengths in the spacing
+    snapped = nearest_rotation(rotation)  # rounded direction cosines: the rotation they round
+    if snapped is None:  # a sheared grid: unit columns exactly, their lengths in the spacing
         lengths = np.linalg.norm(rotation, axis=0)
         rotation, spacing = rotation / lengths, spacing * lengths
-    return Lattice(offsets.shape[:3], spacing, origin, rotation, offsets)
+    return Lattice(offsets.shape[:3], spacing, origin, rotation if snapped is None else snapped, offsets)
 
 
 # ---------------------------------------------------------------------------------------- reading

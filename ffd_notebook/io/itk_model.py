@@ -37,7 +37,7 @@ import numpy as np
 
 from ..errors import FileFormatError
 from ..ffd.deform import FFD
-from ..ffd.lattice import Lattice
+from ..ffd.lattice import Lattice, nearest_rotation, orthogonality_error
 from ..ffd.support import pad_offsets
 from .displacement_field import DisplacementField
 from .transform_chain import AffineTransform, TransformChain
@@ -60,8 +60,6 @@ _FIELD = "DisplacementFieldTransform"
 _KIND = re.compile(r"([A-Za-z0-9]+)_(double|float)_(\d+)_(\d+)")
 _PAD = 3  # zero layers that make ITK's domain cover a zero-border lattice's whole reach
 _MAX_AXIS = 4096
-_ORTHOGONAL = 1e-12  # a direction orthogonal to rounding: kept as it is
-_NEAR_ORTHOGONAL = 1e-6  # float32-rounded rotations (SimpleITK's initializer writes them): orthonormalised
 
 
 @dataclass
@@ -128,19 +126,17 @@ def _grid(path: str | os.PathLike[str], raw: RawTransform) -> tuple[Lattice, np.
     spacing, origin, direction = fixed[6:9], fixed[3:6], fixed[9:].reshape(3, 3)
     if np.any(spacing <= 0):
         raise _error(path, raw, "fixed", f"expected a positive grid spacing, got {spacing.tolist()}")
-    error = np.abs(direction.T @ direction - np.eye(3)).max()
-    if error > _NEAR_ORTHOGONAL:
-        raise _error(path, raw, "fixed", f"the grid direction is not orthogonal (off by {error:.2g}: a sheared "
-                     "grid); a lattice's rotation must be, so this transform cannot be read exactly")  # fmt: skip
-    if error > _ORTHOGONAL:  # the nearest rotation; the deformation then differs by about error * |x|
-        u, _, vt = np.linalg.svd(direction)
-        direction = u @ vt
+    rotation = nearest_rotation(direction)  # float32-rounded directions: the rotation they round
+    if rotation is None:
+        raise _error(path, raw, "fixed", f"the grid direction is not orthogonal (off by "
+                     f"{orthogonality_error(direction):.2g}: a sheared grid); a lattice's rotation must be, so this "
+                     "transform cannot be read exactly")  # fmt: skip
     n = int(np.prod(shape))
     if len(raw.parameters) != 3 * n:
         raise _error(path, raw, "parameters", f"a {shape[0]}x{shape[1]}x{shape[2]} grid has {3 * n} parameters, "
                      f"got {len(raw.parameters)}")  # fmt: skip
     coefficients = raw.parameters.reshape(3, shape[2], shape[1], shape[0]).transpose(3, 2, 1, 0)
-    return Lattice(shape, spacing, origin, direction), coefficients
+    return Lattice(shape, spacing, origin, rotation), coefficients
 
 
 def _compose(pairs: list[tuple[np.ndarray, np.ndarray]]) -> tuple[np.ndarray, np.ndarray]:
@@ -157,8 +153,8 @@ def _pull_back(path, raw: RawTransform, lattice: Lattice, a: np.ndarray, b: np.n
         return Lattice(lattice.shape, lattice.spacing, lattice.origin - b, lattice.rotation)
     columns = a.T @ lattice.rotation / lattice.spacing  # must be R' / spacing' for a lattice R', spacing'
     spacing = 1.0 / np.linalg.norm(columns, axis=0)
-    rotation = columns * spacing
-    if not np.allclose(rotation.T @ rotation, np.eye(3), rtol=0, atol=_ORTHOGONAL):
+    rotation = nearest_rotation(columns * spacing)
+    if rotation is None:
         raise _error(path, raw, "kind", "the affine applied before the B-spline shears its grid; an FFD "
                      "(affine after the lattice) cannot hold that exactly")  # fmt: skip
     origin = np.linalg.solve(a, lattice.origin - b)

@@ -109,6 +109,36 @@ def test_a_gaussian_process_sample_on_mesh_points():
         fit_lattice(sample[:10], 5, region=points)
 
 
+def test_scattered_points_solve_for_the_control_points_they_reach_only(monkeypatch):
+    """A 100^3 lattice around 20 points: the factorised system has at most 20 * 64 unknowns, not a million."""
+    import scipy.sparse.linalg
+
+    factorise = scipy.sparse.linalg.splu
+    sizes = []
+
+    def spy(matrix, *args, **kwargs):
+        sizes.append(matrix.shape[0])
+        if matrix.shape[0] > 20 * 64:
+            raise AssertionError(f"a {matrix.shape[0]}-unknown system for 20 points")
+        return factorise(matrix, *args, **kwargs)
+
+    monkeypatch.setattr(scipy.sparse.linalg, "splu", spy)
+    points = np.random.default_rng(5).random((20, 3)) * 10
+    fitted = fit_lattice(lambda p: p + 0.1 * np.sin(p[:, [1, 2, 0]]), 100, region=points)
+    assert 0 < sizes[0] <= 20 * 64
+    assert fitted.lattice.metadata["fit"]["max"] < 1e-9  # 20 points, a thousand unknowns: met exactly
+    moved = np.argwhere(fitted.lattice.offsets.any(axis=-1))
+    assert 0 < len(moved) <= sizes[0]  # every other control point keeps a zero offset
+
+
+def test_a_system_that_would_not_fit_is_refused_with_its_size():
+    points = np.random.default_rng(6).random((5000, 3))  # filling the box: they reach almost every control point
+    with pytest.raises(ValueError, match=r"reach 6\d{4} control points of the 40x40x40 lattice.*GiB"):
+        fit_lattice(lambda p: p, 40, region=points)
+    with pytest.raises(ValueError, match=r"2000x2000x2000 lattice's offsets alone would take 179 GiB"):
+        fit_lattice(lambda p: p, 2000, region=points)
+
+
 def test_sheared_and_permuted_grids_take_the_separable_solve(monkeypatch):
     """A field on a sheared grid (NiftyReg, FSL, elastix affine-then-B-spline) and a lattice whose axes run along
     the grid's in another order, flipped: the per-axis solve of the engine's grid pairing, exactly."""

@@ -4,8 +4,6 @@ from __future__ import annotations
 
 from typing import Any
 
-import numpy as np
-
 from ....ffd.basis import BasisName
 from ....ffd.deform import FFD
 from ....ffd.interpolation import check_basis
@@ -29,15 +27,8 @@ def fitted_lattice(mesh: Any, shape: tuple[int, ...], basis: BasisName | tuple[s
 def copy_ffd(ffd: FFD, lattice: Lattice | None = None, **changes: Any) -> FFD:
     """A new FFD with ``ffd``'s basis, border, affine part, ``only_inside``, ``outside``, strength and
     weights on a copy of its lattice (or on ``lattice``); ``changes`` replace some of them
-    (``basis=...``, ``strength=...``, ``weights=...``)."""
-    lattice = ffd.lattice.copy() if lattice is None else lattice
-    weights = ffd.weights.copy() if isinstance(ffd.weights, np.ndarray) else ffd.weights
-    options: dict[str, Any] = {"basis": ffd.basis, "border": ffd.border, "affine": ffd.affine.copy(),
-                               "only_inside": ffd.only_inside, "outside": ffd.outside, "strength": ffd.strength,
-                               "weights": weights}  # fmt: skip
-    options.update(changes)
-    basis = options.pop("basis")
-    return FFD(lattice, basis, **options)
+    (``basis=...``, ``strength=...``, ``weights=...``): :meth:`FFD.copy <ffd_notebook.FFD.copy>`."""
+    return ffd.copy(lattice, **changes)
 
 
 def refitted(ffd: FFD, mesh: Any, shape: tuple[int, ...], basis: Any = None, **changes: Any) -> FFD:
@@ -50,7 +41,7 @@ def refitted(ffd: FFD, mesh: Any, shape: tuple[int, ...], basis: Any = None, **c
 
     Examples
     --------
-    >>> import pyvista as pv
+    >>> import numpy as np, pyvista as pv
     >>> sphere = pv.Sphere(theta_resolution=8, phi_resolution=8)
     >>> ffd = FFD(fitted_lattice(sphere, (4, 4, 4), "bspline"), strength=0.5, weights=np.ones(sphere.n_points))
     >>> new = refitted(ffd, sphere, (5, 4, 4), "bernstein")
