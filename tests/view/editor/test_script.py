@@ -321,3 +321,22 @@ def test_what_the_history_does_not_hold_is_set_at_the_end(files):
     code = session.script.to_code()
     assert OUTSIDE_HISTORY in code
     assert_rebuilt(session, files["interpreter"].run(code))
+
+
+def test_every_option_of_an_ffd_given_to_the_editor(files):
+    """A lattice installed with every option (elastix's half-open domain, an affine part, another border, the outside
+    rule, a strength) is written with each of them."""
+    session = new_session(files)
+    lattice = Lattice.around(session.mesh, (5, 4, 4))
+    lattice.offsets[2, 1, 1] = (0.1, 0.0, -0.05)
+    affine = np.diag([1.1, 0.9, 1.0, 1.0])
+    affine[:3, 3] = (0.01, -0.02, 0.0)
+    for options in ({"only_inside": "half-open", "affine": affine, "strength": 0.7},
+                    {"border": "clamp", "outside": True, "only_inside": True}):  # fmt: skip
+        session.swap_ffd(FFD(lattice.copy(), "bspline", **options), label="lattice", source="given")
+        session.move_control_point((1, 1, 1), (0.0, 0.05, 0.0))
+        code = session.script.to_code()
+        assert OUTSIDE_HISTORY not in code
+        assert "only_inside='half-open'" in code  # (the first swap stays in the history)
+        assert_rebuilt(session, files["interpreter"].run(code))
+    assert "only_inside=True" in code and "outside=True" in code and 'border="clamp"' in code

@@ -308,8 +308,8 @@ def _ffd_line(lattice: str, ffd: FFD, weights: str | None) -> tuple[str, set[str
     if not np.array_equal(ffd.affine, np.eye(4)):
         parts.append(f"affine=np.array({_matrix(ffd.affine)})")
         imports.add("numpy")
-    if ffd.only_inside:
-        parts.append("only_inside=True")
+    if ffd.only_inside:  # (True, or elastix's "half-open")
+        parts.append(f"only_inside={ffd.only_inside!r}")
     if ffd.outside:
         parts.append("outside=True")
     if ffd.strength != 1.0:
