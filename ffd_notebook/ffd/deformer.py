@@ -348,11 +348,16 @@ class Deformer:
             return self._out
         return self.update()
 
-    def jacobian_determinant(self) -> NDArray[np.float64]:
+    def jacobian_determinant(self, *, strength: float | None = None) -> NDArray[np.float64]:
         """``det dT/dx`` at the bound points for the current offsets (``<= 0`` where it folds).
 
         The same values as :meth:`FFD.jacobian_determinant` on the bound points, reusing the
         cached grouping of points by cell (the editor's folding view calls it on every drag).
+
+        Parameters
+        ----------
+        strength : float, optional
+            Another strength than :attr:`strength` (the editor's blend shows ``t`` times the deformation).
 
         Returns
         -------
@@ -374,15 +379,16 @@ class Deformer:
             self._geometry_key() != self._key or not np.array_equal(self.ffd.affine, self._affine)
         ):
             self._bind()
+        strength = self.strength if strength is None else check_strength(strength)
         if self._cells is None:  # Bernstein: every control point reaches every point
-            return det3(self.ffd.jacobian(self.points, strength=self.strength, weights=self._weights))
+            return det3(self.ffd.jacobian(self.points, strength=strength, weights=self._weights))
         uvw = self.ffd.lattice.to_lattice(self.points)[self._cells.order]
         bases = axis_bases(self.ffd.basis)
         d_uvw = bspline_lattice_jacobian(self._cells, self._offsets(), uvw - np.floor(uvw), bases=bases)
         if self.ffd.only_inside:
             d_uvw[~in_domain(self.ffd.basis, self.ffd.lattice.shape, uvw, self.ffd.only_inside)] = 0.0
         jacobian = jacobian_to_world(self.ffd.lattice, self.ffd.affine, d_uvw)
-        factor = influence(self.strength, self._weights, len(self.points))
+        factor = influence(strength, self._weights, len(self.points))
         if factor is not None:  # I + f (J - I): the weights are constants of the points
             jacobian -= np.eye(3)
             jacobian *= factor[self._cells.order, None, None]

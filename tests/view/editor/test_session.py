@@ -20,7 +20,7 @@ from hypothesis import strategies as st
 
 from ffd_notebook import FFD
 from ffd_notebook.view.editor import Change, EditingSession
-from ffd_notebook.view.editor.editor import PYVISTA_MESH_IO, read_surface
+from ffd_notebook.view.editor.meshes import PYVISTA_MESH_IO, read_surface
 
 SESSION_DIR = Path(__file__).resolve().parents[3] / "ffd_notebook" / "view" / "editor" / "session"
 VIEW_LIBRARIES = ("vtk", "vtkmodules", "pyvista", "trame", "ipywidgets")

@@ -169,14 +169,15 @@ class AppFiles:
             return None
 
     # ------------------------------------------------------------------ reading
-    def _read_ffd(self, path: Path, shown: str, within: Path) -> None:
+    def _read_ffd(self, path: Path, shown: str, within: Path, name: str | None = None) -> None:
         """Read a deformation file in a worker; the files it names (an elastix chain, a field's data files) must be
-        in ``within``: the app's folder for a typed path, the upload's own folder for an upload."""
+        in ``within``: the app's folder for a typed path, the upload's own folder for an upload. ``name`` is what
+        the session's code reads (the path shown by default)."""
         files = self.session.files
         self.in_background(f"reading {shown}", lambda: files.read_deformation(path, within=within),
-                            lambda result: files.use_deformation(*result, shown), shown, "load")  # fmt: skip
+                            lambda result: files.use_deformation(*result, shown, path=name), shown, "load")  # fmt: skip
 
-    def _read_mesh(self, path: Path, shown: str) -> None:
+    def _read_mesh(self, path: Path, shown: str, name: str | None = None) -> None:
         def work() -> tuple[Any, Any, Any]:
             mesh, deformer = self.session.files.read_mesh(path)
             return mesh, deformer, prepare_display(mesh, deformer.current(), self.editor.scene.interactive_cells)
@@ -184,11 +185,11 @@ class AppFiles:
         def done(result: tuple[Any, Any, Any]) -> None:
             mesh, deformer, prepared = result
             self.editor.scene.offer_display(prepared)
-            self.session.files.use_mesh(mesh, deformer, shown)
+            self.session.files.use_mesh(mesh, deformer, shown, path=name)
 
         self.in_background(f"reading {shown}", work, done, shown, "load")
 
-    def _read_face(self, path: Path, shown: str) -> None:
+    def _read_face(self, path: Path, shown: str, name: str | None = None) -> None:
         """The face of a photo (a path checked by the root folder, or an upload) as the mesh, made in a worker."""
 
         def work() -> tuple[Any, Any, Any]:
@@ -198,7 +199,7 @@ class AppFiles:
         def done(result: tuple[Any, Any, Any]) -> None:
             mesh, deformer, prepared = result
             self.editor.scene.offer_display(prepared)
-            self.session.files.use_face(mesh, deformer, shown)
+            self.session.files.use_face(mesh, deformer, shown, path=shown if name is None else name)
 
         self.in_background(f"finding the face in {shown}", work, done, shown, "make a face")
 
@@ -359,8 +360,7 @@ class AppFiles:
         if target is not None:
             ffd, shown = copy_ffd(self.session.ffd), self.root.shown(target)
             self.in_background(f"writing {shown}", lambda: _write_deformation(target, ffd, shown),
-                                lambda _: self.session.messages.append(f"saved the lattice to {shown}"), shown,
-                                "save")  # fmt: skip
+                                lambda _: self._saved("lattice", shown), shown, "save")  # fmt: skip
 
     def save_mesh_in_background(self, path: str) -> None:
         """Start saving the deformed mesh in the app's folder (format from the extension, atomically)."""
@@ -370,8 +370,12 @@ class AppFiles:
         if target is not None:
             mesh, shown = self.session.deformed_mesh, self.root.shown(target)
             self.in_background(f"writing {shown}", lambda: write_mesh(target, mesh),
-                                lambda _: self.session.messages.append(f"saved the deformed mesh to {shown}"),
-                                shown, "save")  # fmt: skip
+                                lambda _: self._saved("mesh", shown), shown, "save")  # fmt: skip
+
+    def _saved(self, what: str, shown: str) -> None:
+        """A save is written: say so, and the session's code saves there too (a path in the root folder)."""
+        self.session.messages.append(f"saved the {'lattice' if what == 'lattice' else 'deformed mesh'} to {shown}")
+        self.session.script.saved(what, shown)
 
     # the names of 0.1, which did not say that they return before the work is done; kept until 0.3
     load_ffd = renamed(load_deformation_in_background, "load_ffd")
@@ -414,7 +418,7 @@ class AppFiles:
         received = self._receive(ffd_upload, FFD_SUFFIXES, "ffd_upload")
         if received is not None:
             target, shown = received
-            self._read_ffd(target, shown, target.parent)
+            self._read_ffd(target, shown, target.parent, name=target.name)  # (the code reads it by its own name)
 
     def receive_mesh_upload(self, mesh_upload: Any, **_: Any) -> None:
         """A mesh arrived from the browser's file input: load it; a photo (JPEG, PNG...): the face in it."""
@@ -422,9 +426,9 @@ class AppFiles:
         if received is None:
             return
         if received[0].suffix.lower() in PHOTO_SUFFIXES:
-            self._read_face(*received)
+            self._read_face(*received, name=received[0].name)
         else:
-            self._read_mesh(*received)
+            self._read_mesh(*received, name=received[0].name)
 
     async def _written_bytes(self, name: str, write: Callable[[Path], None]) -> bytes:
         target = self._scratch_file(name)
@@ -447,6 +451,50 @@ class AppFiles:
             raise ValueError(f"mesh format must be one of {MESH_FORMATS}")
         mesh = self.session.deformed_mesh
         return await self._written_bytes(f"download.{fmt}", lambda path: write_mesh(path, mesh))
+
+    # ------------------------------------------------------------------ teaching: the code, an animation
+    def show_code(self) -> None:
+        """Show the editor's code (:meth:`~..editor.Editor.to_code`) in the page's code dialog."""
+        with self.state:
+            self.state.code_text = self.editor.to_code()
+            self.state.code_open = True
+
+    async def download_code(self) -> bytes:
+        """The editor's code as the bytes of a ``.py`` file (the code dialog's download button saves them)."""
+        return self.editor.to_code().encode("utf-8")
+
+    async def record(self, fmt: str = "gif", orbit: Any = False) -> bytes:
+        """Record the deformation as the view shows it (``fmt`` ``"gif"`` or ``"mp4"``); returns the file's bytes
+        (the page downloads them). A frame at a time, the progress on the page between frames: the event loop
+        keeps answering. Edits made meanwhile are not in it (the deformation as it was at the click)."""
+        from ..session.controls import MOVIE_CHOICES, RECORD_FPS, RECORD_FRAMES
+
+        if fmt not in dict(MOVIE_CHOICES):
+            raise ValueError(f"an animation is one of {', '.join(dict(MOVIE_CHOICES))}, got {fmt!r}")
+        if self.state.recording:
+            self._report(ValueError("already recording; wait for it"), "the animation", "record")
+            return b""
+        recording = self.editor.recording(frames=RECORD_FRAMES, fps=RECORD_FPS, orbit=bool(orbit))
+        target = self._scratch_file(f"animation.{fmt}")
+        with self.state:
+            self.state.recording, self.state.record_progress = True, 0
+        try:
+            for done in recording.write(target):
+                with self.state:
+                    self.state.record_progress = round(100 * done / len(recording))
+                await asyncio.sleep(0)  # the page gets the progress, the loop its other work
+            content = target.read_bytes()
+        except (OSError, ValueError) as exc:
+            self._report(exc, "the animation", "record")
+            return b""
+        finally:
+            recording.close()
+            target.unlink(missing_ok=True)
+            with self.state:
+                self.state.recording = False
+        self.session.messages.append(f"recorded the deformation ({RECORD_FRAMES} frames): deformation.{fmt}")
+        self.sync()
+        return content
 
     def cleanup(self) -> None:
         """Remove the folder of uploads and downloads (at exit)."""

@@ -56,6 +56,8 @@ _CSS = """
 .ffd-row > * { min-width: 0; }
 .ffd-wrap { overflow-wrap: anywhere; }
 """
+#: a box of code lines (the running log, the code dialog): the user scrolls it (class ffd-scroll); % its max height
+_CODE_STYLE = "margin: 0; max-height: %s; overflow: auto; font-size: 11px; line-height: 1.3; white-space: pre;"
 #: the upload's file filter: every lattice file suffix the app reads, in both cases
 _LATTICE_ACCEPT = ",".join(s for suffix in FFD_SUFFIXES for s in (suffix, suffix.upper()))
 #: the mesh upload's filter: meshes, and photos (the face in a photo becomes the mesh)
@@ -94,7 +96,7 @@ def min_width_px(control: Control) -> int | None:
     (119, 119, None)
     """
     kind = control.kind
-    if kind in ("button", "label", "messages"):
+    if kind in ("button", "label", "messages", "log", "code", "record"):
         return None
     if kind in ("choice", "choices"):
         longest = max([_text_px(title) for _, title in control.choices] + [0])
@@ -127,7 +129,7 @@ def _cell(control: Control) -> Any:
 
     basis = min_width_px(control)
     if basis is None:
-        flex = "flex: 0 0 auto;" if control.kind == "button" else "flex: 1 1 100%;"
+        flex = "flex: 0 0 auto;" if control.kind in ("button", "code", "record") else "flex: 1 1 100%;"
         return html.Div(style=flex)
     return html.Div(style=f"flex: 1 1 {basis}px; min-width: {basis}px;")
 
@@ -193,7 +195,49 @@ def _control(app: Any, control: Control) -> None:
             html.Div(re.sub(r"\{(\w+)\}", r"{{ \1 }}", control.label), classes="text-caption ffd-wrap", id=ident)
         elif kind == "messages":
             _messages(control)
+        elif kind == "log":
+            html.Div(control.label, classes="text-caption")
+            html.Pre(f"{{{{ {control.state[0]} }}}}", classes="ffd-scroll", id=ident, style=_CODE_STYLE % "7.5em")
+        elif kind == "code":
+            v.VBtn(control.label, click=f"trigger('{control.app_trigger or 'ffd_show_code'}')", size="small",
+                   id=ident, classes="text-none", variant="tonal")  # fmt: skip
+            _code_dialog()
+        elif kind == "record":
+            _record(control)
         _tooltip(control)
+
+
+def _code_dialog() -> None:
+    """The editor's code in a dialog: to read, copy or download as a ``.py`` file."""
+    from trame.widgets import html
+    from trame.widgets import vuetify3 as v
+
+    download = "utils.download('ffd_edits.py', trigger('ffd_download_code'), 'text/x-python')"
+    with v.VDialog(v_model=("code_open",), max_width=900, scrollable=True), v.VCard():
+        v.VCardTitle("Your edits as Python", classes="text-subtitle-1")
+        with v.VCardText():
+            html.Pre("{{ code_text }}", classes="ffd-scroll", id="ffd-code-text", style=_CODE_STYLE % "60vh")
+        with v.VCardActions():
+            v.VBtn("Download .py", click=download, prepend_icon="mdi-download", id="ffd-code-download",
+                   classes="text-none", variant="tonal")  # fmt: skip
+            copy = "navigator.clipboard && navigator.clipboard.writeText(code_text)"
+            v.VBtn("Copy", click=copy, prepend_icon="mdi-content-copy", classes="text-none", variant="tonal",
+                   id="ffd-code-copy")  # fmt: skip
+            v.VSpacer()
+            v.VBtn("Close", click="code_open = false", classes="text-none", variant="text", id="ffd-code-close")
+
+
+def _record(control: Control) -> None:
+    """The "Record" button (the animation downloads when written) and its progress bar."""
+    from trame.widgets import vuetify3 as v
+
+    args = f"[{', '.join(['movie_format', 'orbit'])}]"
+    mime = "movie_format === 'gif' ? 'image/gif' : 'video/mp4'"
+    click = f"utils.download('deformation.' + movie_format, trigger('{control.app_trigger}', {args}), {mime})"
+    v.VBtn(control.label, click=click, size="small", id=control.dom_id, disabled=("recording",),
+           prepend_icon="mdi-movie-open-outline", classes="text-none", variant="tonal")  # fmt: skip
+    v.VProgressLinear(model_value=("record_progress",), v_show=("recording",), color="primary", height=6,
+                      id="ffd-record-progress", classes="mt-1", style="min-width: 120px;")  # fmt: skip
 
 
 def _slider(control: Control) -> None:

@@ -47,6 +47,7 @@ from ....io import AffineTransform, DisplacementField, fit_lattice, place_at_mes
 from ....io import load_deformation as _load_deformation
 from ....io import save_deformation as _save_deformation
 from .lattices import copy_ffd, refitted
+from .script import LoadedFile, MeshOrigin
 
 if TYPE_CHECKING:
     from .session import EditingSession
@@ -120,6 +121,7 @@ class SessionFiles:
         if isinstance(loaded, AffineTransform):  # exactly the FFD's affine part, on the session's lattice at rest
             lattice = self.session.lattice
             rest = Lattice(lattice.shape, lattice.spacing, lattice.origin, lattice.rotation, border=lattice.border)
+            rest.metadata["read_as"] = "affine"  # (for the session's code: not an FFD the file holds)
             return FFD(rest, self.session.basis, affine=loaded.matrix), "file"
         if not isinstance(loaded, FFD):  # a chain of transforms: a lattice fitted to it over the mesh's points
             if not callable(getattr(loaded, "deform", None)):
@@ -133,11 +135,15 @@ class SessionFiles:
             return ffd, "ffd-placed"
         return copy_ffd(ffd, place_at_mesh_minimum(ffd.lattice, self.session.mesh)), "ffd-min"
 
-    def use_deformation(self, ffd: FFD, source: str, name: str) -> None:
-        """Install an FFD from :meth:`read_deformation` (one undo step); ``name`` is what messages call the file."""
-        self.session.swap_ffd(ffd, label="load lattice", source=source)
-        shape = "x".join(map(str, ffd.lattice.shape))
+    def use_deformation(self, ffd: FFD, source: str, name: str, *, path: str | None = None) -> None:
+        """Install an FFD from :meth:`read_deformation` (one undo step); ``name`` is what messages call the file,
+        ``path`` what the session's script reads again (``name`` by default)."""
         fit = ffd.lattice.metadata.get("fit")
+        field = isinstance(fit, dict) and fit.get("of") == "the displacement field"
+        kind = "field" if field else "other" if fit or ffd.lattice.metadata.get("read_as") or path == "" else "ffd"
+        how = LoadedFile(name if path is None else path, source, kind, ffd.lattice.shape if field else None)
+        self.session.swap_ffd(ffd, label="load lattice", source=source, how=how)
+        shape = "x".join(map(str, ffd.lattice.shape))
         if isinstance(fit, dict):
             self.session.info(f"loaded a {shape} lattice fitted to {fit.get('of', '')} {name} (residual RMS "
                               f"{fit['rms']:.3g}, max {fit['max']:.3g}, over {fit['samples']} points)")  # fmt: skip
@@ -155,7 +161,7 @@ class SessionFiles:
         except (OSError, ValueError, TypeError) as exc:
             self.session.error(f"could not load the lattice {name!r}: {exc}")
             raise
-        self.use_deformation(ffd, source, name)
+        self.use_deformation(ffd, source, name, path=None if isinstance(path, str | os.PathLike) else "")
         return self.session.ffd
 
     def save_deformation(self, path: StrPath) -> None:
@@ -171,6 +177,7 @@ class SessionFiles:
             self.session.error(f"could not save the lattice to {os.fspath(path)!r}: {exc}")
             raise
         self.session.info(f"saved the lattice to {os.fspath(path)}")
+        self.session.script.saved("lattice", path)
         image = self.session.image
         if image.loaded:  # the image warped by that lattice, beside it: lattice.warped.nii.gz
             target = image.beside(path)
@@ -208,9 +215,11 @@ class SessionFiles:
             ffd = refitted(self.session.ffd, mesh, self.session.lattice.shape, weights=None)
         return mesh, ffd.bind(mesh.points)
 
-    def use_mesh(self, mesh: Any, deformer: Deformer, name: str) -> None:
-        """Use a mesh from :meth:`read_mesh` (a new undo history); ``name`` is what messages call the file."""
+    def use_mesh(self, mesh: Any, deformer: Deformer, name: str, *, path: str | None = None) -> None:
+        """Use a mesh from :meth:`read_mesh` (a new undo history); ``name`` is what messages call the file, ``path``
+        what the session's script reads again (``name`` by default)."""
         self.session.replace_mesh(mesh, deformer, label="load mesh", new_document=True)
+        self.session.script.origin = MeshOrigin("file", name if path is None else path)
         self.session.info(f"loaded {name}: {mesh.n_points} vertices, {mesh.n_cells} faces")
 
     def load_mesh(self, path: StrPath) -> Any:
@@ -226,9 +235,11 @@ class SessionFiles:
         self.use_mesh(mesh, deformer, os.fspath(path))
         return mesh
 
-    def use_face(self, mesh: Any, deformer: Deformer, name: str) -> None:
-        """Use a face from :meth:`read_face` as the mesh (a new undo history, as a loaded mesh)."""
+    def use_face(self, mesh: Any, deformer: Deformer, name: str, *, path: str | None = None) -> None:
+        """Use a face from :meth:`read_face` as the mesh (a new undo history, as a loaded mesh); ``path`` is the
+        photo file the session's script reads again (none: the script's variable ``photo``)."""
         self.session.replace_mesh(mesh, deformer, label="face from photo", new_document=True)
+        self.session.script.origin = MeshOrigin("photo", path or "")
         self.session.info(f"made the face in {name}: {mesh.n_points} vertices, {mesh.n_cells} faces")
 
     def load_face(self, photo: Any) -> Any:
@@ -244,7 +255,7 @@ class SessionFiles:
             detail = getattr(exc, "problem", None) or str(exc)  # NoFaceError, FileFormatError name the photo
             self.session.error(f"could not make a face from {name}: {detail}")
             raise
-        self.use_face(mesh, deformer, name)
+        self.use_face(mesh, deformer, name, path=os.fspath(photo) if isinstance(photo, (str, os.PathLike)) else None)
         return mesh
 
     def load_face_upload(self, name: str, content: bytes) -> Any:
@@ -266,6 +277,7 @@ class SessionFiles:
             self.session.error(f"could not save the mesh to {os.fspath(path)!r}: {exc}")
             raise
         self.session.info(f"saved the deformed mesh to {os.fspath(path)}")
+        self.session.script.saved("mesh", path)
 
     # the names of 0.1 (a lattice file is a deformation file of any format), kept until 0.3
     read_lattice = renamed(read_deformation, "read_lattice")

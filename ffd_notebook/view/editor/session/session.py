@@ -39,10 +39,12 @@ from .history import History, LatticeSwap
 from .image import SessionImage
 from .lattices import copy_ffd, fitted_lattice, refitted
 from .message_log import MessageLog
+from .script import SessionScript
 from .surface_drag import SurfaceDrag
 from .weights import WeightPaint
 
 __all__ = [
+    "EDITS",
     "FIELDS",
     "POINTS_SHOWN",
     "WEIGHTS_CLEARED",
@@ -64,6 +66,8 @@ Field = Literal["displacement", "jacobian", "weights"]
 POINTS_SHOWN = ("auto", "all", "near", "hull")
 #: The type of a choice of control points shown: one of :data:`POINTS_SHOWN`.
 PointsShown = Literal["auto", "all", "near", "hull"]
+#: the changes that edit the deformation: the blend (:meth:`EditingSession.set_blend`) goes back to 1 before them
+EDITS = ("drag", "offsets", "lattice", "mesh")
 #: what the editor says when painted weights go with the vertices they were painted on (a decimation, a new mesh)
 WEIGHTS_CLEARED = "the vertex weights were cleared: the mesh has other vertices now"
 
@@ -196,10 +200,12 @@ class EditingSession:
     ) -> None:
         self.mesh_io = mesh_io
         self.messages = MessageLog()  # bounded: the newest MAX_MESSAGES, newest last
-        self.history = History()
+        self.history = History(on_drop=self._dropped)
         self.field: str | None = None
         self.colors_shown = True
         self.points_shown = "auto"
+        #: how much of the deformation is shown: 1 all of it, 0 the rest mesh (:meth:`set_blend`)
+        self.blend = 1.0
         self.selected: tuple[int, ...] | None = None
         self._subscribers = Subscribers(self.messages.append)
         self._dragged: int | None = None
@@ -214,6 +220,7 @@ class EditingSession:
             self.lattice_source = "given"
         self._bind_mesh(mesh, FFD(lattice, basis).bind(mesh.points))
         self.paint = WeightPaint(self)  # the vertices' weights and the brush that paints them
+        self.script = SessionScript(self)  # the undo history as code (editor.to_code())
 
     # ------------------------------------------------------------------ state
     @property
@@ -284,6 +291,90 @@ class EditingSession:
         """
         return self._rest_control + self.lattice.offsets.reshape(-1, 3)
 
+    def shown_points(self) -> NDArray[np.float64]:
+        """The mesh as shown: the deformed points, or with a :attr:`blend` below 1 ``rest + blend * (deformed -
+        rest)`` (a new array then).
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(N, 3)``: :attr:`deformed_points` itself at blend 1 (exactly the deformation).
+
+        Examples
+        --------
+        >>> import pyvista as pv
+        >>> from ffd_notebook.view.editor.editor import PYVISTA_MESH_IO
+        >>> sphere = pv.Sphere(theta_resolution=8, phi_resolution=8)
+        >>> session = EditingSession(sphere, mesh_io=PYVISTA_MESH_IO, shape=(4, 4, 4))
+        >>> session.move_control_point((3, 3, 3), (0.0, 0.0, 0.4))
+        >>> session.set_blend(0.5)
+        >>> half = session.shown_points() - session.rest_points
+        >>> bool(np.allclose(half, (session.deformed_points - session.rest_points) / 2))
+        True
+        """
+        if self.blend == 1.0:
+            return self.deformed_points
+        rest = self.rest_points
+        return rest + self.blend * (np.asarray(self.deformed_points, dtype=np.float64) - rest)
+
+    def shown_control_points(self) -> NDArray[np.float64]:
+        """Control points as shown: :meth:`control_points`, or with a :attr:`blend` below 1 ``rest + blend *
+        offsets``.
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(M, 3)`` positions, flat C order.
+
+        Examples
+        --------
+        >>> import pyvista as pv
+        >>> from ffd_notebook.view.editor.editor import PYVISTA_MESH_IO
+        >>> sphere = pv.Sphere(theta_resolution=8, phi_resolution=8)
+        >>> session = EditingSession(sphere, mesh_io=PYVISTA_MESH_IO, shape=(4, 4, 4))
+        >>> session.move_control_point((0, 0, 0), (0.0, 0.0, 0.4))
+        >>> session.set_blend(0.5)
+        >>> (session.shown_control_points() - session.lattice.control_points().reshape(-1, 3))[0].tolist()
+        [0.0, 0.0, 0.2]
+        """
+        if self.blend == 1.0:
+            return self.control_points()
+        return self._rest_control + self.blend * self.lattice.offsets.reshape(-1, 3)
+
+    def set_blend(self, t: float) -> None:
+        """Show ``t`` of the deformation: ``rest + t * (deformed - rest)`` (0 the rest mesh, 1 all of it); no undo step.
+
+        A teacher shows a deformation growing, and where it folds first: the folding colours follow ``t`` (the
+        Jacobian of ``x + t (T(x) - x)``). Nothing is edited: below 1 the mouse grabs nothing in the view (the
+        spheres are where ``t`` puts them), and any edit (a typed displacement, undo, code...) applies to the
+        whole deformation and brings the blend back to 1.
+
+        Parameters
+        ----------
+        t : float
+            In [0, 1].
+
+        Examples
+        --------
+        >>> import pyvista as pv
+        >>> from ffd_notebook.view.editor.editor import PYVISTA_MESH_IO
+        >>> sphere = pv.Sphere(theta_resolution=8, phi_resolution=8)
+        >>> session = EditingSession(sphere, mesh_io=PYVISTA_MESH_IO, shape=(4, 4, 4))
+        >>> session.move_control_point((3, 3, 3), (0.0, 0.0, 0.4))
+        >>> session.set_blend(0.0)
+        >>> bool(np.array_equal(session.shown_points(), session.rest_points)), len(session.history)
+        (True, 1)
+        >>> session.move_control_point((0, 0, 0), (0.1, 0.0, 0.0))
+        >>> session.blend
+        1.0
+        """
+        value = float(t)
+        if not 0.0 <= value <= 1.0:  # (NaN too)
+            raise ValueError(f"the blend must be in [0, 1], got {t!r}")
+        if value != self.blend:
+            self.blend = value
+            self.notify("display", None, "blend")
+
     def field_values(self) -> NDArray[np.float32] | None:
         """The shown field per vertex: ``|displacement|``, folding (1 where det J <= 0), or None.
 
@@ -308,11 +399,13 @@ class EditingSession:
         ((50,), 'float32', True)
         """
         if self.field == "displacement":
-            diff = np.asarray(self.deformed_points, dtype=np.float64) - self.rest_points
+            diff = np.asarray(self.shown_points(), dtype=np.float64) - self.rest_points
             return np.sqrt(np.einsum("ij,ij->i", diff, diff)).astype(np.float32)
         if self.field == "jacobian":
-            # the deformer reuses its cached grouping of points by cell (~20 ms on 53k points)
-            return (self.deformer.jacobian_determinant() <= 0.0).astype(np.float32)
+            # the deformer reuses its cached grouping of points by cell (~20 ms on 53k points); with a blend t the
+            # map is x + t s (T(x) - x): the strength s times t
+            strength = None if self.blend == 1.0 else self.deformer.strength * self.blend
+            return (self.deformer.jacobian_determinant(strength=strength) <= 0.0).astype(np.float32)
         if self.field == "weights":
             weights = self.deformer.weights  # during a brush stroke: the stroke's, not yet the FFD's
             return np.ones(len(self.rest_points), np.float32) if weights is None else weights.astype(np.float32)
@@ -487,6 +580,9 @@ class EditingSession:
         >>> changes[0].kind, changes[0].points.tolist(), changes[0].label
         ('offsets', [3, 7], 'code')
         """
+        if kind in EDITS and self.blend != 1.0:  # an edit applies to the whole deformation: show all of it first
+            self.blend = 1.0
+            self.notify("display", None, "blend")
         change = Change(kind, points, label) if started is None else Change(kind, points, label, started)
         self.image.follow(change)  # the warped slices first: every view then sees them up to date
         self._subscribers.emit(change)
@@ -750,8 +846,9 @@ class EditingSession:
         >>> float(abs(session.lattice.offsets).sum()), len(session.history)
         (0.0, 4)
         """
-        if ijk is None:
-            points = [tuple(v) for v in np.argwhere(np.any(self.lattice.offsets != 0, axis=-1))]
+        if ijk is None:  # (an offset of -0.0 too: afterwards every offset is the same +0.0 double)
+            offsets = self.lattice.offsets
+            points = [tuple(v) for v in np.argwhere(np.any((offsets != 0) | np.signbit(offsets), axis=-1))]
         else:
             point = self.check_ijk(ijk)
             points = [point] if np.any(self.lattice.offsets[point] != 0) else []  # an unmoved point: no undo step
@@ -1033,7 +1130,7 @@ class EditingSession:
         # validates (e.g. a B-spline lattice needs 4 points per axis) before any change
         self.swap_ffd(FFD(lattice, self.basis if basis is None else basis), label=label, source=source)
 
-    def swap_ffd(self, ffd: FFD, *, label: str, source: str, deformer: Deformer | None = None) -> None:
+    def swap_ffd(self, ffd: FFD, *, label: str, source: str, deformer: Deformer | None = None, how: Any = None) -> None:
         """Install ``ffd`` (its lattice, basis, border, affine part, ``only_inside``) as one undo step.
 
         Parameters
@@ -1046,6 +1143,8 @@ class EditingSession:
             How the lattice was made: decides what loading a mesh does with it, and is undone with it.
         deformer : Deformer, optional
             ``ffd`` already bound to the mesh's points (e.g. in a worker thread); bound here if omitted.
+        how : object, optional
+            How it was made, for :attr:`script` (e.g. a :class:`~.script.LoadedFile`).
 
         Examples
         --------
@@ -1066,7 +1165,7 @@ class EditingSession:
         self.history.close()
         before = (copy_ffd(self.ffd), self.lattice_source)
         self.lattice_source = source
-        self.history.record_lattice(before, (copy_ffd(ffd), source), label=label)
+        self.history.record_lattice(before, (copy_ffd(ffd), source), label=label, how=how)
         self._bind_lattice(ffd.bind(self.mesh.points) if deformer is None else deformer, label)
 
     def fitted_ffd(self, shape: ArrayLike) -> FFD:
@@ -1377,13 +1476,15 @@ class EditingSession:
         if done.source is not self.source_mesh or done.ffd is not self.ffd:
             raise ChangedMeanwhile("the mesh or the lattice changed meanwhile; decimate again")
         self.paint.end()  # a brush stroke under way is a step of the mesh it was painted on
-        if self.ffd.weights is not None:  # one per vertex of the mesh as it was
+        dropped = self.ffd.weights is not None
+        if dropped:  # one per vertex of the mesh as it was
             self.ffd.weights = None
             self.info(WEIGHTS_CLEARED)
         deformer = done.deformer
         if deformer is None or not np.array_equal(done.offsets, self.ffd.lattice.offsets):  # (edited meanwhile)
             deformer = self.ffd.bind(done.mesh.points)
         self.replace_mesh(done.mesh, deformer, label="decimate", new_document=False)
+        self.script.decimated(done.reduction, dropped_weights=dropped)
         self.info(f"decimated by {done.reduction:.0%}: {done.mesh.n_points} vertices, {done.mesh.n_cells} faces")
         return done.mesh
 
@@ -1511,6 +1612,8 @@ class EditingSession:
             self.history.clear()
             self.surface.drop_pins()  # pins are points of the old mesh
         self._bind_mesh(mesh, deformer, source=None if new_document else self.source_mesh)
+        if new_document:
+            self.script.new_document()  # (the caller says where the mesh came from: script.origin)
         if not new_lattice:
             self.selected = selected
         self.notify("mesh", None, label)
@@ -1518,6 +1621,10 @@ class EditingSession:
             self.notify("lattice", None, label)
         if weights_cleared:
             self.info(WEIGHTS_CLEARED)
+
+    def _dropped(self, step: Any) -> None:
+        """A step fell off the history's oldest end: the script starts after it."""
+        self.script.fold(step)
 
     def _bind_mesh(self, mesh: Any, deformer: Deformer, source: Any = None) -> None:
         """Use ``mesh`` (rest shape) with ``deformer`` (its FFD bound to ``mesh.points``)."""
