@@ -172,6 +172,12 @@ def wait_for(predicate: Callable[[], Any], timeout: float, what: str, interval: 
         time.sleep(interval)
 
 
+def view_box(view: Any, timeout: float = 30.0) -> dict[str, float]:
+    """The page-coordinates box of ``view`` (a locator) once it is laid out: ``bounding_box()`` is None for an
+    element not displayed at that instant (an iframe's page still loading or swapping its image)."""
+    return wait_for(lambda: (box := view.bounding_box()) and box["width"] > 0 and box, timeout, "the view's box")
+
+
 # ---------------------------------------------------------------------- browser
 def launch_browser(playwright: Any, profile_dir: str | os.PathLike[str], width: int = 1280, height: int = 900,
                    args: tuple[str, ...] = ()) -> Any:  # fmt: skip
@@ -414,7 +420,7 @@ def drag_and_measure(page: Any, frame: Any, view: Any, trace: Path, shape: tuple
     ``<img>``; an outer one with ``outer``, see :func:`pick_widget`), drag it out in timed steps, then back
     half-way in a paced drag. Returns the metrics and which widget moved."""
     view.scroll_into_view_if_needed()
-    box = view.bounding_box()
+    box = view_box(view)
     info = trigger(frame, "ffd_widget_px")
     index, dx, dy = pick_widget(info, box, shape, outer=outer)
     start = widget_xy(info, box, index)

@@ -23,6 +23,7 @@ from browser.helpers import (
     open_app_page,
     pick_widget,
     trigger,
+    view_box,
     wait_for,
     widget_xy,
 )
@@ -82,7 +83,7 @@ def test_two_tabs_follow_one_session_and_undo_each_other(app_url, tmp_path: Path
             before_b = _view_pixels(view_b)
 
             # a drag in tab A
-            box = view_a.bounding_box()
+            box = view_box(view_a)
             info = trigger(a, "ffd_widget_px")
             index, dx, dy = pick_widget(info, box, (5, 5, 5), outer=True)
             _drag(a, widget_xy(info, box, index), (dx, dy))

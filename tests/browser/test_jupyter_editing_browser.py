@@ -27,6 +27,7 @@ from browser.helpers import (
     settled_drag_state,
     start_lab,
     trigger,
+    view_box,
     wait_for,
 )
 from browser.test_surface_drag_browser import pin_then_drag_the_surface, surface
@@ -129,7 +130,7 @@ def test_surface_drag_then_the_registration_lattice_in_jupyterlab(tmp_path: Path
             # own scrolling of an element inside it waits for)
             page.locator("iframe.pyvista").first.scroll_into_view_if_needed()
             view.scroll_into_view_if_needed()
-            box = view.bounding_box()
+            box = view_box(view)
             before = spread(trigger(frame, "ffd_widget_px"))
             page.mouse.move(box["x"] + box["width"] / 2, box["y"] + box["height"] / 2)
             for _ in range(4):

@@ -18,7 +18,7 @@ from pathlib import Path
 import nbformat
 import numpy as np
 import pytest
-from browser.helpers import ARTIFACTS, launch_browser, start_lab, wait_for
+from browser.helpers import ARTIFACTS, launch_browser, start_lab, view_box, wait_for
 from playwright.sync_api import sync_playwright
 
 pytestmark = [pytest.mark.browser, pytest.mark.slow]
@@ -51,7 +51,7 @@ def picture(page, view) -> np.ndarray:
 
     from PIL import Image
 
-    box = view.bounding_box()  # in the page's viewport (the iframe was scrolled into view)
+    box = view_box(view)  # in the page's viewport (the iframe was scrolled into view)
     png = page.screenshot(clip={k: box[k] for k in ("x", "y", "width", "height")})
     return np.asarray(Image.open(io.BytesIO(png)).convert("RGB"), dtype=np.int16)
 
@@ -110,7 +110,7 @@ def test_gp_explorer_button_and_cut_viewer_plane_in_jupyterlab(tmp_path: Path):
             iframe, frame = lab.view_iframe(page, "explorer = GPExplorer(")
             view = frame.locator("img").first
             before = settled_picture(page, iframe, view)
-            box = view.bounding_box()
+            box = view_box(view)
             assert abs(box["width"] - SIZE[0]) <= 2 and abs(box["height"] - SIZE[1]) <= 2, box
             page.mouse.click(box["x"] + 25, box["y"] + box["height"] - 25)
             sampled = wait_for(lambda: (s := kernel_state(page, work))["gp_max"] > 0 and s, 60, "a sample")
@@ -123,7 +123,7 @@ def test_gp_explorer_button_and_cut_viewer_plane_in_jupyterlab(tmp_path: Path):
             iframe, frame = lab.view_iframe(page, "viewer = CutViewer(")
             view = frame.locator("img").first
             before = settled_picture(page, iframe, view)
-            box = view.bounding_box()
+            box = view_box(view)
             x, y = box["x"] + 0.5 * box["width"], box["y"] + 0.7 * box["height"]
             page.mouse.move(x, y)
             page.mouse.down()

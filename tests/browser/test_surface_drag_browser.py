@@ -12,7 +12,7 @@ import time
 
 import numpy as np
 import pytest
-from browser.helpers import ARTIFACTS, image_frames, launch_browser, open_app_page, wait_for
+from browser.helpers import ARTIFACTS, image_frames, launch_browser, open_app_page, view_box, wait_for
 from browser.test_app_browser import app  # noqa: F401  (the instrumented app fixture)
 from playwright.sync_api import sync_playwright
 
@@ -45,7 +45,7 @@ def pin_then_drag_the_surface(page, frame, view) -> dict:
     check on the server that the grabbed point followed the mouse, the pin held and the drag is one undo
     step. Returns the ``ffd_surface`` answer after the drag."""
     view.scroll_into_view_if_needed()
-    box = view.bounding_box()
+    box = view_box(view)
     grab_uv, pin_uv = choose_points(frame)
 
     # a click without movement pins the point under it

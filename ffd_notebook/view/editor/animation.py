@@ -18,11 +18,13 @@ writes one frame per step, so a front-end shows a progress bar and keeps answeri
 from __future__ import annotations
 
 import os
+import shutil
 from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+import pyvista as pv
 from numpy.typing import NDArray
 
 from ..._util.paths import StrPath
@@ -222,11 +224,10 @@ class Recording:
                     except Exception:
                         pass
                 plotter.mwriter = None  # closed: the plotter must not close it again
-                # open_gif registered the temporary file for sphinx-gallery's PyVista scraper (which moves a plotter's
-                # GIF into the gallery): the file written, or none
-                plotter._gif_filename = None
-        if suffix == ".gif":
-            plotter._gif_filename = target.resolve()
+        if suffix == ".gif" and written and pv.BUILDING_GALLERY:
+            # open_gif registered the temporary name for PyVista's sphinx-gallery scraper, which moves a plotter's
+            # GIF into the gallery page (its documented way to show an animation): a copy of the file is there
+            shutil.copyfile(target, temporary)
 
     def run(self, path: StrPath, progress: Callable[[int, int], None] | None = None) -> Path:
         """Write every frame to ``path`` (see :meth:`write`), then release the plotter; returns the path."""
