@@ -14,7 +14,7 @@ from .neighbourhoods import neighbourhood_distance, seam_error
 from .optimisation import synthesize_by_optimisation
 from .quality import color_histogram, colour_histogram, gradient_energy, histogram_distance, seam_energy
 from .sampling import SolidTexture, TextureSampler
-from .similarity import likeness, self_similarity, self_similarity_figure, volume_slices
+from .similarity import block_grid, likeness, self_similarity, self_similarity_figure, volume_slices
 from .slices import as_rgb8, sliding_crops, volume_from_slices
 from .synthesis import Stage, plan_stages, synthesize
 from .tetra import boundary_faces
@@ -27,6 +27,7 @@ __all__ = [
     "TextureSampler",
     "as_rgb8",
     "axis_ramp",
+    "block_grid",
     "block_weights",
     "boundary_faces",
     "box_mean",
