@@ -20,7 +20,7 @@ from numpy.typing import NDArray
 from .._util.colours import as_uint8
 from ..errors import FileFormatError
 
-__all__ = ["as_rgb8", "sliding_crops", "volume_from_slices"]
+__all__ = ["as_rgb8", "exemplar_volume", "sliding_crops", "volume_from_slices"]
 
 
 def as_rgb8(image: Any, name: str = "image") -> NDArray[np.uint8]:
@@ -61,6 +61,20 @@ def as_rgb8(image: Any, name: str = "image") -> NDArray[np.uint8]:
     if a.ndim != 3 or a.shape[2] not in (3, 4):
         raise ValueError(f"{name}: expected a 2D grey, RGB or RGBA image, got an array of shape {a.shape}")
     return np.ascontiguousarray(as_uint8(a[:, :, :3], name))
+
+
+def exemplar_volume(exemplar: Any, what: str = "exemplar") -> NDArray[np.uint8]:
+    """A ``(Z, Y, X, 3)`` colour exemplar as uint8 by the package's dtype policy (uint16, floats in [0, 1]...).
+
+    Examples
+    --------
+    >>> exemplar_volume(np.full((2, 2, 2, 3), 1.0))[0, 0, 0].tolist()
+    [255, 255, 255]
+    """
+    ex = np.asarray(exemplar)
+    if ex.ndim != 4 or ex.shape[3] != 3:
+        raise ValueError(f"{what} must be a (Z, Y, X, 3) colour volume, got shape {ex.shape}")
+    return np.ascontiguousarray(as_uint8(ex, what))
 
 
 def _read_image(path: str | os.PathLike[str]) -> NDArray[np.uint8]:

@@ -49,9 +49,10 @@ class TexturedOrgan:
     grid : pyvista.UnstructuredGrid
         Linear tetrahedra with point data ``"rest"`` (see :func:`tetrahedralize`).
     texture : SolidTexture or LazySolidTexture
-        Placed in the rest frame (e.g. ``SolidTexture.fit(volume, grid.bounds)``). A
-        :class:`~ffd_notebook.solidtex.LazySolidTexture` synthesises only the blocks that the
-        surface and each cut face sample, and keeps them for the next cut.
+        Placed in the rest frame (e.g. ``LazySolidTexture.fit(exemplar, grid.bounds)``, the organ's
+        default, or ``SolidTexture.fit(volume, grid.bounds)``). A
+        :class:`~ffd_notebook.solidtex.LazySolidTexture` synthesises only the voxels that the surface
+        and each cut face sample (with what they depend on), and keeps them for the next cut.
     subdivisions : int or "auto"
         Linear subdivisions of the outer surface before sampling (:func:`texture_surface`).
     face_subdivisions : int

@@ -187,11 +187,11 @@ def test_add_cut_draws_a_snapshot_that_later_deformations_do_not_change(grid, te
 
 def test_a_lazy_texture_is_cut_viewed_and_deformed_like_a_whole_one(grid):
     exemplar = volume_from_slices(sliding_crops(skimage.data.immunohistochemistry(), 32, 32, start=(90, 90)))
-    lazy = LazySolidTexture.fit(exemplar, grid.bounds, resolution=256, block=8)
+    lazy = LazySolidTexture.fit(exemplar, grid.bounds, resolution=128)
     organ = TexturedOrgan(grid.copy(), lazy, subdivisions=1)
     after_surface = lazy.tiles_synthesised
-    # the surface needs a shell of tiles, far fewer than the box holds
-    assert 0 < after_surface < 0.5 * np.prod(lazy.n_blocks)
+    # the surface needs a shell of voxels, far fewer than the box holds
+    assert 0 < lazy.voxels_synthesised < 0.5 * np.prod(lazy.shape)
     np.testing.assert_array_equal(organ.surface.point_data["RGB"], lazy.sample(organ.surface.point_data["rest"]))
     viewer = CutViewer(organ, normal=(1, 0, 0), window_size=(300, 200))
     after_cut = lazy.tiles_synthesised
