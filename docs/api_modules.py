@@ -14,7 +14,7 @@ from __future__ import annotations
 PUBLIC: dict[str, str] = {
     "ffd_notebook": "The top level: lattices, FFD and files",
     "ffd_notebook.ffd": "The FFD engine",
-    "ffd_notebook.io": "Files: lattices, transforms, meshes",
+    "ffd_notebook.io": "Files: lattices, transforms, registration tools, meshes",
     "ffd_notebook.gp": "Gaussian-process deformation models",
     "ffd_notebook.batch": "Batch deformation on Dask",
     "ffd_notebook.solidtex": "Solid textures",

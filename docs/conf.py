@@ -87,7 +87,8 @@ nb_execution_mode = "off"
 myst_enable_extensions = ["dollarmath"]
 suppress_warnings = ["mystnb.unknown_mime_type"]
 
-# --- the gallery: short scripts, each renders a picture
+# --- the gallery: short scripts, each renders a picture (or an animation: PyVista's scraper moves a plotter's GIF,
+# which ffd_notebook.animate leaves registered on its plotter)
 sphinx_gallery_conf = {
     "examples_dirs": ["gallery"],
     "gallery_dirs": ["auto_examples"],

@@ -1,4 +1,4 @@
-"""Pictures for the README, made from the package itself (offline, headless).
+"""Pictures for the README, made from the package itself (offline, headless): PNGs, and a GIF of a lesson.
 
 Run from the repository root::
 
@@ -81,6 +81,27 @@ def editor_image(path: str | Path, window_size: tuple[int, int] = (900, 560)) ->
     editor.close()
     _save_png(pixels, Path(path))
     return Path(path)
+
+
+def lesson_gif(path: str | Path, window_size: tuple[int, int] = (480, 330)) -> Path:
+    """A lesson as an animation (issue 33): the bundled face's chin pulled out and two rows of control points
+    pinched through each other, growing from rest while the camera turns a little (``editor.animate``)."""
+    import ffd_notebook.view  # noqa: F401  (headless settings before any plotter)
+    from ffd_notebook.view.editor import Editor
+
+    editor = Editor(shape=(4, 5, 4), off_screen=True, window_size=window_size)
+    s = editor.lattice.spacing
+    offsets = editor.lattice.offsets
+    offsets[0, 1, 3] = (-0.8 * s[0], 0.0, 0.3 * s[2])
+    offsets[3, 1, 3] = (0.8 * s[0], 0.0, 0.3 * s[2])
+    offsets[1:3, 2, 2:] += (0.0, 0.8 * s[1], 0.0)
+    offsets[1:3, 3, 2:] -= (0.0, 0.8 * s[1], 0.0)
+    editor.update()
+    target = Path(path)
+    target.parent.mkdir(parents=True, exist_ok=True)
+    editor.animate(target, frames=12, fps=6, orbit=30.0)  # written atomically
+    editor.close()
+    return target
 
 
 def gp_image(path: str | Path, window_size: tuple[int, int] = (900, 320)) -> Path:
@@ -178,6 +199,7 @@ def main() -> None:
         gp_image(IMAGES / "gp_fields.png"),
         solid_texture_image(IMAGES / "solid_texture.png"),
         face_image(IMAGES / "face_from_photo.png"),
+        lesson_gif(IMAGES / "lesson.gif"),
     ):
         print(f"{made}: {made.stat().st_size / 1024:.0f} KB")
 

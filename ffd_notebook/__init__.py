@@ -51,6 +51,7 @@ if TYPE_CHECKING:
     from .io import write_mesh as write_mesh
     from .io import write_obj as write_obj
     from .view import Editor as Editor
+    from .view import animate as animate
     from .view import edit as edit
 
 __version__ = "0.1.0"
@@ -83,6 +84,7 @@ _LAZY = {
     "warp_image": "ffd_notebook.images",
     "edit": "ffd_notebook.view",
     "Editor": "ffd_notebook.view",
+    "animate": "ffd_notebook.view",
 }
 
 __all__ = ["FFD", "Deformer", "FileFormatError", "Lattice", "__version__", *sorted(_LAZY)]

@@ -36,7 +36,7 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import NDArray
 
 __all__ = [
     "BLENDER_INTERPOLATIONS",
@@ -472,33 +472,17 @@ def ffd_from_record(record: dict[str, Any]) -> Any:
     spacing = np.linalg.norm(steps, axis=1)
     if not np.all(spacing > 0):
         raise ValueError("the lattice's rest points coincide along an axis (a zero scale?)")
-    rotation = (steps / spacing[:, None]).T
-    if np.allclose(rotation.T @ rotation, np.eye(3), atol=1e-5):  # float32 data: orthogonal up to rounding
-        u, _, vt = np.linalg.svd(rotation)
-        rotation = u @ vt
-    # else a sheared lattice (an object under a non-uniformly scaled, rotated parent): Lattice holds that too
-    lattice = Lattice(shape, spacing, origin=origin, rotation=rotation, border="clamp")
+    # float32 data: a rotation to rounding is made exact by Lattice (nearest_rotation); beyond that, a sheared
+    # lattice (an object under a non-uniformly scaled, rotated parent), which Lattice holds too
+    lattice = Lattice(shape, spacing, origin=origin, rotation=(steps / spacing[:, None]).T, border="clamp")
     expected = lattice.control_points()
     if not np.allclose(expected, world_rest, atol=1e-5 * float(spacing.max()) + 1e-9):
         raise ValueError("the lattice's rest points are not a regular grid")
     lattice.offsets[...] = (deformed - rest) @ linear.T
     interpolation = tuple(str(kind) for kind in record["interpolation"])
     basis: Any = "bspline" if interpolation == ("bspline",) * 3 else interpolation
-    ffd = FFD(lattice, basis=basis, border="clamp")
-    options = {"outside": bool(record.get("outside", False))}
-    strength = float(record.get("strength", 1.0))
-    weights = record.get("weights")
-    if options["outside"] or strength != 1.0 or weights is not None:
-        _set_blender_options(ffd, outside=options["outside"], strength=strength, weights=weights)
-    return ffd
-
-
-def _set_blender_options(ffd: Any, *, outside: bool, strength: float, weights: ArrayLike | None) -> None:
-    if not hasattr(ffd, "strength"):
-        raise NotImplementedError("this FFD engine has no strength, weights or outside mode yet")
-    ffd.outside = outside
-    ffd.strength = strength
-    ffd.weights = None if weights is None else np.asarray(weights, dtype=np.float64)
+    outside, strength = bool(record.get("outside", False)), float(record.get("strength", 1.0))
+    return FFD(lattice, basis=basis, border="clamp", outside=outside, strength=strength, weights=record.get("weights"))
 
 
 def record_from_ffd(ffd: Any) -> dict[str, Any]:

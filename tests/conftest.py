@@ -5,6 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
+import registration_reference
 
 # tests/ -> repo root -> the folder holding both the repo and shared/
 SHARED_DATA = Path(__file__).resolve().parent.parent.parent / "shared" / "data"
@@ -20,6 +21,19 @@ def shared_data() -> Path:
             pytrace=False,
         )
     return SHARED_DATA
+
+
+@pytest.fixture(scope="session")
+def niftyreg_run(tmp_path_factory):
+    """reg_aladin + reg_f3d -aff on a real MRI pair, and what reg_resample and reg_transform make of the grid
+    (``tests/registration_reference.py``; once per session, a few seconds)."""
+    return registration_reference.run_niftyreg(tmp_path_factory.mktemp("niftyreg"))
+
+
+@pytest.fixture(scope="session")
+def ants_run(tmp_path_factory):
+    """ANTs SyN on the MRI pair (separate files and a composite .h5), applied by ants.apply_transforms."""
+    return registration_reference.run_ants(tmp_path_factory.mktemp("ants"), tmp_path_factory.mktemp("ants_script"))
 
 
 def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:

@@ -105,3 +105,14 @@ def assert_unchanged(editor, snap):
     assert len(editor.session.history) == n_hist and editor.session.can_redo == can_redo
     np.testing.assert_array_equal(shown_points(editor), shown)
     assert editor.scene.lattice_actor.glyphs.n_points == n_widgets
+
+
+def full_slices(image, ffd, positions):
+    """The three slices at voxel ``positions`` (i, j, k) of the whole image warped by ``ffd`` (what saving writes)."""
+    import SimpleITK as sitk
+
+    from ffd_notebook.images import warp_image
+
+    full = sitk.GetArrayFromImage(warp_image(image, ffd))
+    i, j, k = positions
+    return {0: full[:, :, i], 1: full[:, j, :], 2: full[k]}

@@ -155,3 +155,36 @@ def test_ffd_argument_checks():
     with pytest.raises(TypeError):
         FFD("lattice")
     np.testing.assert_allclose(FFD(lat, "bernstein", affine=np.eye(4)[:3]).affine, np.eye(4))
+
+
+@pytest.mark.parametrize("basis", ["bspline", "bernstein"])
+def test_deformer_follows_the_ffd_s_weights_unless_it_has_its_own(basis):
+    """Weights set on the FFD after binding (or edited in place) reach the deformer, as its strength does."""
+    rng = np.random.default_rng(23)
+    pts = rng.normal(size=(600, 3))
+    lat = Lattice.around(pts, shape=5, basis=basis)
+    lat.offsets[...] = rng.normal(size=lat.offsets.shape) * 0.3
+    ffd = FFD(lat, basis=basis)
+    deformer = ffd.bind(pts, dtype=np.float64)
+    for weights in (rng.random(600), None, rng.random(600)):
+        ffd.weights = weights
+        np.testing.assert_allclose(deformer.current(), ffd.deform(pts), rtol=0, atol=1e-12)
+        lat.offsets[2, 2, 2] += 0.1
+        np.testing.assert_allclose(deformer.update([(2, 2, 2)]), ffd.deform(pts), rtol=0, atol=1e-12)
+        np.testing.assert_allclose(deformer.jacobian_determinant(), ffd.jacobian_determinant(pts), rtol=0, atol=1e-9)
+    ffd.weights[:300] = 0.0  # the FFD's array edited in place
+    np.testing.assert_allclose(deformer.update([(1, 1, 1)]), ffd.deform(pts), rtol=0, atol=1e-12)
+    assert np.array_equal(deformer.weights, ffd.weights)
+    ffd.weights = np.ones(5)  # weights for another point set: refused when used, and again next time
+    for _ in range(2):
+        with pytest.raises(ValueError, match="one number per point"):
+            deformer.update()
+    ffd.weights = None
+    # weights of its own (given at binding, or set) stay whatever the FFD's become
+    half = np.full(600, 0.5)
+    own = ffd.bind(pts, dtype=np.float64, weights=half)
+    ffd.weights = rng.random(600)
+    np.testing.assert_allclose(own.update(), ffd.deform(pts, weights=half), rtol=0, atol=1e-12)
+    deformer.weights = half
+    ffd.weights = None
+    np.testing.assert_allclose(deformer.update(), ffd.deform(pts, weights=half), rtol=0, atol=1e-12)

@@ -16,6 +16,7 @@ import time
 from pathlib import Path
 
 import pytest
+from PIL import Image
 
 REPO = Path(__file__).resolve().parents[1]
 DOCS = REPO / "docs"
@@ -91,12 +92,16 @@ def test_site_builds_strictly_and_documents_every_public_name(tmp_path: Path):
 
     pages = sorted(out.rglob("*.html"))
     gallery = sorted((out / "auto_examples").glob("plot_*.html"))
-    pictures = [p for p in sorted((out / "_images").glob("sphx_glr_plot_*.png")) if not p.stem.endswith("_thumb")]
+    pictures = [p for p in sorted((out / "_images").glob("sphx_glr_plot_*")) if p.suffix in (".png", ".gif")
+                and not p.stem.endswith("_thumb")]  # fmt: skip
     print(
         f"\nsite built in {seconds:.0f} s: {len(pages)} pages, {len(gallery)} gallery examples, "
         f"{len(pictures)} pictures"
     )
     assert len(gallery) >= 6 and len(pictures) >= len(gallery), (gallery, pictures)
+    # the animation's page shows the GIF the example wrote (issue 33), moving: its frames are all there
+    animated = [p for p in pictures if p.name.startswith("sphx_glr_plot_animation") and p.suffix == ".gif"]
+    assert animated and Image.open(animated[0]).n_frames > 1, pictures
 
     api = _api_modules()
     missing = [name for name, page in _expected_pages(api).items()

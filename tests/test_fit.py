@@ -105,6 +105,31 @@ def test_points_the_lattice_cannot_reach_get_no_change():
     assert not change.any() and not ffd.lattice.offsets.any()
 
 
+@pytest.mark.parametrize("basis, border", CASES)
+def test_only_inside_points_outside_the_domain_neither_move_nor_steer_the_fit(basis, border):
+    """``only_inside``: the lattice moves no point outside its domain, so a target there asks nothing of it."""
+    ffd = make_ffd(6, basis, border, shape=(6, 6, 6))
+    ffd.only_inside = True
+    rng = np.random.default_rng(7)
+    lattice_coordinates = np.vstack([rng.uniform(1.1, 1.9, size=(1, 3)),  # inside every domain (ITK's, PyGeM's)
+                                     [[0.5, 2.0, 2.0]], [[-0.4, 1.5, 2.5]]])  # fmt: skip
+    if basis == "bernstein":  # its domain is the whole box: outside it is below 0
+        lattice_coordinates[1, 0] = -0.2
+    pts = ffd.lattice.to_world(lattice_coordinates)
+    index, weight = control_weights(ffd, pts)
+    rows = np.zeros((len(pts), ffd.lattice.n_points))
+    np.add.at(rows, (np.arange(len(pts))[:, None].repeat(index.shape[1], 1), index), weight)
+    np.testing.assert_allclose(rows, full_weight_matrix(ffd, pts), atol=1e-14)
+    assert not rows[1:].any()
+    before = ffd.deform(pts)
+    targets = before + rng.normal(size=(3, 3)) * ffd.lattice.spacing.min() * 0.2
+    change = ffd.fit_points(pts, targets)
+    np.testing.assert_allclose(ffd.deform(pts[:1]), targets[:1], atol=1e-9)  # met, and the least-norm change
+    w = full_weight_matrix(ffd, pts[:1])[0]
+    np.testing.assert_allclose(change.reshape(-1, 3), np.outer(w / (w @ w), targets[0] - before[0]), atol=1e-12)
+    np.testing.assert_array_equal(ffd.deform(pts[1:]), before[1:])
+
+
 def test_bad_arguments():
     ffd = FFD(Lattice((4, 4, 4), 1.0))
     with pytest.raises(ValueError, match="targets"):

@@ -97,3 +97,76 @@ def test_edges_copy_equality_and_repr():
     assert other == lat
     other.offsets[0, 0, 0, 0] = 1
     assert other != lat and "moved=1/24" in repr(other)
+
+
+def _near_rotation(error, seed=3):
+    """A matrix of unit columns whose ``|M.T @ M - I|`` is about ``error``, near a random reflection."""
+    rng = np.random.default_rng(seed)
+    tilt = rng.uniform(-1.0, 1.0, (3, 3))
+    tilt = (tilt + tilt.T) / 2 - np.diag(np.diag(tilt))
+    m = random_rotation(rng, reflect=True) @ (np.eye(3) + tilt * error / np.abs(tilt).max() / 2)
+    return m / np.linalg.norm(m, axis=0)
+
+
+def _blender_lattice(m):
+    from ffd_notebook.blender import ffd_from_record
+
+    rest = np.stack(np.meshgrid(*[[-0.5, 0.0, 0.5]] * 3, indexing="ij"), axis=-1)
+    matrix = np.eye(4)
+    matrix[:3, :3], matrix[:3, 3] = m * [2.0, 3.0, 4.0], (1.0, 2.0, 3.0)
+    record = {"shape": (3, 3, 3), "rest": rest, "deformed": rest, "matrix_world": matrix,
+              "interpolation": ("bspline",) * 3}  # fmt: skip
+    return ffd_from_record(record).lattice
+
+
+def _elastix_lattice(m, folder):
+    from ffd_notebook.io import load_deformation, save_deformation
+
+    path = folder / "TransformParameters.0.txt"
+    save_deformation(path, FFD(Lattice((5, 5, 5), 2.0, origin=(-3.0, 1.0, 2.0))), format="elastix")
+    text = path.read_text()
+    written = " ".join(repr(float(v)) for v in m.T.ravel())
+    text = "\n".join(f"(GridDirection {written})" if line.startswith("(GridDirection") else line
+                     for line in text.splitlines())  # fmt: skip
+    path.write_text(text)
+    return load_deformation(path).lattice
+
+
+def _itk_lattice(m, folder):
+    import SimpleITK as sitk
+
+    from ffd_notebook.io import load_transform
+
+    transform = sitk.BSplineTransform(3, 3)
+    transform.SetTransformDomainMeshSize((2, 2, 2))
+    transform.SetTransformDomainPhysicalDimensions((4.0, 4.0, 4.0))
+    transform.SetTransformDomainDirection(tuple(m.ravel()))
+    sitk.WriteTransform(transform, str(folder / "t.tfm"))
+    return load_transform(folder / "t.tfm").lattice
+
+
+@pytest.mark.parametrize("error", [1e-7, 6e-7, 3e-6, 1e-4])
+def test_every_reader_tells_rotations_from_sheared_grids_alike(tmp_path, error):
+    """One tolerance: within it ITK, elastix, Blender and Lattice snap to the nearest rotation; beyond, none does."""
+    from ffd_notebook.errors import FileFormatError
+    from ffd_notebook.ffd.lattice import ROTATION_TOLERANCE, nearest_rotation, orthogonality_error
+
+    m = _near_rotation(error)
+    assert error / 3 < orthogonality_error(m) < 3 * error
+    snapped = nearest_rotation(m)
+    readers = {"lattice": lambda: Lattice((4, 4, 4), 1.0, rotation=m), "blender": lambda: _blender_lattice(m),
+               "elastix": lambda: _elastix_lattice(m, tmp_path)}  # fmt: skip
+    if orthogonality_error(m) <= ROTATION_TOLERANCE:
+        assert orthogonality_error(snapped) < 1e-14 and np.abs(snapped - m).max() < ROTATION_TOLERANCE
+        for name, read in {**readers, "itk": lambda: _itk_lattice(m, tmp_path)}.items():
+            lattice = read()
+            assert not lattice.sheared, name
+            np.testing.assert_allclose(lattice.rotation, snapped, rtol=0, atol=1e-14, err_msg=name)
+    else:
+        assert snapped is None
+        for name, read in readers.items():  # the ones that hold a sheared lattice
+            lattice = read()
+            assert lattice.sheared, name
+            np.testing.assert_allclose(lattice.rotation, m, rtol=0, atol=1e-12, err_msg=name)
+        with pytest.raises(FileFormatError, match="not orthogonal"):
+            _itk_lattice(m, tmp_path)

@@ -111,10 +111,9 @@ def _model(args: argparse.Namespace, parser: argparse.ArgumentParser):
             border=args.border or "zero",
         )
     if args.model == "gp":
-        ncp = _one_or_three(args.num_control_points, "--num-control-points", parser)
-        ncp = ncp if isinstance(ncp, int) else ncp[0]
+        counts = _one_or_three(args.num_control_points, "--num-control-points", parser)
         return RandomGP(kernel=args.kernel, scale=args.scale, sigma=args.sigma, rank=args.rank,
-                        n_inducing=args.n_inducing, num_control_points=ncp)  # fmt: skip
+                        n_inducing=args.n_inducing, num_control_points=counts)  # fmt: skip
     if not args.files:
         parser.error("--model files needs --files")
     if args.basis or args.border:

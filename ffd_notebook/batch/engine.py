@@ -30,7 +30,7 @@ from ..images import IMAGE_INTERPOLATIONS
 from .files import LatticeFiles
 from .folding import FoldFree
 from .output import MESH_OUTPUT_FORMATS, Layout
-from .sample import Job, context, deformed_mesh, job_layout, load_sample, mesh_sha256, run_samples, warped_image
+from .sample import Job, context, deformed_mesh, file_sha256, job_layout, load_sample, run_samples, warped_image
 
 __all__ = ["BatchResult", "generate", "replay"]
 
@@ -285,11 +285,11 @@ def generate(
     mesh_path = Path(mesh).resolve()
     image_path, label_path = (None if path is None else str(Path(path).resolve()) for path in (image, label_image))
     job = Job(str(mesh_path), model.to_spec(), int(seed), rule, str(Path(out).resolve()), format, image_path,
-              label_path, image_interpolation)  # fmt: skip
+              label_path, image_interpolation).with_file_digests()  # fmt: skip
     with one_blas_thread():
         context(job)  # an unreadable mesh or image, a model that does not fit: fails here, before any work
     layout = job_layout(job)
-    layout.claim(job.settings(mesh_sha256(mesh_path)))
+    layout.claim(job.settings(file_sha256(mesh_path)))
     result = BatchResult(layout.root)
     todo: list[int] = []
     for i in range(n):
@@ -366,10 +366,13 @@ def replay(out: str | os.PathLike[str], index: int, *, part: str = "mesh"):
     rows = [r for r in layout.records() if int(r["id"]) == int(index)]
     if not rows:
         raise KeyError(f"{layout.root} has no finished sample {index}")
-    if mesh_sha256(job.mesh) != settings["mesh_sha256"]:
-        raise ValueError(f"{job.mesh} changed since the run: its samples cannot be replayed from it")
-    for kind, path in job.images.items():
-        if mesh_sha256(path) != settings["images"][kind]["sha256"]:
+    if job.model_files and not job.files_sha256:
+        raise ValueError(f"{layout.run_file} records no SHA-256 of the model's deformation files (a run made before "
+                         "they were recorded): its samples cannot be checked against them; run it again")  # fmt: skip
+    recorded = [(job.mesh, settings["mesh_sha256"]), *zip(job.model_files, job.files_sha256, strict=True)]
+    recorded += [(path, settings["images"][kind]["sha256"]) for kind, path in job.images.items()]
+    for path, digest in recorded:
+        if file_sha256(path) != digest:
             raise ValueError(f"{path} changed since the run: its samples cannot be replayed from it")
     with one_blas_thread():
         ctx = context(job)

@@ -21,7 +21,7 @@ from numpy.typing import NDArray
 from ..ffd import FFD, Deformer
 from ..ffd.jacobian import bspline_jacobian_factors, bspline_lattice_jacobian, det3, jacobian_to_world
 from ..ffd.support import CellGroups, in_domain
-from .models import LatticeSample, with_lattice
+from .models import LatticeSample
 
 __all__ = ["PointEvaluator"]
 
@@ -36,14 +36,15 @@ class _BsplineJacobian:
     :func:`~ffd_notebook.ffd.jacobian.bspline_jacobian_factors`, kept; the cache holds 416 bytes
     a point). The grouping pads the offsets by the FFD's border rule; with ``only_inside`` the
     points outside the lattice's domain get the affine part's Jacobian alone, as in
-    :meth:`FFD.jacobian`.
+    :meth:`FFD.jacobian`; the offsets are those in use (``outside``) and the strength scales the
+    result as there.
     """
 
     def __init__(self, ffd: FFD, points: NDArray[np.float64]) -> None:
         uvw = ffd.lattice.to_lattice(points)
         self.cells = CellGroups(uvw, ffd.lattice.shape, ffd.border)
         # in sorted order, like the cell sums; None when every point may move
-        outside = ~in_domain(ffd.basis, ffd.lattice.shape, uvw) if ffd.only_inside else None
+        outside = ~in_domain(ffd.basis, ffd.lattice.shape, uvw, ffd.only_inside) if ffd.only_inside else None
         self.outside = None if outside is None else outside[self.cells.order]
         t = self.cells.t
         assert t is not None  # a fresh grouping keeps its t
@@ -53,10 +54,15 @@ class _BsplineJacobian:
         self.inverse[self.cells.order] = np.arange(len(points), dtype=self.cells.order.dtype)
 
     def __call__(self, ffd: FFD) -> NDArray[np.float64]:
-        d_uvw = bspline_lattice_jacobian(self.cells, ffd.lattice.offsets, factors=self.factors)
+        d_uvw = bspline_lattice_jacobian(self.cells, ffd.offsets_in_use(), factors=self.factors)
         if self.outside is not None:
             d_uvw[self.outside] = 0.0
-        return det3(jacobian_to_world(ffd.lattice, ffd.affine, d_uvw))[self.inverse]
+        jacobian = jacobian_to_world(ffd.lattice, ffd.affine, d_uvw)
+        if ffd.strength != 1.0:  # I + s (J - I), as FFD.jacobian
+            jacobian -= np.eye(3)
+            jacobian *= ffd.strength
+            jacobian += np.eye(3)
+        return det3(jacobian)[self.inverse]
 
 
 class PointEvaluator:
@@ -67,8 +73,8 @@ class PointEvaluator:
     points : (N, 3) ndarray
         The points (a mesh's vertices, or vertices and a volume grid).
     template : FFD, optional
-        An FFD whose placement (lattice geometry, basis, border rule, affine part,
-        ``only_inside``) the samples share; without one every sample is evaluated directly.
+        An FFD whose placement and options (lattice geometry, basis, border rule, affine part,
+        ``only_inside``, ``outside``, strength) the samples share; without one every sample is evaluated directly.
 
     Examples
     --------
@@ -86,7 +92,7 @@ class PointEvaluator:
         self.points = points
         self._template = None
         if template is not None:  # on its own lattice copy: the deformer writes the samples' offsets into it
-            self._template = with_lattice(template, template.lattice.copy())
+            self._template = template.copy()
         # built on first use: the vertices only ever deform, the check points only give det J
         self._deformer: Deformer | None = None
         self._jacobian: _BsplineJacobian | None = None
@@ -101,6 +107,10 @@ class PointEvaluator:
             ffd.basis == mine.basis
             and ffd.border == mine.border
             and ffd.only_inside == mine.only_inside
+            and ffd.outside == mine.outside
+            and ffd.strength == mine.strength
+            and ffd.weights is None
+            and mine.weights is None
             and lat.shape == other.shape
             and np.array_equal(lat.spacing, other.spacing)
             and np.array_equal(lat.origin, other.origin)

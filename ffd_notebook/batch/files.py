@@ -21,7 +21,7 @@ from numpy.typing import ArrayLike
 
 from ..ffd.deform import FFD
 from ..io.deformation_files import load_deformation
-from .models import LatticeSample, with_lattice
+from .models import LatticeSample
 
 __all__ = ["LatticeFiles"]
 
@@ -127,5 +127,4 @@ class BoundFiles:
         """File ``index`` (no randomness), on a copy of its lattice."""
         if not 0 <= index < len(self.deformations):
             raise IndexError(f"sample {index}: only {len(self.deformations)} files were given")
-        ffd = self.deformations[index]
-        return LatticeSample(with_lattice(ffd, ffd.lattice.copy()))
+        return LatticeSample(self.deformations[index].copy())

@@ -16,6 +16,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..ffd.lattice import Lattice
 from ..gp import BSplineKernel, GaussianKernel, GaussianProcess, Kernel, LowRankGP
+from .models import as_triple
 
 __all__ = ["GPSample", "RandomGP"]
 
@@ -41,8 +42,8 @@ class RandomGP:
         component (B-spline), world units.
     sigma : float
         Width of the Gaussian kernel, world units (unused by the B-spline kernel).
-    num_control_points : int
-        Lattice size of the B-spline kernel (at least 4).
+    num_control_points : int or three ints
+        Lattice size of the B-spline kernel, one count for every axis or one per axis (each at least 4).
     rank, n_inducing : int
         Basis functions kept; inducing points of the Nystrom approximation.
     seed : int
@@ -67,7 +68,7 @@ class RandomGP:
     kernel: str = "gaussian"
     scale: float = 5.0
     sigma: float = 50.0
-    num_control_points: int = 7
+    num_control_points: int | tuple[int, int, int] = 7
     rank: int = 50
     n_inducing: int = 300
     seed: int = 0
@@ -81,8 +82,12 @@ class RandomGP:
             value = getattr(self, field)
             if not (isinstance(value, int | float) and np.isfinite(value) and value > 0):
                 raise ValueError(f"{field} must be a positive number, got {value!r}")
-        if self.kernel == "bspline" and not (isinstance(self.num_control_points, int) and self.num_control_points >= 4):
-            raise ValueError(f"the B-spline kernel needs num_control_points >= 4, got {self.num_control_points!r}")
+        count = self.num_control_points
+        shape = as_triple(count, "num_control_points", int)  # one number or three, as RandomLattice's
+        if self.kernel == "bspline" and min(shape) < 4:
+            raise ValueError(f"the B-spline kernel needs num_control_points >= 4 per axis, got {count!r}")
+        # three numbers (a spec's list too): a tuple; one number stays one (the run.json of earlier runs)
+        object.__setattr__(self, "num_control_points", shape if np.ndim(count) else shape[0])
         for field in ("rank", "n_inducing"):
             if not (isinstance(getattr(self, field), int) and getattr(self, field) >= 1):
                 raise ValueError(f"{field} must be a positive integer, got {getattr(self, field)!r}")
@@ -101,7 +106,7 @@ class RandomGP:
         >>> spec["model"], spec["kernel"], spec["sigma"]
         ('gp', 'gaussian', 20.0)
         """
-        return {"model": self.name, **asdict(self)}
+        return {"model": self.name, **{k: list(v) if isinstance(v, tuple) else v for k, v in asdict(self).items()}}
 
     def bind(self, points: ArrayLike) -> BoundGP:
         """Build the low-rank model on the points (a mesh's vertices).

@@ -23,22 +23,14 @@ from ..ffd.support import Border, check_border
 __all__ = ["LatticeSample", "RandomLattice"]
 
 
-def with_lattice(ffd: FFD, lattice: Lattice) -> FFD:
-    """An FFD like ``ffd`` (basis, border rule, affine part, ``only_inside``) on another lattice.
+def as_triple(value: Any, name: str, kind: type) -> tuple:
+    """A scalar or three values, as a tuple of three ``kind`` (TorchIO accepts both).
 
     Examples
     --------
-    >>> from ffd_notebook import Lattice
-    >>> ffd = FFD(Lattice((4, 4, 4), 1.0), border="clamp", only_inside=True)
-    >>> other = with_lattice(ffd, Lattice((5, 5, 5), 2.0))
-    >>> other.border, other.only_inside, other.lattice.shape
-    ('clamp', True, (5, 5, 5))
+    >>> as_triple(5, "num_control_points", int), as_triple([1, 2, 3.5], "max_displacement", float)
+    ((5, 5, 5), (1.0, 2.0, 3.5))
     """
-    return FFD(lattice, basis=ffd.basis, border=ffd.border, affine=ffd.affine, only_inside=ffd.only_inside)
-
-
-def _triple(value: Any, name: str, kind: type) -> tuple:
-    """A scalar or three values, as a tuple of three ``kind`` (TorchIO accepts both)."""
     arr = np.asarray(value, dtype=np.float64)
     if arr.ndim == 0:
         arr = np.repeat(arr, 3)
@@ -152,9 +144,9 @@ class LatticeSample:
         >>> half.ffd.lattice.offsets[1, 1, 1].tolist(), sample.ffd.lattice.offsets[1, 1, 1].tolist()
         ([0.1, 0.0, 0.0], [0.2, 0.0, 0.0])
         """
-        lattice = self.ffd.lattice.copy()
-        lattice.offsets *= factor
-        return LatticeSample(with_lattice(self.ffd, lattice), self.scale * factor)
+        ffd = self.ffd.copy()  # every option kept: only the offsets are scaled
+        ffd.lattice.offsets *= factor
+        return LatticeSample(ffd, self.scale * factor)
 
 
 @dataclass(frozen=True)
@@ -213,7 +205,7 @@ class RandomLattice:
     name = "random-lattice"
 
     def __post_init__(self) -> None:
-        shape = _triple(self.num_control_points, "num_control_points", int)
+        shape = as_triple(self.num_control_points, "num_control_points", int)
         if self.basis not in BASES:
             raise ValueError(f"basis must be one of {BASES}, got {self.basis!r}")
         least = 4 if self.basis == "bspline" else 2
@@ -222,7 +214,7 @@ class RandomLattice:
                 f"the {'cubic B-spline' if least == 4 else 'Bernstein'} basis needs at least {least} "
                 f"control points per axis, got {shape}"
             )
-        disp = _triple(self.max_displacement, "max_displacement", float)
+        disp = as_triple(self.max_displacement, "max_displacement", float)
         if min(disp) < 0:
             raise ValueError(f"max_displacement must be >= 0, got {self.max_displacement!r}")
         if self.locked_borders not in (0, 1, 2):

@@ -22,7 +22,7 @@ import json
 import os
 import threading
 import time
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -85,20 +85,34 @@ class Job:
     image: str | None = None
     label_image: str | None = None
     interpolation: str = "linear"  # of the image; the label map is always "nearest"
+    #: SHA-256 of the model's deformation files (:class:`LatticeFiles`), in its order: what their samples
+    #: are made of, so part of the run's identity, and of the key of a process's cached context
+    files_sha256: tuple[str, ...] = ()
 
     @property
     def images(self) -> dict[str, str]:
         """``{"image": path, "label": path}`` for the images given (none: an empty dict)."""
         return {kind: path for kind, path in (("image", self.image), ("label", self.label_image)) if path}
 
+    @property
+    def model_files(self) -> list[str]:
+        """The deformation files the model reads (:class:`LatticeFiles`), else an empty list."""
+        return list(self.spec.get("files", [])) if self.spec.get("model") == LatticeFiles.name else []
+
+    def with_file_digests(self) -> Job:
+        """This job with :attr:`files_sha256` read from its model's files now."""
+        return replace(self, files_sha256=tuple(file_sha256(path) for path in self.model_files))
+
     def settings(self, mesh_digest: str) -> dict[str, Any]:
         """The run's identity, stored in ``run.json`` (the sample count is not part of it)."""
         rule = None if self.rule is None else asdict(self.rule)
         settings = {"mesh": self.mesh, "mesh_sha256": mesh_digest, "model": self.spec, "seed": self.seed,
                     "fold_free": rule, "format": self.format}  # fmt: skip
+        if self.files_sha256:  # only then: other runs keep the run.json they always had
+            settings["files_sha256"] = list(self.files_sha256)
         if self.images:  # only then: a run without images keeps the run.json it always had
             settings["images"] = {
-                kind: {"path": path, "sha256": mesh_sha256(path)} for kind, path in self.images.items()
+                kind: {"path": path, "sha256": file_sha256(path)} for kind, path in self.images.items()
             }
             settings["image_interpolation"] = self.interpolation
         return settings
@@ -110,7 +124,7 @@ class Job:
         image, label = (images[kind]["path"] if kind in images else None for kind in ("image", "label"))
         interpolation = settings.get("image_interpolation", "linear")
         return cls(settings["mesh"], settings["model"], settings["seed"], rule, str(out), settings["format"], image,
-                   label, interpolation)  # fmt: skip
+                   label, interpolation, tuple(settings.get("files_sha256", ())))  # fmt: skip
 
 
 def job_layout(job: Job) -> Layout:
@@ -153,7 +167,8 @@ def context(job: Job) -> Context:
     """The mesh and bound model of ``job``, built once per process (and per file version)."""
     files = [job.mesh, *job.images.values()]
     versions = [(path, os.stat(path).st_mtime_ns, os.stat(path).st_size) for path in files]
-    key = json.dumps([versions, job.spec, job.rule and job.rule.grid], sort_keys=True)
+    # the model's files by their contents (a file edited within the clock's tick keeps its time and size)
+    key = json.dumps([versions, job.spec, job.files_sha256, job.rule and job.rule.grid], sort_keys=True)
     with _LOCK:  # threads of one worker share it; building it twice would only waste time
         if key not in _CONTEXTS:
             mesh = read_mesh(job.mesh)
@@ -346,8 +361,8 @@ def _make_sample(job: Job, layout: Layout, index: int) -> dict[str, Any]:
         return {"id": index, "error": f"sample {index}: {type(exc).__name__}: {exc}"}
 
 
-def mesh_sha256(path: str | os.PathLike[str]) -> str:
-    """SHA-256 of a file: the source mesh or an input image (ties a run folder to them)."""
+def file_sha256(path: str | os.PathLike[str]) -> str:
+    """SHA-256 of a file: the source mesh, an input image or a deformation file (ties a run folder to them)."""
     import hashlib
 
     digest = hashlib.sha256()

@@ -2,8 +2,9 @@
 
 Plain NumPy/SciPy. :class:`Lattice` holds the control points, :class:`FFD` evaluates a deformation
 once (``deform``, ``jacobian``, ``fit_points``), :class:`Deformer` is an FFD bound to one point set
-for repeated updates (the editor's drag path). Where the B-spline's support meets the lattice's
-border is decided in one module, :mod:`ffd_notebook.ffd.support`.
+for repeated updates (the editor's drag path), :class:`GridEvaluator` evaluates a deformation on
+the voxels of an image grid (separably when the lattice runs along it). Where the B-spline's
+support meets the lattice's border is decided in one module, :mod:`ffd_notebook.ffd.support`.
 
 Examples
 --------
@@ -21,7 +22,8 @@ from __future__ import annotations
 from .basis import BasisName
 from .deform import FFD
 from .deformer import Deformer
+from .grid import GridEvaluator
 from .lattice import Lattice
 from .support import Border
 
-__all__ = ["FFD", "BasisName", "Border", "Deformer", "Lattice"]
+__all__ = ["FFD", "BasisName", "Border", "Deformer", "GridEvaluator", "Lattice"]

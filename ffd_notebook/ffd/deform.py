@@ -24,7 +24,7 @@ from .interpolation import axis_bases, check_basis
 from .jacobian import bernstein_lattice_jacobian, bspline_lattice_jacobian, det3, jacobian_to_world
 from .lattice import Lattice
 from .outside import outside_offsets
-from .support import Border, CellGroups, check_border, in_domain
+from .support import Border, CellGroups, check_border, check_only_inside, in_domain
 
 __all__ = ["FFD"]
 
@@ -64,12 +64,14 @@ class FFD:
         with ``"clamp"`` or loaded from a .ffd file that says so), read at every evaluation.
     affine : array_like, optional
         4x4 homogeneous (or 3x4) matrix of the global part ``x -> A x + b``; identity if omitted.
-    only_inside : bool
+    only_inside : bool or "half-open"
         If true, the lattice displaces only the points inside its domain and leaves the others
         to the affine part alone: the box ``0 <= u <= n - 1`` (lattice coordinates) for the
         Bernstein basis, as PyGeM does, and the region where the B-spline weights sum to one,
         ``1 <= u <= n - 2``, for the B-spline basis, as ITK's ``BSplineTransform`` does. The
         deformation is then discontinuous where the offsets near the domain's faces are not zero.
+        ``"half-open"``: the same domain without its far faces (``u < n - 2``), elastix's valid
+        region (a point exactly on such a face moves under ITK and not under elastix).
     outside : bool
         Blender's "outside" lattice: only the control points on the lattice's surface are free;
         each inner one follows them, at the mean of the linear interpolations between opposite
@@ -102,7 +104,7 @@ class FFD:
         basis: BasisName | tuple[str, str, str] = "bspline",
         border: Border | None = None,
         affine: ArrayLike | None = None,
-        only_inside: bool = False,
+        only_inside: bool | str = False,
         *,
         outside: bool = False,
         strength: float = 1.0,
@@ -118,7 +120,7 @@ class FFD:
             raise ValueError(f"{what} with border 'zero' needs at least 4 control points per axis, got {lattice.shape}")
         self.basis: BasisName | tuple[str, str, str] = basis
         self.affine = _check_affine(affine)
-        self.only_inside = bool(only_inside)
+        self.only_inside: bool | str = check_only_inside(only_inside)
         self.outside = bool(outside)
         self.strength = strength
         self.weights = weights
@@ -163,6 +165,49 @@ class FFD:
         offsets = self.lattice.offsets
         return outside_offsets(offsets) if self.outside else offsets
 
+    def copy(self, lattice: Lattice | None = None, **changes: Any) -> FFD:
+        """A new FFD with every option of this one, on a copy of its lattice or on ``lattice``.
+
+        The options are the basis, the border rule in use, the affine part, ``only_inside``,
+        ``outside``, the strength and the per-point weights (copied); ``changes`` replace some
+        of them by name, as :func:`dataclasses.replace` does. Whatever makes a second FFD like
+        a first one (a batch sample on its own lattice, an undo step) goes through here, so a
+        new option is carried everywhere by being added once.
+
+        Parameters
+        ----------
+        lattice : Lattice, optional
+            The lattice of the new FFD (used as it is, not copied); a copy of this one's by default.
+        **changes
+            New values for some of ``basis``, ``border``, ``affine``, ``only_inside``,
+            ``outside``, ``strength``, ``weights``.
+
+        Returns
+        -------
+        FFD
+            The new FFD; this one is unchanged.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from ffd_notebook import Lattice, FFD
+        >>> ffd = FFD(Lattice((4, 4, 4), 1.0), border="clamp", outside=True, strength=0.4)
+        >>> other = ffd.copy(Lattice((5, 5, 5), 2.0))
+        >>> other.border, other.outside, other.strength, other.lattice.shape
+        ('clamp', True, 0.4, (5, 5, 5))
+        >>> ffd.copy(strength=1.0).strength, ffd.copy().lattice is ffd.lattice
+        (1.0, False)
+        """
+        weights = self.weights.copy() if isinstance(self.weights, np.ndarray) else self.weights
+        options: dict[str, Any] = {"basis": self.basis, "border": self.border, "affine": self.affine.copy(),
+                                   "only_inside": self.only_inside, "outside": self.outside,
+                                   "strength": self.strength, "weights": weights}  # fmt: skip
+        unknown = set(changes) - set(options)
+        if unknown:
+            raise TypeError(f"FFD.copy() got unknown options {sorted(unknown)}; known: {sorted(options)}")
+        options.update(changes)
+        return FFD(self.lattice.copy() if lattice is None else lattice, **options)
+
     def baked(self) -> FFD:
         """The same deformation with strength 1 and no ``outside`` rule: their effect put in the offsets and affine.
 
@@ -195,7 +240,7 @@ class FFD:
             lattice.offsets *= s
             affine[:3, :3] = np.eye(3) + s * (affine[:3, :3] - np.eye(3))
             affine[:3, 3] *= s
-        return FFD(lattice, self.basis, border=self.border, affine=affine, only_inside=self.only_inside)
+        return self.copy(lattice, affine=affine, outside=False, strength=1.0, weights=None)
 
     def _factor(self, points: Any, n: int, strength: Any, weights: Any) -> NDArray[np.float64] | None:
         """Per-point ``strength * weight`` of a call (the FFD's own where the call gives none)."""
@@ -262,7 +307,7 @@ class FFD:
         lat = self.lattice
         rows = oneshot.displacement(self.basis, self.offsets_in_use(), oneshot.lattice_rows(lat, pts), self.border)
         if self.only_inside:  # the domain test on to_lattice's coordinates, as the cached path does
-            rows[:, ~in_domain(self.basis, lat.shape, lat.to_lattice(pts))] = 0.0
+            rows[:, ~in_domain(self.basis, lat.shape, lat.to_lattice(pts), self.only_inside)] = 0.0
         return rows
 
     def deform(self, points: ArrayLike, *, strength: float | None = None, weights: Any = None) -> NDArray[np.float64]:
@@ -356,7 +401,7 @@ class FFD:
             assert cells.t is not None  # a fresh grouping keeps its t
             d_uvw = cells.unsort(bspline_lattice_jacobian(cells, offsets, cells.t, bases=bases))
         if self.only_inside:
-            d_uvw[~in_domain(self.basis, lat.shape, uvw)] = 0.0
+            d_uvw[~in_domain(self.basis, lat.shape, uvw, self.only_inside)] = 0.0
         jacobian = jacobian_to_world(lat, self.affine, d_uvw)
         if factor is not None:
             jacobian -= np.eye(3)
@@ -479,7 +524,7 @@ class FFD:
 
     def __repr__(self) -> str:
         affine = "identity" if np.array_equal(self.affine, np.eye(4)) else "set"
-        extra = ", only_inside=True" if self.only_inside else ""
+        extra = f", only_inside={self.only_inside!r}" if self.only_inside else ""
         extra += ", outside=True" if self.outside else ""
         extra += f", strength={self.strength:g}" if self.strength != 1.0 else ""
         extra += ", weights=set" if self.weights is not None else ""

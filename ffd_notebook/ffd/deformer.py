@@ -48,8 +48,10 @@ class Deformer:
         :attr:`~ffd_notebook.FFD.strength`, read at each update.
     weights : array_like or str, optional
         One weight in [0, 1] per point scaling its displacement (Blender's vertex group), or the
-        name of a point-data array of the mesh given as ``points``; by default the FFD's
-        :attr:`~ffd_notebook.FFD.weights`. Settable later (:attr:`weights`).
+        name of a point-data array of the mesh given as ``points``: the deformer's own, kept
+        whatever the FFD's become. By default the FFD's :attr:`~ffd_notebook.FFD.weights`,
+        followed as its strength is: read again at each update when they were set or edited.
+        Settable later (:attr:`weights`, which makes them the deformer's own).
 
     Notes
     -----
@@ -80,8 +82,12 @@ class Deformer:
         if self.dtype not in (np.float32, np.float64):
             raise ValueError(f"dtype must be float32 or float64, got {self.dtype}")
         self._strength = None if strength is None else check_strength(strength)
-        given = ffd.weights if weights is None else weights
-        self._weights = point_weights(given, len(self.points), mesh=points)
+        self._mesh = None if isinstance(points, np.ndarray) else points  # where a weights name is looked up
+        self._own_weights = weights is not None
+        if self._own_weights:
+            self._weights = point_weights(weights, len(self.points), mesh=points)
+        else:
+            self._weights = self._followed_weights()
         self._bind()
 
     @property
@@ -89,12 +95,39 @@ class Deformer:
         """The strength in use: the one given at binding, else the FFD's."""
         return self.ffd.strength if self._strength is None else self._strength
 
+    def _followed_weights(self) -> NDArray[np.float64] | None:
+        """The FFD's weights for these points, remembering what they were read from (see :meth:`_weights_moved`)."""
+        given = self.ffd.weights
+        weights = point_weights(given, len(self.points), mesh=self._mesh)  # (refused: read again next time)
+        self._source = (given, given.copy() if isinstance(given, np.ndarray) else given)
+        return weights
+
+    def _weights_moved(self) -> bool:
+        """Whether the FFD's weights, followed by this deformer, were set or edited since they were read."""
+        if self._own_weights:
+            return False
+        given, (read, values) = self.ffd.weights, self._source
+        if isinstance(given, np.ndarray):
+            return not (isinstance(values, np.ndarray) and np.array_equal(given, values))
+        return given is not read
+
+    def _follow_weights(self) -> bool:
+        """Take the FFD's weights if they moved (re-weighting the cache and evaluating): whether they did."""
+        if not self._weights_moved():
+            return False
+        self._weights = self._followed_weights()
+        self._apply_weights()
+        return True
+
     @property
     def weights(self) -> NDArray[np.float64] | None:
         """Per-point weights in [0, 1] (None: all 1). Setting them re-weights the cache and evaluates once.
 
-        The cell grouping stays: only the last axis' weights and the affine image are redone (a few
-        ms on the 53k face, where binding takes tens; the editor's weight brush sets them per event).
+        Until set here (or given at binding) they are the FFD's, read again when they change.
+        Setting them makes them the deformer's own: later changes of the FFD's are not followed
+        (the editor's brush paints a stroke's weights here before they become the FFD's). The cell
+        grouping stays: only the last axis' weights and the affine image are redone (a few ms on
+        the 53k face, where binding takes tens; the weight brush sets them per event).
 
         Examples
         --------
@@ -109,11 +142,17 @@ class Deformer:
         >>> bool(np.allclose(moved[:, 2], np.linspace(0, 1, 100)))
         True
         """
+        self._follow_weights()
         return self._weights
 
     @weights.setter
     def weights(self, value: Any) -> None:
-        self._weights = point_weights(value, len(self.points))
+        self._weights = point_weights(value, len(self.points), mesh=self._mesh)
+        self._own_weights = True
+        self._apply_weights()
+
+    def _apply_weights(self) -> None:
+        """Re-weight the cache for new :attr:`weights` (rebind if the geometry changed too) and evaluate."""
         if (
             self._cells is None
             or self._geometry_key() != self._key
@@ -130,7 +169,7 @@ class Deformer:
         t = sorted_uvw[:, 2] - np.floor(sorted_uvw[:, 2])
         bw = axis_bases(self.ffd.basis)[2].weights(t)
         if self.ffd.only_inside:
-            bw[~in_domain(self.ffd.basis, lat.shape, sorted_uvw)] = 0.0
+            bw[~in_domain(self.ffd.basis, lat.shape, sorted_uvw, self.ffd.only_inside)] = 0.0
         factor = influence(self.strength, self._weights, n)
         if factor is not None:
             bw *= factor[order, None]
@@ -166,7 +205,7 @@ class Deformer:
         uvw = lat.to_lattice(self.points)
         self._cells: CellGroups | None = None
         # points the lattice may displace (all unless only_inside): the others get zero weights
-        movable = in_domain(self.ffd.basis, lat.shape, uvw) if self.ffd.only_inside else None
+        movable = in_domain(self.ffd.basis, lat.shape, uvw, self.ffd.only_inside) if self.ffd.only_inside else None
         # strength * weight per point: the displacement is linear in one weight factor, scale that
         factor = influence(self.strength, self._weights, n)
         if self.ffd.basis != "bernstein":
@@ -243,6 +282,8 @@ class Deformer:
         >>> bool(np.allclose(moved, deformer.ffd.deform(pts)))
         True
         """
+        if self._follow_weights():  # new weights of the FFD: re-weighted (or rebound) and evaluated
+            return self._out
         if self._geometry_key() != self._key or not np.array_equal(self.ffd.affine, self._affine):
             self._bind()
             return self._out
@@ -303,15 +344,20 @@ class Deformer:
         True
         """
         same_geometry = self._geometry_key() == self._key and np.array_equal(self.ffd.affine, self._affine)
-        if same_geometry and np.array_equal(self._offsets(), self._last_offsets):
+        if same_geometry and not self._weights_moved() and np.array_equal(self._offsets(), self._last_offsets):
             return self._out
         return self.update()
 
-    def jacobian_determinant(self) -> NDArray[np.float64]:
+    def jacobian_determinant(self, *, strength: float | None = None) -> NDArray[np.float64]:
         """``det dT/dx`` at the bound points for the current offsets (``<= 0`` where it folds).
 
         The same values as :meth:`FFD.jacobian_determinant` on the bound points, reusing the
         cached grouping of points by cell (the editor's folding view calls it on every drag).
+
+        Parameters
+        ----------
+        strength : float, optional
+            Another strength than :attr:`strength` (the editor's blend shows ``t`` times the deformation).
 
         Returns
         -------
@@ -329,17 +375,20 @@ class Deformer:
         >>> bool(np.allclose(ffd.bind(pts).jacobian_determinant(), ffd.jacobian_determinant(pts)))
         True
         """
-        if self._geometry_key() != self._key or not np.array_equal(self.ffd.affine, self._affine):
+        if not self._follow_weights() and (
+            self._geometry_key() != self._key or not np.array_equal(self.ffd.affine, self._affine)
+        ):
             self._bind()
+        strength = self.strength if strength is None else check_strength(strength)
         if self._cells is None:  # Bernstein: every control point reaches every point
-            return det3(self.ffd.jacobian(self.points, strength=self.strength, weights=self._weights))
+            return det3(self.ffd.jacobian(self.points, strength=strength, weights=self._weights))
         uvw = self.ffd.lattice.to_lattice(self.points)[self._cells.order]
         bases = axis_bases(self.ffd.basis)
         d_uvw = bspline_lattice_jacobian(self._cells, self._offsets(), uvw - np.floor(uvw), bases=bases)
         if self.ffd.only_inside:
-            d_uvw[~in_domain(self.ffd.basis, self.ffd.lattice.shape, uvw)] = 0.0
+            d_uvw[~in_domain(self.ffd.basis, self.ffd.lattice.shape, uvw, self.ffd.only_inside)] = 0.0
         jacobian = jacobian_to_world(self.ffd.lattice, self.ffd.affine, d_uvw)
-        factor = influence(self.strength, self._weights, len(self.points))
+        factor = influence(strength, self._weights, len(self.points))
         if factor is not None:  # I + f (J - I): the weights are constants of the points
             jacobian -= np.eye(3)
             jacobian *= factor[self._cells.order, None, None]

@@ -23,7 +23,7 @@ from .basis import bernstein_values
 from .influence import point_weights as _point_weights
 from .interpolation import axis_bases
 from .outside import outside_weights
-from .support import axis_support
+from .support import axis_support, in_domain
 
 if TYPE_CHECKING:
     from .deform import FFD
@@ -37,7 +37,8 @@ def control_weights(ffd: FFD, points: ArrayLike) -> tuple[NDArray[np.int64], NDA
     Parameters
     ----------
     ffd : FFD
-        Its basis, border rule and lattice geometry are used (not the offsets).
+        Its basis, border rule, ``outside`` and ``only_inside`` options and lattice geometry are
+        used (not the offsets): with ``only_inside`` a point outside the domain has zero weights.
     points : array_like
         ``(P, 3)`` points.
 
@@ -78,6 +79,8 @@ def control_weights(ffd: FFD, points: ArrayLike) -> tuple[NDArray[np.int64], NDA
         weight = (wu[:, :, None, None] * wv[:, None, :, None] * ww[:, None, None, :]).reshape(len(pts), 64)
     if ffd.outside:  # inner control points follow the surface ones: their weights go to those
         index, weight = outside_weights(lat.shape, index, weight)
+    if ffd.only_inside:  # the lattice moves no point outside its domain: nothing moves those rows
+        weight[~in_domain(ffd.basis, lat.shape, uvw, ffd.only_inside)] = 0.0
     return index, weight
 
 

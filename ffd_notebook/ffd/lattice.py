@@ -20,11 +20,74 @@ from .._util.points import as_points
 from .basis import BASES, BasisName
 from .support import Border, check_border
 
-__all__ = ["Lattice"]
+__all__ = ["ROTATION_TOLERANCE", "Lattice", "nearest_rotation", "orthogonality_error"]
 
 
-_ORTHOGONAL = 1e-6  # how far from R.T @ R == I a rotation may be and still count as one (float32-rounded files)
+#: How far from orthogonal a matrix may be, as the largest entry of ``|R.T @ R - I|``, and still count as a
+#: rotation: unit vectors rounded to float32 (SimpleITK's initialiser writes its rotations so, Blender keeps its
+#: matrices so) are within about 4e-7 of one. Within it a rotation read from a file or given to a
+#: :class:`Lattice` is replaced by the nearest orthogonal matrix (:func:`nearest_rotation`), which moves a
+#: point at distance ``r`` from the origin by about ``1e-6 r`` at most; beyond it the axes are a sheared
+#: lattice's (or a file that cannot hold one refuses them).
+ROTATION_TOLERANCE = 1e-6
+_ROUNDING = 1e-12  # orthogonal to float64 rounding already: kept bit for bit (files' round trips stay exact)
 _UNIT = 1e-9  # how far from 1 the length of a sheared lattice's axis may be
+
+
+def orthogonality_error(matrix: ArrayLike) -> float:
+    """The largest entry of ``|M.T @ M - I|``: 0 for a rotation (or reflection), what :data:`ROTATION_TOLERANCE` bounds.
+
+    Examples
+    --------
+    >>> orthogonality_error(np.diag([1.0, 1.0, -1.0])), round(orthogonality_error(np.diag([1.0, 1.0, 1.1])), 6)
+    (0.0, 0.21)
+    """
+    m = np.asarray(matrix, dtype=np.float64)
+    return float(np.abs(m.T @ m - np.eye(3)).max())
+
+
+def nearest_rotation(matrix: ArrayLike) -> NDArray[np.float64] | None:
+    """The orthogonal matrix nearest to ``matrix``, or None when it is not within :data:`ROTATION_TOLERANCE` of one.
+
+    The nearest in the Frobenius norm: the polar factor ``U V^T`` of the SVD ``U S V^T`` (a
+    reflection stays a reflection). A matrix already orthogonal to float64 rounding is returned
+    as it is (a copy), bit for bit. Every reader of rotations (ITK and elastix grids, Blender's
+    lattice objects) and :class:`Lattice` itself decide with it, so they agree on what is a
+    rotation and what a sheared grid.
+
+    Parameters
+    ----------
+    matrix : array_like
+        A 3x3 matrix whose columns are meant to be orthonormal axes.
+
+    Returns
+    -------
+    numpy.ndarray or None
+        The orthogonal 3x3 matrix, or None (a sheared or scaled matrix: the caller decides).
+
+    Examples
+    --------
+    >>> c, s = np.cos(0.5), np.sin(0.5)
+    >>> r = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+    >>> rounded = r.astype(np.float32).astype(np.float64)          # a rotation written in float32
+    >>> snapped = nearest_rotation(rounded)
+    >>> orthogonality_error(rounded) > 1e-9, orthogonality_error(snapped) < 1e-15
+    (True, True)
+    >>> bool(np.abs(snapped - r).max() < 1e-7)
+    True
+    >>> nearest_rotation(r) is not r and np.array_equal(nearest_rotation(r), r)
+    True
+    >>> print(nearest_rotation([[1.0, 0.1, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]))   # sheared
+    None
+    """
+    m = np.array(matrix, dtype=np.float64)
+    error = orthogonality_error(m)
+    if error <= _ROUNDING:
+        return m
+    if not error <= ROTATION_TOLERANCE:  # (NaN too)
+        return None
+    u, _, vt = np.linalg.svd(m)
+    return cast("NDArray[np.float64]", u @ vt)
 
 
 def _check_rotation(rotation: ArrayLike | None) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
@@ -36,8 +99,9 @@ def _check_rotation(rotation: ArrayLike | None) -> tuple[NDArray[np.float64], ND
         raise ValueError(f"rotation must be a 3x3 matrix, got shape {r.shape}")
     if not np.all(np.isfinite(r)):
         raise ValueError("rotation contains NaN or infinite values")
-    if np.allclose(r.T @ r, np.eye(3), atol=_ORTHOGONAL):
-        return r, r.T
+    snapped = nearest_rotation(r)
+    if snapped is not None:
+        return snapped, snapped.T
     if np.abs(np.linalg.norm(r, axis=0) - 1.0).max() > _UNIT:
         raise ValueError("rotation must be orthogonal (R.T @ R == I), or for a sheared lattice have unit columns "
                          "(the axes' directions); scaling belongs in spacing")  # fmt: skip
@@ -62,8 +126,9 @@ class Lattice:
         Rest position of control point ``(0, 0, 0)``.
     rotation : array_like, optional
         3x3 matrix whose columns are the lattice axes in world coordinates: orthogonal
-        (identity by default; a reflection, determinant -1, is allowed), or unit columns at any
-        angles for a sheared lattice (:attr:`sheared`; .ffd, ITK and PyGeM files cannot hold one,
+        (identity by default; a reflection, determinant -1, is allowed; one within
+        :data:`ROTATION_TOLERANCE` of orthogonal is kept as the :func:`nearest_rotation`), or unit
+        columns at any angles for a sheared lattice (:attr:`sheared`; .ffd, ITK and PyGeM files cannot hold one,
         elastix files can).
     offsets : array_like, optional
         Initial ``(nx, ny, nz, 3)`` displacements; zeros by default.
@@ -148,7 +213,7 @@ class Lattice:
     @property
     def sheared(self) -> bool:
         """Whether the axes are not orthogonal (a lattice placed by a general affine map)."""
-        return not np.allclose(self._rotation.T @ self._rotation, np.eye(3), atol=_ORTHOGONAL)
+        return orthogonality_error(self._rotation) > ROTATION_TOLERANCE
 
     @property
     def border(self) -> Border:

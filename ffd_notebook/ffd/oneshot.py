@@ -55,7 +55,7 @@ _CHUNK = 8192  # points per B-spline chunk (sorted order; a multiple of _RUN): i
 # BLAS thread waiting for a busy core made these products 10-50x slower (the Bernstein 11^3 one-shot
 # 0.3-1.4 s instead of 28 ms), so they are cut below that size and run on the calling thread; that
 # costs ~12% at 11^3 with one thread, and gives up a speed-up only two idle cores would have given.
-_SERIAL_MADDS = 4 * 65536
+SERIAL_MADDS = 4 * 65536
 _RUN = 1024  # B-spline points per (12, 16) @ (16, m) product at most (12 * 16 * 1024 multiply-adds)
 _MIN_COLUMNS = 32  # Bernstein products are cut only if each piece keeps this many points (<= 13^3)
 _WIDTH = 4  # control points per axis in a cubic B-spline support (the 12 x 16 blocks below)
@@ -137,7 +137,7 @@ def bernstein_displacement(offsets: NDArray[np.float64], rows: NDArray[np.float6
     out = np.empty((3, n))
     b = min(n, max(1024, min(8192, _BLOCK_VALUES // (nx * ny))))
     up, wxy, x = np.empty((max(nx, ny, nz), 3, b)), np.empty((nx, ny, b)), np.empty((nz * 3, b))
-    piece = _SERIAL_MADDS // table.size  # points per product that stays on one BLAS thread
+    piece = SERIAL_MADDS // table.size  # points per product that stays on one BLAS thread
     piece = piece if piece >= _MIN_COLUMNS else b  # a big lattice: one product per block, threads welcome
     for start in range(0, n, b):
         m = min(b, n - start)

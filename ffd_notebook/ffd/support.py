@@ -43,10 +43,13 @@ from .basis import BSPLINE, AxisBasis
 
 __all__ = [
     "BORDERS",
+    "DOMAIN_RULES",
     "Border",
     "CellGroups",
+    "axis_in_domain",
     "axis_support",
     "check_border",
+    "check_only_inside",
     "clip_starts",
     "in_domain",
     "outer_uv",
@@ -181,11 +184,61 @@ def support_slots(
     return np.maximum(lo, 0), np.minimum(hi, width - 1)
 
 
-def in_domain(basis: str | tuple[str, ...], shape: tuple[int, int, int], uvw: NDArray[np.float64]) -> NDArray[np.bool_]:
+#: The values of ``FFD(only_inside=...)`` beyond ``False``: ``True``, the closed domain (ITK's
+#: ``BSplineTransform`` and PyGeM include every face), and ``"half-open"``, elastix's valid region
+#: (``AdvancedBSplineDeformableTransform``), which includes the faces at its first control points and
+#: excludes those at its last (a point exactly on such a face does not move).
+DOMAIN_RULES = (True, "half-open")
+
+
+def check_only_inside(only_inside: Any) -> bool | str:
+    """An ``only_inside`` option checked: ``False``, ``True`` or ``"half-open"`` (:data:`DOMAIN_RULES`).
+
+    Examples
+    --------
+    >>> check_only_inside(1), check_only_inside("half-open")
+    (True, 'half-open')
+    >>> check_only_inside("open")
+    Traceback (most recent call last):
+    ...
+    ValueError: only_inside must be False, True (the closed domain) or 'half-open' (elastix's), got 'open'
+    """
+    if isinstance(only_inside, str):
+        if only_inside == "half-open":
+            return only_inside
+    elif isinstance(only_inside, bool | int | np.bool_) and int(only_inside) in (0, 1):
+        return bool(only_inside)
+    raise ValueError(
+        f"only_inside must be False, True (the closed domain) or 'half-open' (elastix's), got {only_inside!r}"
+    )
+
+
+def axis_in_domain(basis: str, n: int, u: NDArray[np.float64], only_inside: bool | str = True) -> NDArray[np.bool_]:
+    """Which lattice coordinates ``u`` along one axis of ``n`` control points lie in the domain (see :func:`in_domain`).
+
+    ``basis`` is ``"bernstein"`` or the name of a local basis (all local bases share the B-spline's
+    support, so its domain). NaN lies outside.
+
+    Examples
+    --------
+    >>> axis_in_domain("bspline", 5, np.array([0.5, 1.0, 3.0, 3.5])).tolist()
+    [False, True, True, False]
+    >>> axis_in_domain("bspline", 5, np.array([1.0, 3.0]), "half-open").tolist()
+    [True, False]
+    """
+    lo, hi = (0.0, n - 1.0) if basis == "bernstein" else (1.0, n - 2.0)
+    below = u < hi if only_inside == "half-open" else u <= hi
+    return (u >= lo) & below
+
+
+def in_domain(
+    basis: str | tuple[str, ...], shape: tuple[int, int, int], uvw: NDArray[np.float64], only_inside: bool | str = True
+) -> NDArray[np.bool_]:
     """Which points lie in the lattice's domain (see ``FFD(only_inside=True)``).
 
     Bernstein: the box ``0 <= u <= n - 1`` (PyGeM's unit cube). B-spline: ``1 <= u <= n - 2``,
     where every support lies in the lattice (ITK's ``BSplineTransform::InsideValidRegion``).
+    With ``only_inside="half-open"`` the far faces are left out (``u < n - 2``: elastix's valid region).
 
     Examples
     --------
@@ -193,10 +246,14 @@ def in_domain(basis: str | tuple[str, ...], shape: tuple[int, int, int], uvw: ND
     [True, False]
     >>> in_domain("bspline", (4, 4, 4), np.array([[1.0, 2.0, 1.5], [0.5, 2.0, 1.5]])).tolist()
     [True, False]
+    >>> in_domain("bspline", (4, 4, 4), np.array([[1.0, 2.0, 1.5]]), "half-open").tolist()
+    [False]
     """
-    dims = np.asarray(shape, dtype=np.float64)
-    lo, hi = (0.0, dims - 1.0) if basis == "bernstein" else (1.0, dims - 2.0)
-    return np.all((uvw >= lo) & (uvw <= hi), axis=1)
+    kind = "bernstein" if basis == "bernstein" else "local"
+    inside = np.ones(len(uvw), dtype=bool)
+    for axis, n in enumerate(shape):
+        inside &= axis_in_domain(kind, n, uvw[:, axis], only_inside)
+    return inside
 
 
 def outer_uv(bu: NDArray[Any], bv: NDArray[Any]) -> NDArray[Any]:

@@ -31,8 +31,9 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.spatial.distance import cdist
 
 from .._util.points import as_points
+from ..ffd.deform import FFD
+from ..ffd.fit import control_weights
 from ..ffd.lattice import Lattice
-from ..ffd.support import axis_support
 from .combine import Kernel, per_axis
 from .linalg import as_generator
 
@@ -128,10 +129,12 @@ def bspline_weights(lattice: Lattice, points: ArrayLike) -> sp.csr_matrix:
     """Cubic B-spline weights of every lattice control point at each point, sparse ``(N, n_ctrl)``.
 
     Row ``i`` holds the 64 tensor-product weights ``B_l(t_u) B_m(t_v) B_n(t_w)`` of the
-    4x4x4 control points around point ``i`` (the FFD engine's formula; control points outside
-    the lattice are dropped). Columns are flat control-point indices in C order, like
-    ``lattice.offsets.reshape(-1, 3)``, so ``W @ offsets.reshape(-1, 3)`` is the FFD
-    displacement.
+    4x4x4 control points around point ``i``: the FFD engine's
+    (:func:`~ffd_notebook.ffd.fit.control_weights`) with the lattice's
+    :attr:`~ffd_notebook.Lattice.border` rule, so control points beyond a "zero" lattice are
+    dropped and beyond a "clamp" one their weight goes to the border one. Columns are flat
+    control-point indices in C order, like ``lattice.offsets.reshape(-1, 3)``, so
+    ``W @ offsets.reshape(-1, 3)`` is ``FFD(lattice).displacement(points)``.
 
     Parameters
     ----------
@@ -154,15 +157,12 @@ def bspline_weights(lattice: Lattice, points: ArrayLike) -> sp.csr_matrix:
     >>> W.shape, W.sum(axis=1).round(12).ravel().tolist()
     ((2, 64), [1.0, 1.0])
     """
-    uvw = lattice.to_lattice(as_points(points))
-    n = len(uvw)
-    # per axis (N, 4) control-point indices and weights; control points outside count zero
-    (ix, wx), (iy, wy), (iz, wz) = (axis_support(uvw[:, a], size, "zero") for a, size in enumerate(lattice.shape))
-    _, ny, nz = lattice.shape
-    columns = (ix[:, :, None, None] * ny + iy[:, None, :, None]) * nz + iz[:, None, None, :]
-    values = wx[:, :, None, None] * wy[:, None, :, None] * wz[:, None, None, :]
-    # 64 entries a row in C order (sorted columns); clamped outside entries carry zero weight and go
-    w = sp.csr_matrix((values.ravel(), columns.ravel(), np.arange(0, 64 * n + 1, 64)), shape=(n, lattice.n_points))
+    index, weight = control_weights(FFD(lattice), points)  # the engine's weights and border rule
+    n = len(index)
+    # 64 entries a row; the clamp rule repeats a border control point in a row (its weights add up)
+    w = sp.csr_matrix((weight.ravel(), index.ravel(), np.arange(0, index.size + 1, index.shape[1])),
+                      shape=(n, lattice.n_points))  # fmt: skip
+    w.sum_duplicates()
     w.eliminate_zeros()
     return w
 
@@ -193,8 +193,7 @@ class BSplineKernel(Kernel):
     def __init__(self, lattice: Lattice, scale: ArrayLike = 1.0) -> None:
         if not isinstance(lattice, Lattice):
             raise TypeError(f"lattice must be a Lattice, got {type(lattice).__name__}")
-        if min(lattice.shape) < 4:
-            raise ValueError(f"a cubic B-spline lattice needs at least 4 control points per axis, got {lattice.shape}")
+        FFD(lattice)  # the engine's checks (at least 4 control points per axis with the "zero" border)
         self.lattice = lattice.copy()
         self.scale = per_axis(scale, "scale")
         self.n_components = 1 if self.scale.ndim == 0 else 3

@@ -41,6 +41,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
+from .._util.hdf5 import dataset_shape, hdf5_get, open_hdf5, read_dataset
 from ..errors import FileFormatError
 from .lowrank import LowRankGP
 
@@ -57,18 +58,30 @@ def _decode(value: object) -> object:
     return arr
 
 
-def _dataset(f, path: str, name: str, ndim: int, kind: str = "f") -> NDArray:
-    """Read ``name`` as an array with ``ndim`` dimensions of finite numbers, or raise naming it."""
-    import h5py
+_MAX_VALUES = 2**27  #: the most numbers a model file may declare in all (1 GiB of float64): checked before reading
 
-    item = f.get(name)
-    if not isinstance(item, h5py.Dataset):
+
+def _item(f, path: str, name: str):
+    """``f[name]`` through hard links only (an external or soft link is refused), or None if missing."""
+    return hdf5_get(path, f, name)
+
+
+def _shape(f, path: str, name: str, ndim: int, kind: str = "f") -> tuple[int, ...]:
+    """The shape of dataset ``name`` (``ndim`` dimensions of numbers, stored in this file), nothing read."""
+    item = _item(f, path, name)
+    if item is None:
         raise FileFormatError(path, None, f"dataset {name} is missing")
+    shape = dataset_shape(path, item, max_values=_MAX_VALUES)
     if item.dtype.kind not in ("f", "i", "u") or (kind == "i" and item.dtype.kind == "f"):
         raise FileFormatError(path, None, f"dataset {name}: expected {'integers' if kind == 'i' else 'numbers'}")
-    if item.ndim != ndim:
-        raise FileFormatError(path, None, f"dataset {name}: expected {ndim} dimensions, got shape {item.shape}")
-    arr = item[()]
+    if len(shape) != ndim:
+        raise FileFormatError(path, None, f"dataset {name}: expected {ndim} dimensions, got shape {shape}")
+    return shape
+
+
+def _dataset(f, path: str, name: str, kind: str = "f") -> NDArray:
+    """The values of dataset ``name`` (its shape checked by :func:`_shape` first), finite if numbers."""
+    arr = read_dataset(path, _item(f, path, name), max_values=_MAX_VALUES)
     if kind == "f" and not np.all(np.isfinite(arr)):
         raise FileFormatError(path, None, f"dataset {name} contains NaN or infinite values")
     return arr.astype(np.float64 if kind == "f" else np.int64)
@@ -76,20 +89,31 @@ def _dataset(f, path: str, name: str, ndim: int, kind: str = "f") -> NDArray:
 
 def _version(f, path: str) -> tuple[int, int]:
     try:
-        return int(f["/version/majorVersion"][()]), int(f["/version/minorVersion"][()])
-    except (KeyError, TypeError, ValueError):
+        return tuple(int(read_dataset(path, _item(f, path, f"/version/{key}"), max_values=1))  # type: ignore[return-value]
+                     for key in ("majorVersion", "minorVersion"))  # fmt: skip
+    except (FileFormatError, TypeError, ValueError):
         raise FileFormatError(path, None, "dataset /version/majorVersion or /version/minorVersion is missing") from None
 
 
-def _modelinfo(f) -> dict[str, object]:
-    """Every item under /modelinfo: datasets by value, groups as None (so empty groups survive)."""
+def _modelinfo(f, path: str) -> dict[str, object]:
+    """Every item under /modelinfo: datasets by value, groups as None (so empty groups survive); hard links only."""
     import h5py
 
     out: dict[str, object] = {}
-    if isinstance(f.get("modelinfo"), h5py.Group):
-        f["modelinfo"].visititems(
-            lambda name, obj: out.__setitem__(name, obj[()] if isinstance(obj, h5py.Dataset) else None)
-        )
+
+    def walk(group, prefix: str) -> None:
+        for key in group:
+            item = hdf5_get(path, group, key)
+            name = f"{prefix}{key}"
+            if isinstance(item, h5py.Group):
+                out[name] = None
+                walk(item, f"{name}/")
+            else:
+                out[name] = read_dataset(path, item, max_values=_MAX_VALUES)
+
+    info = _item(f, path, "modelinfo")
+    if isinstance(info, h5py.Group):
+        walk(info, "")
     return out
 
 
@@ -99,7 +123,10 @@ def load_model(path: str | os.PathLike[str]) -> LowRankGP:
     The model's ``points`` are the representer's points (the
     reference), its mean the file's mean shape minus them, :attr:`~ffd_notebook.gp.LowRankGP.cells`
     the triangles; ``model.metadata`` keeps the rest (representer attributes, noise variance,
-    modelinfo) so :func:`save_model` writes it back unchanged.
+    modelinfo) so :func:`save_model` writes it back unchanged. Only what the file holds is read:
+    links to other files, external storage and virtual datasets are refused, and the datasets'
+    shapes are checked against each other and a limit (2^27 numbers in all) before
+    a value is read.
 
     Parameters
     ----------
@@ -114,8 +141,8 @@ def load_model(path: str | os.PathLike[str]) -> LowRankGP:
     Raises
     ------
     FileFormatError
-        Not HDF5, or a dataset missing, of the wrong shape or type, or holding NaN; the message
-        names the dataset.
+        Not HDF5 (or a FIFO, a device), a dataset missing, of the wrong shape or type, too large,
+        stored outside the file, or holding NaN; the message names the dataset.
 
     Examples
     --------
@@ -130,12 +157,8 @@ def load_model(path: str | os.PathLike[str]) -> LowRankGP:
     import h5py
 
     path = os.fspath(path)
-    try:
-        f = h5py.File(path, "r")
-    except OSError as err:
-        raise FileFormatError(path, None, f"not a readable HDF5 file ({err})") from None
-    with f:
-        rep = f.get("representer")
+    with open_hdf5(path) as f:
+        rep = _item(f, path, "representer")
         if not isinstance(rep, h5py.Group):
             raise FileFormatError(path, None, "group /representer is missing")
         attrs = {key: _decode(value) for key, value in rep.attrs.items()}
@@ -144,42 +167,57 @@ def load_model(path: str | os.PathLike[str]) -> LowRankGP:
         major, minor = _version(f, path)
         if (major, minor) not in ((0, 8), (0, 9)) and major != 1:
             raise FileFormatError(path, None, f"dataset /version: unsupported Statismo version {major}.{minor}")
-        points = _dataset(f, path, "/representer/points", 2)
-        if points.shape[0] != 3:
-            raise FileFormatError(path, None, f"dataset /representer/points: expected shape (3, N), got {points.shape}")
-        n = points.shape[1]
-        mean = _dataset(f, path, "/model/mean", 1)
-        basis = _dataset(f, path, "/model/pcaBasis", 2)
-        variances = _dataset(f, path, "/model/pcaVariance", 1)
-        if mean.shape != (3 * n,):
-            raise FileFormatError(path, None, f"dataset /model/mean: expected shape ({3 * n},), got {mean.shape}")
-        if basis.shape[0] != 3 * n:
+        # every shape is checked against the others and the limit before a single value is read
+        points = _shape(f, path, "/representer/points", 2)
+        if points[0] != 3:
+            raise FileFormatError(path, None, f"dataset /representer/points: expected shape (3, N), got {points}")
+        n = points[1]
+        mean = _shape(f, path, "/model/mean", 1)
+        basis = _shape(f, path, "/model/pcaBasis", 2)
+        variances = _shape(f, path, "/model/pcaVariance", 1)
+        if mean != (3 * n,):
+            raise FileFormatError(path, None, f"dataset /model/mean: expected shape ({3 * n},), got {mean}")
+        if basis[0] != 3 * n:
+            raise FileFormatError(path, None, f"dataset /model/pcaBasis: expected shape ({3 * n}, r), got {basis}")
+        if variances != (basis[1],):
             raise FileFormatError(
-                path, None, f"dataset /model/pcaBasis: expected shape ({3 * n}, r), got {basis.shape}"
+                path, None, f"dataset /model/pcaVariance: expected shape ({basis[1]},), got {variances}"
             )
-        if variances.shape != (basis.shape[1],):
-            raise FileFormatError(
-                path, None, f"dataset /model/pcaVariance: expected shape ({basis.shape[1]},), got {variances.shape}"
-            )
-        if np.any(variances < 0):
+        has_cells = _item(f, path, "/representer/cells") is not None
+        cells_shape = _shape(f, path, "/representer/cells", 2, kind="i") if has_cells else (3, 0)
+        if cells_shape[0] != 3:
+            raise FileFormatError(path, None, f"dataset /representer/cells: expected (3, M) point indices below {n}, "
+                                  f"got {cells_shape}")  # fmt: skip
+        has_noise = _item(f, path, "/model/noiseVariance") is not None
+        noise_shape = _shape(f, path, "/model/noiseVariance", 1) if has_noise else (1,)
+        total = 4 * n + basis[0] * basis[1] + basis[1] + 3 * cells_shape[1] + noise_shape[0]
+        if total > _MAX_VALUES:
+            raise FileFormatError(path, None, f"the model declares {total} numbers, more than the {_MAX_VALUES} "
+                                  "accepted")  # fmt: skip
+        point_array = _dataset(f, path, "/representer/points")
+        mean_array = _dataset(f, path, "/model/mean")
+        basis_array = _dataset(f, path, "/model/pcaBasis")
+        variance_array = _dataset(f, path, "/model/pcaVariance")
+        if np.any(variance_array < 0):
             raise FileFormatError(path, None, "dataset /model/pcaVariance has negative variances")
         cells = None
-        if "cells" in rep:
-            cells = _dataset(f, path, "/representer/cells", 2, kind="i")
-            if cells.shape[0] != 3 or (cells.size and (cells.min() < 0 or cells.max() >= n)):
+        if has_cells:
+            cells = _dataset(f, path, "/representer/cells", kind="i")
+            if cells.size and (cells.min() < 0 or cells.max() >= n):
                 raise FileFormatError(
                     path,
                     None,
                     f"dataset /representer/cells: expected (3, M) point indices below {n}, got {cells.shape}",
                 )
             cells = cells.T.copy()
-        noise = _dataset(f, path, "/model/noiseVariance", 1) if "/model/noiseVariance" in f else np.zeros(1)
-        info = _modelinfo(f)
+        noise = _dataset(f, path, "/model/noiseVariance") if has_noise else np.zeros(1)
+        info = _modelinfo(f, path)
     if (major, minor) == (0, 8):  # the old format stored basis * sqrt(variance) (Scalismo divides it back)
-        root = np.sqrt(variances)
-        basis = basis * np.divide(1.0, root, out=np.zeros_like(root), where=root > 1e-8)
-    reference = points.T.copy()
-    model = LowRankGP.from_basis_matrix(reference, mean.reshape(n, 3) - reference, basis, variances, cells)
+        root = np.sqrt(variance_array)
+        basis_array = basis_array * np.divide(1.0, root, out=np.zeros_like(root), where=root > 1e-8)
+    reference = point_array.T.copy()
+    model = LowRankGP.from_basis_matrix(reference, mean_array.reshape(n, 3) - reference, basis_array,
+                                        variance_array, cells)  # fmt: skip
     model.metadata = {"representer": attrs, "noise_variance": noise, "modelinfo": info}
     return model
 

@@ -15,22 +15,27 @@ Examples
 
 from __future__ import annotations
 
-from .files import image_data_files, image_suffix, read_image, read_image_information, write_image
+from .data_files import image_data_files, image_suffix
+from .files import ImageFile, open_image, read_image, read_image_information, write_image
 from .geometry import ImageGrid
 from .inverse import invert_points
 from .pixels import IMAGE_INTERPOLATIONS
+from .reference import reference_grid
 from .slices import WarpedSlices
 from .warp import warp_image
 
 __all__ = [
     "IMAGE_INTERPOLATIONS",
+    "ImageFile",
     "ImageGrid",
     "WarpedSlices",
     "image_data_files",
     "image_suffix",
     "invert_points",
+    "open_image",
     "read_image",
     "read_image_information",
+    "reference_grid",
     "warp_image",
     "write_image",
 ]

@@ -1,8 +1,12 @@
-"""Image files through SimpleITK: reading with clear errors, writing atomically in any format it writes.
+"""Image files through SimpleITK: read whole or refused with the reason, written atomically.
 
-SimpleITK picks the format by the file name (NIfTI ``.nii``/``.nii.gz``, NRRD ``.nrrd``/``.nhdr``,
-MetaImage ``.mha``/``.mhd``, PNG, TIFF...). A header with a separate data file (``.mhd``,
-``.nhdr``) makes two files; both are written into a temporary folder beside the target and moved
+The one image reader of the package (:func:`open_image`, and :func:`read_image` /
+:func:`read_image_information` on top of it) is what every image and displacement-field reader
+uses: the format by the file name (NIfTI ``.nii``/``.nii.gz``, NRRD ``.nrrd``/``.nhdr``, MetaImage
+``.mha``/``.mhd``, PNG, JPEG, BMP, TIFF) read by that format's ITK reader alone, the header
+checked before ITK reads it (:mod:`.data_files`: the files it names, where its pixels are), the
+pixels read whole or refused. A header with a separate data file (``.mhd``, ``.nhdr``) makes
+two files when written; both are written into a temporary folder beside the target and moved
 into place data first, so a reader never finds a header without its data.
 """
 
@@ -10,7 +14,6 @@ from __future__ import annotations
 
 import contextlib
 import os
-import re
 import shutil
 import tempfile
 from pathlib import Path
@@ -18,122 +21,215 @@ from typing import Any
 
 import numpy as np
 
+from .._util.file_access import check_regular_file
+from .._util.itk_messages import itk_message
 from ..errors import FileFormatError
+from .data_files import HEADER_LIMIT, ImageLayout, check_whole, image_layout
 from .geometry import ImageGrid
 
 __all__ = [
     "IMAGE_WRITE_SUFFIXES",
     "MAX_IMAGE_BYTES",
-    "image_data_files",
-    "image_suffix",
+    "ImageFile",
+    "open_image",
     "read_image",
     "read_image_information",
     "write_image",
 ]
 
-_MULTI_SUFFIXES = (".nii.gz", ".hdr.gz", ".img.gz")
 #: the most pixel memory a header may claim (a hostile header must not make the reader allocate the machine away)
 MAX_IMAGE_BYTES = 16 * 2**30
 #: last extensions of the files :func:`write_image` writes (SimpleITK's formats; ``.gz`` for ``.nii.gz``)
 IMAGE_WRITE_SUFFIXES = (".nii", ".gz", ".nrrd", ".nhdr", ".mha", ".mhd", ".png", ".tif", ".tiff", ".jpg", ".bmp")
 
 
-def image_suffix(path: str | os.PathLike[str]) -> str:
-    """The extension SimpleITK chooses the format by: ``".nii.gz"`` for ``a.nii.gz``, else the last suffix.
+class ImageFile:
+    """An image file whose header is read and checked, its pixels not yet: what :func:`open_image` returns.
+
+    Parameters
+    ----------
+    path : pathlib.Path
+        The file.
+    layout : ImageLayout
+        Where its pixels are.
+    reader : SimpleITK.ImageFileReader
+        The reader that read its header (with the file's ITK ImageIO).
+
+    Attributes
+    ----------
+    path : pathlib.Path
+        The file.
+    layout : ImageLayout
+        Where its pixels are (:func:`~ffd_notebook.images.data_files.image_layout`).
+    grid : ImageGrid
+        Its size, spacing, origin and direction.
+    dimension, components : int
+        2 or 3; values per pixel.
+    pixel_id : int
+        SimpleITK's pixel type of the file (``sitk.sitkFloat32``...).
+
+    Examples
+    --------
+    >>> import pathlib, tempfile
+    >>> import SimpleITK as sitk
+    >>> path = pathlib.Path(tempfile.mkdtemp()) / "a.mha"
+    >>> sitk.WriteImage(sitk.Image([4, 3], sitk.sitkVectorFloat32, 2), str(path))
+    >>> image = open_image(path)
+    >>> image.dimension, image.components, image.layout.format
+    (2, 2, 'MetaImage')
+    """
+
+    def __init__(self, path: Path, layout: ImageLayout, reader: Any) -> None:
+        self.path = path
+        self.layout = layout
+        self._reader = reader
+        self.grid = ImageGrid(reader.GetSize(), reader.GetSpacing(), reader.GetOrigin(), reader.GetDirection())
+        self.dimension = int(reader.GetDimension())
+        self.components = int(reader.GetNumberOfComponents())
+        self.pixel_id = int(reader.GetPixelID())
+
+    def read(self, *, pixel_type: int | None = None, finite: bool = False) -> Any:
+        """The pixels and geometry as a ``SimpleITK.Image``, read whole or refused.
+
+        Parameters
+        ----------
+        pixel_type : int, optional
+            A SimpleITK pixel type to convert to (``sitk.sitkVectorFloat64``...); the file's own by default.
+        finite : bool
+            Refuse the image if a pixel holds a NaN or an infinite value, naming how many do
+            (:func:`~ffd_notebook.io.load_displacement_field` asks for it). They are counted in the
+            file's data, also in NIfTI files, whose non-finite values ITK's reader turns into 0.
+
+        Returns
+        -------
+        SimpleITK.Image
+            The image.
+
+        Raises
+        ------
+        FileFormatError
+            The pixel data ends early (how many bytes of how many, or a compressed stream cut short),
+            non-finite values with ``finite``, or SimpleITK cannot read it; names the file.
+
+        Examples
+        --------
+        >>> import pathlib, tempfile
+        >>> import SimpleITK as sitk
+        >>> path = pathlib.Path(tempfile.mkdtemp()) / "a.nii.gz"
+        >>> sitk.WriteImage(sitk.Image(4, 3, 2, sitk.sitkUInt8), str(path))
+        >>> open_image(path).read(pixel_type=sitk.sitkFloat64).GetPixelIDTypeAsString()
+        '64-bit float'
+        """
+        hidden = check_whole(self.layout, count_non_finite=finite)
+        if hidden:
+            raise self._non_finite(hidden)
+        if pixel_type is not None:
+            self._reader.SetOutputPixelType(pixel_type)
+        try:
+            image = self._reader.Execute()
+        except RuntimeError as exc:
+            if any(part.encoding == "text" for part in self.layout.parts):
+                raise FileFormatError(self.path, None, "cannot read the pixels: the text data ends early or holds "
+                                      f"something other than numbers ({itk_message(exc)})") from None  # fmt: skip
+            raise FileFormatError(self.path, None, f"cannot read the pixels ({itk_message(exc)})") from None
+        if finite:
+            import SimpleITK as sitk
+
+            values = sitk.GetArrayViewFromImage(image)
+            if values.dtype.kind in "fc":
+                bad = ~np.isfinite(values)
+                count = int((bad.reshape(bad.shape[: self.dimension] + (-1,)).any(axis=-1)).sum())
+                if count:
+                    raise self._non_finite(count)
+        return image
+
+    def _non_finite(self, count: int) -> FileFormatError:
+        what = "vectors" if self.components > 1 else "pixels"
+        total = int(np.prod(self.grid.size))
+        return FileFormatError(self.path, None, f"{count} of its {total} {what} hold NaN or infinite values: refused")
+
+    def __repr__(self) -> str:
+        return f"ImageFile({os.fspath(self.path)!r}, {self.layout.format}, size={self.grid.size})"
+
+
+def open_image(path: str | os.PathLike[str], *, within: str | os.PathLike[str] | None = None) -> ImageFile:
+    """Read and check an image file's header (and find its pixels) without reading the pixels.
+
+    What every image and field reader of the package goes through: the format is chosen by the
+    file's extension and read by that format's ITK reader only (no guessing by content); the
+    header is read as ITK reads it and refused where it could be read two ways
+    (:mod:`~ffd_notebook.images.data_files`); every file it names is checked by the one rule for
+    named files (inside ``within``, a regular file: never a FIFO or a device); its geometry must
+    be usable and its pixels fit :data:`MAX_IMAGE_BYTES`. :meth:`ImageFile.read` then reads the
+    pixels whole or refuses.
+
+    A header reads whatever files it names, as ITK does: in a notebook, ``within=None`` lets a
+    ``.mhd`` take its pixels from anywhere; a server passes the folder its users may read.
 
     Parameters
     ----------
     path : str or os.PathLike
-        An image file name (the file need not exist).
+        An image file: NIfTI (``.nii``, ``.nii.gz``), NRRD (``.nrrd``, ``.nhdr``), MetaImage
+        (``.mha``, ``.mhd``), PNG, JPEG, BMP or TIFF.
+    within : str or os.PathLike, optional
+        The folder the files its header names must be in (``None``: anywhere).
 
     Returns
     -------
-    str
-        The lower-case suffix, with its dot.
+    ImageFile
+        The checked header; ``.read()`` reads the pixels.
+
+    Raises
+    ------
+    FileNotFoundError
+        No such file.
+    IsADirectoryError
+        A folder.
+    FileFormatError
+        Not an image of a format above, a header refused, a named file refused, not 2D/3D,
+        unusable geometry, too large; names the file (and the header line).
 
     Examples
     --------
-    >>> image_suffix("scan.nii.gz"), image_suffix("labels.nrrd"), image_suffix("a.b.mha")
-    ('.nii.gz', '.nrrd', '.mha')
+    >>> import pathlib, tempfile
+    >>> import SimpleITK as sitk
+    >>> path = pathlib.Path(tempfile.mkdtemp()) / "a.nrrd"
+    >>> sitk.WriteImage(sitk.Image(4, 3, 2, sitk.sitkFloat32), str(path))
+    >>> image = open_image(path)
+    >>> image.grid.size, image.read().GetSize()
+    ((4, 3, 2), (4, 3, 2))
     """
-    name = Path(path).name.lower()
-    for suffix in _MULTI_SUFFIXES:
-        if name.endswith(suffix):
-            return suffix
-    return Path(name).suffix
-
-
-_TEXT_HEADERS = {  # format -> (separator, dimension key, sizes key, largest dimension)
-    ".mha": ("=", "ndims", "dimsize", 3),
-    ".mhd": ("=", "ndims", "dimsize", 3),
-    ".nrrd": (":", "dimension", "sizes", 4),  # 4: a vector image's component axis
-    ".nhdr": (":", "dimension", "sizes", 4),
-}
-
-
-def _check_text_header(path: str) -> None:
-    """The dimension and sizes of a MetaImage or NRRD header, checked before SimpleITK sees them.
-
-    ITK's MetaImage reader loops forever on ``NDims = -1``; refusing what warping cannot use
-    (more than 3 dimensions, sizes that are not positive whole numbers) keeps such headers away.
-    """
-    suffix = image_suffix(path)
-    if suffix not in _TEXT_HEADERS:
-        return
-    separator, dim_key, sizes_key, largest = _TEXT_HEADERS[suffix]
-    with open(path, "rb") as f:
-        head = f.read(65536).decode("latin-1")
-    values: dict[str, tuple[int, str]] = {}
-    for number, raw in enumerate(head.splitlines(), start=1):
-        key, sep, value = raw.partition(separator)
-        key = key.strip().lower()
-        if suffix in (".nrrd", ".nhdr") and not raw.strip():
-            break  # the end of a NRRD header
-        if sep and key in (dim_key, sizes_key) and key not in values:
-            values[key] = (number, value.strip())
-        if key.replace(" ", "") == "elementdatafile":
-            break  # the end of a MetaImage header
-    if dim_key not in values:
-        raise FileFormatError(path, None, f"no {dim_key!r} line in the header")
-    line, text = values[dim_key]
-    if not re.fullmatch(r"[0-9]{1,2}", text) or not 1 <= int(text) <= largest:
-        raise FileFormatError(path, line, f"{dim_key} must be a whole number from 1 to {largest}, got {text!r}")
-    if sizes_key in values:
-        line, text = values[sizes_key]
-        sizes = text.split()
-        if len(sizes) != int(values[dim_key][1]) or not all(
-            re.fullmatch(r"[0-9]{1,12}", v) and int(v) > 0 for v in sizes
-        ):
-            raise FileFormatError(
-                path, line, f"{sizes_key} must be {values[dim_key][1]} positive whole numbers, got {text!r}"
-            )
-
-
-def _reader(path: str | os.PathLike[str]) -> Any:
     import SimpleITK as sitk
 
-    path = os.fspath(path)
-    if not os.path.isfile(path):
-        raise FileNotFoundError(2, "No such file", path)
-    _check_text_header(path)
+    target = Path(path)
+    check_regular_file(target, MAX_IMAGE_BYTES + HEADER_LIMIT)
+    layout = image_layout(target, within=within)
+    if layout.sizes is None:  # PNG, JPEG, BMP, TIFF: sized by their own structure, which ITK needs whole to begin
+        check_whole(layout)
     reader = sitk.ImageFileReader()
-    reader.SetFileName(path)
+    reader.SetFileName(os.fspath(target))
+    reader.SetImageIO(layout.io)
     try:
         reader.ReadImageInformation()
     except RuntimeError as exc:
-        raise FileFormatError(path, None, f"not an image SimpleITK can read ({_itk_message(exc)})") from None
+        raise FileFormatError(target, None, f"not a {layout.format} image SimpleITK can read "
+                              f"({itk_message(exc)})") from None  # fmt: skip
     if reader.GetDimension() not in (2, 3):
-        raise FileFormatError(path, None, f"a {reader.GetDimension()}D image; only 2D and 3D images are supported")
+        raise FileFormatError(target, None, f"a {reader.GetDimension()}D image; only 2D and 3D images are supported")
     try:  # spacing, origin and direction as warping needs them (finite, positive, invertible)
         ImageGrid(reader.GetSize(), reader.GetSpacing(), reader.GetOrigin(), reader.GetDirection())
     except ValueError as exc:
-        raise FileFormatError(path, None, f"unusable geometry: {exc}") from None
-    voxels = int(np.prod(np.array(reader.GetSize(), dtype=np.float64)))
-    claimed = voxels * reader.GetNumberOfComponents() * _component_bytes(reader)
+        raise FileFormatError(target, None, f"unusable geometry: {exc}") from None
+    values = int(np.prod(np.array(reader.GetSize(), dtype=np.float64))) * reader.GetNumberOfComponents()
+    written = None if layout.sizes is None else int(np.prod(np.array(layout.sizes, dtype=np.float64)))
+    if written is not None and values != written * layout.components:
+        raise FileFormatError(target, None, f"ITK reads {values} values from this header where its text says "
+                              f"{written * layout.components}: refused")  # fmt: skip
+    claimed = values * _component_bytes(reader)
     if claimed > MAX_IMAGE_BYTES:
-        raise FileFormatError(path, None, f"the header claims {claimed / 2**30:.3g} GiB of pixels, more than "
-                                          f"the limit of {MAX_IMAGE_BYTES / 2**30:.0f} GiB")  # fmt: skip
-    return reader
+        raise FileFormatError(target, None, f"the header claims {claimed / 2**30:.3g} GiB of pixels, more than "
+                                            f"the limit of {MAX_IMAGE_BYTES / 2**30:.0f} GiB")  # fmt: skip
+    return ImageFile(target, layout, reader)
 
 
 def _component_bytes(reader: Any) -> int:
@@ -147,70 +243,17 @@ def _component_bytes(reader: Any) -> int:
     return 8
 
 
-def image_data_files(path: str | os.PathLike[str]) -> list[Path]:
-    r"""Files other than ``path`` that its header names for the pixels (MetaImage, NRRD), resolved.
-
-    A ``.mhd`` or ``.nhdr`` header (and even a ``.mha`` or ``.nrrd`` one) may point at any file
-    for its data; a server confining its users to a folder checks these too. Only the header's
-    first 64 KiB are read.
-
-    Parameters
-    ----------
-    path : str or os.PathLike
-        An image file (its header is read if it is a MetaImage or NRRD file).
-
-    Returns
-    -------
-    list of pathlib.Path
-        The resolved data files the header names; empty for a format that keeps its pixels inline.
-
-    Examples
-    --------
-    >>> import pathlib, tempfile
-    >>> folder = pathlib.Path(tempfile.mkdtemp())
-    >>> _ = (folder / "a.mhd").write_text("NDims = 3\nElementDataFile = a.raw\n")
-    >>> [p.name for p in image_data_files(folder / "a.mhd")]
-    ['a.raw']
-    >>> image_data_files(folder / "scan.nii")
-    []
-    """
-    target = Path(path)
-    suffix = image_suffix(target)
-    if suffix not in (".mha", ".mhd", ".nrrd", ".nhdr"):
-        return []
-    with open(target, "rb") as f:
-        head = f.read(65536)
-    text = head.split(b"\n\n", 1)[0] if suffix in (".nrrd", ".nhdr") else head
-    found = []
-    for raw in text.decode("latin-1").splitlines():
-        key, sep, value = raw.partition("=" if suffix in (".mha", ".mhd") else ":")
-        key = key.strip().lower().replace(" ", "")
-        if not sep or key not in ("elementdatafile", "datafile"):
-            continue
-        value = value.strip()
-        if value.upper() in ("LOCAL", "") or value.upper().startswith("LIST"):
-            continue
-        name = value.split()[0] if "%" in value else value  # a file-name pattern: its folder is what matters
-        found.append((target.parent / name).resolve())
-    return found
-
-
-def _itk_message(exc: RuntimeError) -> str:
-    """The useful line of an ITK exception (its first lines name C++ source files)."""
-    lines = [line.strip() for line in str(exc).splitlines() if line.strip()]
-    described = [line for line in lines if line.startswith("Description:")]
-    return (
-        (described[-1].removeprefix("Description:").strip() if described else lines[-1]) if lines else "unknown error"
-    )
-
-
-def read_image_information(path: str | os.PathLike[str]) -> ImageGrid:
+def read_image_information(path: str | os.PathLike[str], *, within: str | os.PathLike[str] | None = None) -> ImageGrid:
     """The :class:`~ffd_notebook.images.ImageGrid` of an image file, from its header (pixels not read).
 
+    The header is checked as :func:`open_image` checks it (a reference grid given as a path too).
+
     Parameters
     ----------
     path : str or os.PathLike
-        An image file SimpleITK reads (NIfTI, NRRD, MetaImage, PNG, TIFF...).
+        An image file (see :func:`open_image` for the formats).
+    within : str or os.PathLike, optional
+        The folder the files its header names must be in (``None``: anywhere).
 
     Returns
     -------
@@ -222,7 +265,7 @@ def read_image_information(path: str | os.PathLike[str]) -> ImageGrid:
     FileNotFoundError
         No such file.
     FileFormatError
-        Not an image SimpleITK reads, or not 2D/3D; names the file.
+        See :func:`open_image`; names the file.
 
     Examples
     --------
@@ -233,17 +276,29 @@ def read_image_information(path: str | os.PathLike[str]) -> ImageGrid:
     >>> read_image_information(path).size
     (4, 3, 2)
     """
-    reader = _reader(path)
-    return ImageGrid(reader.GetSize(), reader.GetSpacing(), reader.GetOrigin(), reader.GetDirection())
+    return open_image(path, within=within).grid
 
 
-def read_image(path: str | os.PathLike[str]) -> Any:
-    """Read a 2D or 3D image file as a ``SimpleITK.Image``.
+def read_image(path: str | os.PathLike[str], *, within: str | os.PathLike[str] | None = None,
+               pixel_type: int | None = None) -> Any:  # fmt: skip
+    """Read a 2D or 3D image file as a ``SimpleITK.Image``, whole or not at all.
+
+    ``open_image(path, within=within).read(pixel_type=pixel_type)``: the header checked (a header
+    reads the files it names, as ITK does, unless ``within`` confines them), then the pixels read
+    whole, or refused with a message that says the data ends early (how many bytes of how many, or
+    that a compressed stream stops before its end). NaN and infinite pixel values are read as the
+    format's ITK reader gives them: as they are from NRRD, MetaImage and TIFF (a float image may
+    mark "no data" with NaN), as 0 from NIfTI (the NIfTI library ITK uses replaces them); a
+    displacement field with any is refused (:func:`~ffd_notebook.io.load_displacement_field`).
 
     Parameters
     ----------
     path : str or os.PathLike
-        An image file SimpleITK reads (NIfTI, NRRD, MetaImage, PNG, TIFF...).
+        An image file: NIfTI, NRRD, MetaImage, PNG, JPEG, BMP or TIFF (see :func:`open_image`).
+    within : str or os.PathLike, optional
+        The folder the files its header names must be in (``None``: anywhere).
+    pixel_type : int, optional
+        A SimpleITK pixel type to convert to; the file's own by default.
 
     Returns
     -------
@@ -255,23 +310,27 @@ def read_image(path: str | os.PathLike[str]) -> Any:
     FileNotFoundError
         No such file.
     FileFormatError
-        Not an image SimpleITK reads, truncated pixel data, or not 2D/3D; names the file.
+        Not an image of a format above, a refused header or named file, pixel data that ends
+        early, or not 2D/3D; names the file.
 
     Examples
     --------
     >>> import pathlib, tempfile
-    >>> path = pathlib.Path(tempfile.mkdtemp()) / "bad.nii"
-    >>> _ = path.write_bytes(b"not an image")
-    >>> read_image(path)
+    >>> import SimpleITK as sitk
+    >>> folder = pathlib.Path(tempfile.mkdtemp())
+    >>> _ = (folder / "bad.nii").write_bytes(b"not an image")
+    >>> read_image(folder / "bad.nii")
     Traceback (most recent call last):
     ...
-    ffd_notebook.errors.FileFormatError: ...bad.nii: not an image SimpleITK can read (...)
+    ffd_notebook.errors.FileFormatError: ...bad.nii: not a NIfTI file: 12 bytes, shorter than a NIfTI header
+    >>> sitk.WriteImage(sitk.Image(40, 30, sitk.sitkFloat32), str(folder / "a.nii"))
+    >>> _ = (folder / "cut.nii").write_bytes((folder / "a.nii").read_bytes()[:-1])
+    >>> read_image(folder / "cut.nii")
+    Traceback (most recent call last):
+    ...
+    ffd_notebook.errors.FileFormatError: ...cut.nii: the pixel data ends early: the file has 5151 bytes of 5152
     """
-    reader = _reader(path)
-    try:
-        return reader.Execute()
-    except RuntimeError as exc:
-        raise FileFormatError(os.fspath(path), None, f"cannot read the pixels ({_itk_message(exc)})") from None
+    return open_image(path, within=within).read(pixel_type=pixel_type)
 
 
 def _fsync(path: Path) -> None:
@@ -315,7 +374,7 @@ def write_image(path: str | os.PathLike[str], image: Any, *, compress: bool = Fa
         try:
             sitk.WriteImage(image, str(folder / target.name), compress)
         except RuntimeError as exc:
-            raise ValueError(f"{os.fspath(path)}: SimpleITK cannot write this image ({_itk_message(exc)})") from None
+            raise ValueError(f"{os.fspath(path)}: SimpleITK cannot write this image ({itk_message(exc)})") from None
         written = sorted(folder.iterdir(), key=lambda p: p.name == target.name)  # the named file (header) last
         for part in written:
             _fsync(part)

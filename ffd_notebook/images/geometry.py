@@ -105,7 +105,9 @@ class ImageGrid:
 
     @classmethod
     def of(cls, image: Any) -> ImageGrid:
-        """The grid of a ``SimpleITK.Image`` (or an ``ImageGrid`` itself); for files see ``read_image_information``.
+        """The grid of a ``SimpleITK.Image`` (or an ``ImageGrid`` itself).
+
+        For any form of reference (a file, a field, a mapping...) see :func:`~ffd_notebook.images.reference_grid`.
 
         Parameters
         ----------

@@ -6,8 +6,9 @@ geometry) into pixels in array order and an :class:`~.geometry.ImageGrid`. An
 :func:`scipy.ndimage.map_coordinates` and ITK's border rules: a point is inside if its index lies
 in ``[-0.5, size - 0.5)`` on every axis (half a voxel beyond the outer voxel centres), the
 interpolation there uses the border voxels (``mode="nearest"``; B-splines mirror the image, as
-ITK's B-spline interpolator does), and points outside get the default value. ``warp_image``
-and the editor's warped slices both read through it.
+ITK's B-spline interpolator does), and points outside get the default value, as do positions that
+are not numbers (NaN: ITK's ``IsInsideBuffer`` is false for them). ``warp_image``, the editor's
+warped slices and :class:`~ffd_notebook.io.DisplacementField` (its vectors, linearly) all read through it.
 """
 
 from __future__ import annotations
@@ -23,6 +24,8 @@ from .files import read_image
 from .geometry import ImageGrid, is_sitk_image
 
 __all__ = ["IMAGE_INTERPOLATIONS", "Interpolator", "as_pixels", "check_image_interpolation"]
+
+_HUGE = 2.0**40  # indices map_coordinates may cast to integers without overflow (any image is far smaller)
 
 #: Interpolation names and their spline orders.
 IMAGE_INTERPOLATIONS = {"nearest": 0, "linear": 1, "bspline": 3}
@@ -105,7 +108,7 @@ class Interpolator:
     >>> import numpy as np
     >>> reader = Interpolator(np.array([[0.0, 10.0]]), ImageGrid((2, 1)), "linear", -1.0)
     >>> out = np.empty(4)
-    >>> reader.read(np.array([[0.0, 0.0, 0.0, 0.0], [0.25, 1.2, 1.6, -0.6]]), out=out)   # rows: (j, i)
+    >>> reader.read(np.array([[0.0, 0.0, 0.0, 0.0], [0.25, 1.2, 1.6, np.nan]]), out=out)   # rows: (j, i)
     >>> out.tolist()
     [2.5, 10.0, -1.0, -1.0]
     """
@@ -128,11 +131,17 @@ class Interpolator:
         self._exact = self.dtype.kind == "f" or self.order == 0
 
     def read(self, index: NDArray[np.float64], out: NDArray) -> None:
-        """Values at continuous indices ``index`` (``(dim, ...)``, array order) into ``out`` (+ components)."""
-        outside = np.zeros(index.shape[1:], dtype=bool)
-        for axis in range(self.grid.dim):
-            outside |= index[axis] < -0.5
-            outside |= index[axis] >= self._upper[axis]
+        """Values at continuous indices ``index`` (``(dim, ...)``, array order) into ``out`` (+ components).
+
+        Outside the image (and at NaN indices) the default value.
+        """
+        inside = np.ones(index.shape[1:], dtype=bool)
+        for axis in range(self.grid.dim):  # written so that NaN, for which every comparison is false, is outside
+            inside &= index[axis] >= -0.5
+            inside &= index[axis] < self._upper[axis]
+        outside = ~inside
+        if outside.any() and not (np.abs(index[:, outside]) < _HUGE).all():
+            index = np.where(inside, index, 0.0)  # NaN, infinite or beyond an integer: read voxel 0 there instead
         for c, values in enumerate(self._components):
             target = out[..., c] if self.component_shape else out
             kwargs = {"order": self.order, "mode": self._mode, "prefilter": False}

@@ -3,11 +3,13 @@
 ITK's convention (the output voxel at physical point ``x`` takes the input's value at ``T(x)``),
 so what resampling needs is, for every voxel of the reference grid, the continuous index of
 ``T(x)`` in the input image. It is made slab by slab along the output array's first (slowest)
-axis, so the working memory stays a few megabytes whatever the image size.
+axis, so the working memory stays a few megabytes whatever the image size, by the engine's one
+evaluator of a deformation on a grid (:class:`~ffd_notebook.ffd.grid.GridEvaluator`): separably for
+an FFD whose lattice runs along the grid, through ``deform`` on each slab's voxel centres for
+anything else.
 
 Any object with a ``deform(points)`` method taking and returning ``(N, 3)`` physical points is a
-deformation here (an :class:`~ffd_notebook.FFD`, an elastix chain, a displacement field...): it is
-evaluated on each slab's voxel centres.
+deformation here (an :class:`~ffd_notebook.FFD`, an elastix chain, a displacement field...).
 """
 
 from __future__ import annotations
@@ -17,6 +19,7 @@ from typing import Any, Protocol
 import numpy as np
 from numpy.typing import NDArray
 
+from ..ffd.grid import GridEvaluator
 from .geometry import ImageGrid
 
 __all__ = ["Deformation", "IndexSampler", "slab_rows"]
@@ -48,11 +51,17 @@ class IndexSampler:
     Parameters
     ----------
     deformation : object with ``deform(points)``
-        ``(N, 3) -> (N, 3)`` physical points.
+        ``(N, 3) -> (N, 3)`` physical points. An FFD's per-point weights, if any, are one per
+        voxel of ``reference`` (:func:`~ffd_notebook.ffd.grid.grid_weights`).
     reference : ImageGrid
         The output grid (where ``x`` runs).
     source : ImageGrid
         The input image's grid (where ``T(x)`` is looked up).
+
+    Attributes
+    ----------
+    evaluator : GridEvaluator
+        ``T`` on the reference grid, in the source's index frame.
 
     Examples
     --------
@@ -66,25 +75,17 @@ class IndexSampler:
     """
 
     def __init__(self, deformation: Deformation, reference: ImageGrid, source: ImageGrid) -> None:
-        if not callable(getattr(deformation, "deform", None)):
-            raise TypeError(f"a deformation needs a deform(points) method, got {type(deformation).__name__}")
-        self.deformation = deformation
         self.reference = reference
         self.source = source
-        self.to_physical = reference.index_to_physical()
-        self.to_index = source.physical_to_index()
+        self.evaluator = GridEvaluator(
+            deformation, reference.index_to_physical(), reference.shape, output=source.physical_to_index()
+        )
+        self._components = tuple(range(source.dim))[::-1]  # the input's array order: (k, j, i) or (j, i)
 
-    def slab_index(self, start: int, stop: int) -> NDArray[np.float64]:
-        """``(4, n)`` homogeneous reference indices ``(i, j, k, 1)`` of array rows ``start:stop``, C order."""
-        shape = (stop - start, *self.reference.shape[1:])
-        axes = [np.arange(start, stop, dtype=np.float64)] + [np.arange(n, dtype=np.float64) for n in shape[1:]]
-        grids = np.meshgrid(*axes, indexing="ij")  # array order: (k, j, i) or (j, i)
-        n = grids[0].size
-        index = np.zeros((4, n))
-        for axis, values in enumerate(reversed(grids)):  # i first
-            index[axis] = values.ravel()
-        index[3] = 1.0
-        return index
+    @property
+    def separable(self) -> bool:
+        """Whether ``T`` is evaluated separably (an FFD whose lattice runs along the reference grid)."""
+        return self.evaluator.separable
 
     def rows(self, start: int, stop: int) -> NDArray[np.float64]:
         """Input indices for output array rows ``start:stop``: ``(source.dim, stop - start, ...)``, array order.
@@ -92,12 +93,4 @@ class IndexSampler:
         Row ``m`` of the result is the input array's axis ``m`` (``k, j, i`` for a 3D input), ready
         for :func:`scipy.ndimage.map_coordinates`.
         """
-        points = (self.to_physical @ self.slab_index(start, stop))[:3].T
-        moved = np.asarray(self.deformation.deform(points), dtype=np.float64)
-        if moved.shape != points.shape:
-            raise ValueError(f"deformation.deform returned shape {moved.shape} for {points.shape} points")
-        index = self.to_index[:3, :3] @ moved.T
-        index += self.to_index[:3, 3, None]
-        dim = self.source.dim
-        shape = (stop - start, *self.reference.shape[1:])
-        return np.ascontiguousarray(index[:dim][::-1]).reshape(dim, *shape)
+        return self.evaluator.points(start, stop, components=self._components)

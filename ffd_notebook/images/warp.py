@@ -2,9 +2,10 @@
 
 The output voxel at physical point ``x`` of the reference grid takes the input's value at
 ``T(x)``, as ``sitk.Resample(image, reference, transform)`` does. ``T(x)`` is evaluated a slab of
-output rows at a time, in the input's index frame (:mod:`.sample`; separably for an FFD whose
-lattice runs along the grid, :mod:`.separable`), and the input is read there by
-:class:`~.pixels.Interpolator` (SciPy's ``map_coordinates`` with ITK's border rules).
+output rows at a time, in the input's index frame (:mod:`.sample`: the engine's
+:class:`~ffd_notebook.ffd.grid.GridEvaluator`, separable for an FFD whose lattice runs along the
+grid), and the input is read there by :class:`~.pixels.Interpolator` (SciPy's ``map_coordinates``
+with ITK's border rules).
 
 SciPy rather than SimpleITK's resampler with a displacement field, because it was faster here:
 on a 256^3 float32 image, interpolating given indices slab by slab took 2.8 s with
@@ -16,18 +17,14 @@ field image per slab; ``tests/benchmarks/bench_images.py`` measures both.
 
 from __future__ import annotations
 
-import os
 from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike
 
-from .._util.blas import one_blas_thread
-from .files import read_image_information
-from .geometry import ImageGrid
 from .pixels import Interpolator, as_pixels, check_image_interpolation
-from .sample import Deformation, slab_rows
-from .separable import index_sampler
+from .reference import reference_grid
+from .sample import Deformation, IndexSampler, slab_rows
 
 __all__ = ["warp_image"]
 
@@ -55,9 +52,14 @@ def warp_image(
     deformation : object with ``deform(points)``
         ``T``: an :class:`~ffd_notebook.FFD` or anything that maps ``(N, 3)`` physical points
         to ``(N, 3)`` points. A 2D image lies in the plane ``z = 0``; ``T``'s z component is
-        not used for it (a lattice in the image's plane moves nothing out of it).
-    reference : SimpleITK.Image, path or ImageGrid, optional
-        The output grid; the input's own grid by default.
+        not used for it (a lattice in the image's plane moves nothing out of it). Every option
+        of an FFD holds (strength, ``outside``, ``only_inside``...); its per-point weights, if
+        any, are one per voxel of the reference grid in array order (a weight image's
+        ``ravel()``): a mesh's vertex weights are refused (``ffd.copy(weights=None)`` warps the
+        whole image).
+    reference : ImageGrid, SimpleITK.Image, path, DisplacementField or mapping, optional
+        The output grid (anything :func:`~ffd_notebook.images.reference_grid` reads); the input's own grid
+        by default.
     interpolation : {"linear", "nearest", "bspline"}
         ``"nearest"`` for label maps (no new values), ``"linear"``, or cubic ``"bspline"``.
     default_value : float
@@ -78,7 +80,7 @@ def warp_image(
     ------
     ValueError
         Unknown interpolation, an array whose shape does not fit its geometry, a deformation
-        that does not return ``(N, 3)`` points.
+        that does not return ``(N, 3)`` points, an FFD's weights that are not one per voxel.
     FileFormatError
         An image file SimpleITK cannot read.
 
@@ -95,22 +97,16 @@ def warp_image(
     """
     check_image_interpolation(interpolation, default_value)
     pixels, source, sitk_image = as_pixels(image, spacing=spacing, origin=origin, direction=direction)
-    if reference is None:
-        grid = source
-    elif isinstance(reference, str | os.PathLike):
-        grid = read_image_information(reference)
-    else:
-        grid = ImageGrid.of(reference)
+    grid = source if reference is None else reference_grid(reference)
     if grid.dim != source.dim:
         raise ValueError(f"the reference grid is {grid.dim}D and the image {source.dim}D")
     reader = Interpolator(pixels, source, interpolation, default_value)
     out = np.empty(grid.shape + reader.component_shape, dtype=reader.dtype)
-    sampler = index_sampler(deformation, grid, source)
+    sampler = IndexSampler(deformation, grid, source)
     step = slab_rows(grid)
     for start in range(0, grid.shape[0], step):
         stop = min(start + step, grid.shape[0])
-        with one_blas_thread():  # small products: a second BLAS thread waiting for a busy core costs 10x
-            index = sampler.rows(start, stop)
+        index = sampler.rows(start, stop)  # on this thread: the evaluator's products stay below BLAS's threading
         reader.read(index, out=out[start:stop])
     if sitk_image is None:
         return out

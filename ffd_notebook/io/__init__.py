@@ -1,4 +1,5 @@
-"""Reading and writing files: .ffd lattices, ITK transforms, elastix parameter files, PyGeM .prm files, meshes.
+"""Reading and writing files: .ffd lattices, ITK and ANTs transforms, elastix parameter files, NiftyReg and FSL FNIRT
+files, PyGeM .prm files, displacement fields, meshes.
 
 The .ffd, OBJ and PLY parsers are written here (see :mod:`.ffd_file`, :mod:`.obj` and :mod:`.ply`
 for why); STL and VTK formats go through VTK's readers in a child process (see :mod:`.mesh`).
@@ -25,10 +26,13 @@ from .displacement_field import (
 )
 from .elastix import ElastixTransform, load_elastix, save_elastix
 from .ffd_file import load_ffd, save_ffd
+from .fnirt import load_fnirt, save_fnirt
 from .itk import load_transform, save_transform
 from .lattice_fitting import fit_lattice
+from .niftyreg import load_niftyreg, save_niftyreg
 from .placement import place_at_mesh_minimum
 from .prm import load_prm, save_prm
+from .transform_chain import AffineTransform, TransformChain
 
 if TYPE_CHECKING:  # the lazy names below, declared for type checkers and IDEs
     from .mesh import read_mesh as read_mesh
@@ -51,14 +55,18 @@ _LAZY = {
 __all__ = [
     "MAX_FILE_BYTES",
     "MESH_SUFFIXES",
+    "AffineTransform",
     "DisplacementField",
     "ElastixTransform",
+    "TransformChain",
     "check_regular_file",
     "fit_lattice",
     "load_deformation",
     "load_displacement_field",
     "load_elastix",
     "load_ffd",
+    "load_fnirt",
+    "load_niftyreg",
     "load_prm",
     "load_transform",
     "place_at_mesh_minimum",
@@ -69,6 +77,8 @@ __all__ = [
     "save_displacement_field",
     "save_elastix",
     "save_ffd",
+    "save_fnirt",
+    "save_niftyreg",
     "save_prm",
     "save_transform",
     "write_mesh",

@@ -6,13 +6,17 @@ what ``sitk.DisplacementFieldTransform``, ANTs and nitransforms read. Between vo
 :class:`DisplacementField` interpolates linearly as ITK's ``VectorLinearInterpolateImageFunction``
 does (the neighbours clamped to the grid), inside the buffer's half-voxel margin
 (``-0.5 <= index < n - 0.5`` on every axis, ``ImageFunction::IsInsideBuffer``); a point outside it
-does not move (``DisplacementFieldTransform::TransformPoint``).
+does not move (``DisplacementFieldTransform::TransformPoint``). That is the images' interpolator,
+:class:`~ffd_notebook.images.pixels.Interpolator` (linear, default value zero), reading the vectors.
+NiftyReg's own fields follow another rule beyond their grid (``outside="nearest"``): the displacement of
+the nearest border voxel goes on (``get_SlidedValues`` in NiftyReg's ``_reg_splineBasis.cpp``), the same
+interpolator reading at the index clamped onto the grid.
 """
 
 from __future__ import annotations
 
 import os
-from collections.abc import Callable, Mapping
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any, cast
 
@@ -21,21 +25,24 @@ from numpy.typing import ArrayLike, NDArray
 
 from .._util.points import as_points
 from ..errors import FileFormatError
-from ..ffd.deform import FFD
+from ..ffd.grid import GridEvaluator
+from ..images.files import open_image
+from ..images.geometry import ImageGrid
+from ..images.pixels import Interpolator
+from ..images.reference import reference_grid
 from ._atomic import atomic_path
-from ._safety import check_regular_file
-from .tensor_grid import apply_along, axis_weights
 
 __all__ = [
     "FIELD_SUFFIXES",
     "DisplacementField",
     "field_suffix",
     "load_displacement_field",
-    "reference_grid",
     "sample_displacement_field",
     "save_displacement_field",
 ]
 
+#: What moves a point beyond a field's grid (:class:`DisplacementField`'s ``outside``).
+FIELD_OUTSIDE_RULES = ("zero", "nearest")
 #: Displacement-field file names, and the ITK image IO that reads and writes each.
 FIELD_SUFFIXES = {".nii": "NiftiImageIO", ".nii.gz": "NiftiImageIO", ".nrrd": "NrrdImageIO", ".mha": "MetaImageIO"}
 _MAX_VOXELS = 2**28  # 268M voxels: 6.4 GB of float64 vectors, far above any registration field
@@ -57,67 +64,162 @@ def field_suffix(path: str | os.PathLike[str]) -> str | None:
 class DisplacementField:
     """A displacement field on a regular grid, moving points as ``sitk.DisplacementFieldTransform`` does.
 
+    The vectors are in SimpleITK's (and scikit-image's) array order, as every 3D grid of the package:
+    ``vectors[k, j, i]`` is the displacement of voxel ``(i, j, k)``, what ``sitk.GetArrayFromImage``
+    gives for a vector image (:meth:`from_sitk`, :meth:`to_sitk`). The grid's ``size``, ``spacing``
+    and ``origin`` are listed x first (ITK's order), ``shape`` is the array's.
+
     Parameters
     ----------
     vectors : array_like
-        ``(nx, ny, nz, 3)`` displacements (physical units), index ``(i, j, k)`` as the voxel's.
-    spacing, origin : array_like
-        Voxel spacing and the position of voxel ``(0, 0, 0)``.
+        ``(nz, ny, nx, 3)`` displacements in physical units, ``vectors[k, j, i]`` the voxel ``(i, j, k)``'s.
+    spacing, origin : array_like, optional
+        Voxel spacing and the position of voxel ``(0, 0, 0)`` (x first); 1 and 0 by default.
     direction : array_like, optional
         3x3 matrix whose columns are the grid axes (identity by default).
+    outside : {"zero", "nearest"}
+        What moves a point outside the buffer: nothing (``"zero"``, ITK's ``DisplacementFieldTransform``, ANTs)
+        or the displacement of the nearest border voxel (``"nearest"``, NiftyReg's fields, which interpolate with
+        their border voxels repeated beyond the grid).
 
     Examples
     --------
     >>> import numpy as np
-    >>> vectors = np.zeros((3, 3, 3, 3)); vectors[2, :, :, 0] = 1.0     # the x = 2 layer moves by 1 in x
+    >>> vectors = np.zeros((3, 3, 3, 3)); vectors[:, :, 2, 0] = 1.0     # the voxels at i = 2 move by 1 in x
     >>> field = DisplacementField(vectors, spacing=(1.0, 1.0, 1.0), origin=(0.0, 0.0, 0.0))
     >>> field.deform([[1.5, 1.0, 1.0], [2.4, 1.0, 1.0], [2.6, 1.0, 1.0]]).tolist()
     [[2.0, 1.0, 1.0], [3.4, 1.0, 1.0], [2.6, 1.0, 1.0]]
     """
 
-    def __init__(self, vectors: ArrayLike, spacing: ArrayLike, origin: ArrayLike, direction: ArrayLike | None = None):
+    def __init__(
+        self,
+        vectors: ArrayLike,
+        spacing: ArrayLike | None = None,
+        origin: ArrayLike | None = None,
+        direction: ArrayLike | None = None,
+        *,
+        outside: str = "zero",
+    ) -> None:
+        if outside not in FIELD_OUTSIDE_RULES:
+            raise ValueError(f"outside must be one of {', '.join(FIELD_OUTSIDE_RULES)}, got {outside!r}")
+        self.outside = outside
         v = np.asarray(vectors, dtype=np.float64)
         if v.ndim != 4 or v.shape[3] != 3 or min(v.shape[:3]) < 1:
-            raise ValueError(f"vectors must be an (nx, ny, nz, 3) array, got shape {v.shape}")
+            raise ValueError(f"vectors must be an (nz, ny, nx, 3) array (array order, as images), got shape {v.shape}")
         if not np.all(np.isfinite(v)):
             raise ValueError("the displacement vectors contain NaN or infinite values")
-        self.vectors: NDArray[np.float64] = v
-        self.spacing = np.broadcast_to(np.asarray(spacing, dtype=np.float64), (3,)).copy()
-        self.origin = np.asarray(origin, dtype=np.float64).reshape(3).copy()
-        self.direction = np.eye(3) if direction is None else np.asarray(direction, dtype=np.float64).reshape(3, 3)
-        placement = self.direction * self.spacing
-        if (not np.all(np.isfinite(placement)) or not np.all(np.isfinite(self.origin)) or np.any(self.spacing <= 0)
-                or np.linalg.cond(placement) > 1e12):  # fmt: skip
+        try:
+            grid = ImageGrid(v.shape[2::-1], spacing, origin, direction)
+        except ValueError as exc:
+            raise ValueError(f"the field's grid: {exc}") from None
+        if np.linalg.cond(grid.direction * grid.spacing) > 1e12:
             raise ValueError("the grid needs a positive spacing, a finite origin and an invertible direction")
-        self._to_index = np.linalg.inv(placement)
+        self.vectors: NDArray[np.float64] = v
+        self.grid: ImageGrid = grid
+        self._to_index = grid.physical_to_index()[:3]
+        self._interpolator: Interpolator | None = None
+        self._interpolator_of: NDArray[np.float64] | None = None
 
-    @property
-    def shape(self) -> tuple[int, int, int]:
-        """Voxels per axis ``(nx, ny, nz)``."""
-        return tuple(int(n) for n in self.vectors.shape[:3])  # type: ignore[return-value]
+    @classmethod
+    def from_sitk(cls, image: Any) -> DisplacementField:
+        """The field a SimpleITK vector image holds (3D, three components), in ITK's convention.
 
-    def grid_points(self) -> NDArray[np.float64]:
-        """Every voxel centre, ``(nx * ny * nz, 3)``, in the order of ``vectors.reshape(-1, 3)``.
+        Parameters
+        ----------
+        image : SimpleITK.Image
+            A 3D image of 3-vectors (``sitk.sitkVectorFloat64`` or any vector pixel type).
 
         Returns
         -------
-        numpy.ndarray
-            ``(nx * ny * nz, 3)`` physical positions of the voxel centres, x index slowest.
+        DisplacementField
+            Its vectors (``sitk.GetArrayFromImage(image)``) on its grid.
+
+        Raises
+        ------
+        ValueError
+            Not a 3D image of 3-vectors.
+
+        Examples
+        --------
+        >>> import numpy as np, SimpleITK as sitk
+        >>> image = sitk.GetImageFromArray(np.ones((2, 3, 4, 3)), isVector=True)
+        >>> DisplacementField.from_sitk(image).size
+        (4, 3, 2)
+        """
+        import SimpleITK as sitk
+
+        if image.GetDimension() != 3 or image.GetNumberOfComponentsPerPixel() != 3:
+            raise ValueError(
+                f"a displacement field is a 3D image of 3-vectors, got {image.GetDimension()}D with "
+                f"{image.GetNumberOfComponentsPerPixel()} component(s) per voxel"
+            )
+        grid = ImageGrid.of(image)
+        return cls(sitk.GetArrayFromImage(image), grid.spacing, grid.origin, grid.direction)
+
+    def to_sitk(self) -> Any:
+        """The field as a SimpleITK vector image (``sitkVectorFloat64``) on its grid.
+
+        Returns
+        -------
+        SimpleITK.Image
+            What ``sitk.DisplacementFieldTransform`` takes.
 
         Examples
         --------
         >>> import numpy as np
-        >>> from ffd_notebook.io import DisplacementField
-        >>> vectors = np.zeros((3, 3, 3, 3)); vectors[..., 0] = 1.0     # every voxel moves +1 in x
-        >>> field = DisplacementField(vectors, spacing=2.0, origin=(0.0, 0.0, 0.0))
-        >>> field.grid_points()[[0, -1]].tolist()
-        [[0.0, 0.0, 0.0], [4.0, 4.0, 4.0]]
+        >>> field = DisplacementField(np.ones((2, 3, 4, 3)), spacing=0.5)
+        >>> image = field.to_sitk()
+        >>> image.GetSize(), image.GetSpacing()
+        ((4, 3, 2), (0.5, 0.5, 0.5))
         """
-        index = np.stack(np.meshgrid(*[np.arange(n, dtype=np.float64) for n in self.shape], indexing="ij"), -1)
-        return index.reshape(-1, 3) @ (self.direction * self.spacing).T + self.origin
+        import SimpleITK as sitk
+
+        return self.grid.to_sitk(sitk.GetImageFromArray(self.vectors, isVector=True))
+
+    @property
+    def shape(self) -> tuple[int, int, int]:
+        """The array's shape without the components, ``(nz, ny, nx)`` (``size`` reversed)."""
+        return cast("tuple[int, int, int]", tuple(int(n) for n in self.vectors.shape[:3]))
+
+    @property
+    def size(self) -> tuple[int, int, int]:
+        """Voxels per axis, x first: ``(nx, ny, nz)`` (ITK's ``GetSize()``)."""
+        return cast("tuple[int, int, int]", self.grid.size)
+
+    @property
+    def spacing(self) -> NDArray[np.float64]:
+        """Voxel spacing, x first."""
+        return self.grid.spacing
+
+    @property
+    def origin(self) -> NDArray[np.float64]:
+        """Physical position of voxel ``(0, 0, 0)``."""
+        return self.grid.origin
+
+    @property
+    def direction(self) -> NDArray[np.float64]:
+        """3x3 matrix whose columns are the grid's axes."""
+        return self.grid.direction
+
+    def grid_points(self) -> NDArray[np.float64]:
+        """Every voxel centre, ``(nx * ny * nz, 3)``, in the order of ``vectors.reshape(-1, 3)`` (i fastest).
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(N, 3)`` physical positions of the voxel centres (``self.grid.physical_points()``).
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> field = DisplacementField(np.zeros((3, 3, 3, 3)), spacing=2.0)
+        >>> field.grid_points()[[0, 1, -1]].tolist()
+        [[0.0, 0.0, 0.0], [2.0, 0.0, 0.0], [4.0, 4.0, 4.0]]
+        """
+        return self.grid.physical_points()
 
     def to_index(self, points: ArrayLike) -> NDArray[np.float64]:
-        """Continuous voxel indices of world points, ``(N, 3)``.
+        """Continuous voxel indices ``(i, j, k)`` of world points, ``(N, 3)``.
 
         Parameters
         ----------
@@ -127,18 +229,17 @@ class DisplacementField:
         Returns
         -------
         numpy.ndarray
-            ``(N, 3)`` continuous voxel indices ``(i, j, k)``.
+            ``(N, 3)`` continuous voxel indices ``(i, j, k)`` (x first).
 
         Examples
         --------
         >>> import numpy as np
-        >>> from ffd_notebook.io import DisplacementField
-        >>> vectors = np.zeros((3, 3, 3, 3)); vectors[..., 0] = 1.0     # every voxel moves +1 in x
-        >>> field = DisplacementField(vectors, spacing=2.0, origin=(0.0, 0.0, 0.0))
+        >>> field = DisplacementField(np.zeros((3, 3, 3, 3)), spacing=2.0)
         >>> field.to_index([[2.0, 3.0, 0.0]]).tolist()
         [[1.0, 1.5, 0.0]]
         """
-        return (as_points(points) - self.origin) @ self._to_index.T
+        pts = as_points(points)
+        return pts @ self._to_index[:, :3].T + self._to_index[:, 3]
 
     def displacement(self, points: ArrayLike) -> NDArray[np.float64]:
         """The interpolated displacement at each point (zero outside the buffer), ``(N, 3)``.
@@ -156,33 +257,24 @@ class DisplacementField:
         Examples
         --------
         >>> import numpy as np
-        >>> from ffd_notebook.io import DisplacementField
         >>> vectors = np.zeros((3, 3, 3, 3)); vectors[..., 0] = 1.0     # every voxel moves +1 in x
-        >>> field = DisplacementField(vectors, spacing=2.0, origin=(0.0, 0.0, 0.0))
+        >>> field = DisplacementField(vectors, spacing=2.0)
         >>> field.displacement([[1.0, 1.0, 1.0]]).tolist()
         [[1.0, 0.0, 0.0]]
         """
         index = self.to_index(points)
-        dims = np.array(self.shape, dtype=np.float64)
-        inside = np.all((index >= -0.5) & (index < dims - 0.5), axis=1)
-        out = np.zeros_like(index)
-        if not inside.any():
-            return out
-        c = np.clip(index[inside], 0.0, dims - 1.0)
-        base = np.minimum(np.floor(c), np.maximum(dims - 2.0, 0.0)).astype(np.int64)
-        t = c - base
-        upper = np.minimum(base + 1, np.array(self.shape) - 1)
-        acc = np.zeros((len(c), 3))
-        for corner in range(8):
-            bits = [(corner >> a) & 1 for a in range(3)]
-            weight = np.ones(len(c))
-            ijk = []
-            for a, bit in enumerate(bits):
-                weight *= t[:, a] if bit else 1.0 - t[:, a]
-                ijk.append(upper[:, a] if bit else base[:, a])
-            acc += weight[:, None] * self.vectors[ijk[0], ijk[1], ijk[2]]
-        out[inside] = acc
+        if self.outside == "nearest":  # NiftyReg: beyond the grid, the border voxels' displacement goes on
+            index = np.clip(index, 0.0, np.array(self.size, dtype=np.float64) - 1.0)  # NaN stays NaN: zero
+        out = np.empty_like(index)
+        self._reader().read(np.ascontiguousarray(index.T[::-1]), out=out)  # array order (k, j, i)
         return out
+
+    def _reader(self) -> Interpolator:
+        """The images' linear interpolator on the vectors (made again if ``vectors`` was replaced)."""
+        if self._interpolator is None or self._interpolator_of is not self.vectors:
+            self._interpolator = Interpolator(self.vectors, self.grid, "linear", 0.0)
+            self._interpolator_of = self.vectors
+        return self._interpolator
 
     def deform(self, points: ArrayLike) -> NDArray[np.float64]:
         """Where the field takes ``(N, 3)`` points: ``x + displacement(x)``.
@@ -200,9 +292,8 @@ class DisplacementField:
         Examples
         --------
         >>> import numpy as np
-        >>> from ffd_notebook.io import DisplacementField
         >>> vectors = np.zeros((3, 3, 3, 3)); vectors[..., 0] = 1.0     # every voxel moves +1 in x
-        >>> field = DisplacementField(vectors, spacing=2.0, origin=(0.0, 0.0, 0.0))
+        >>> field = DisplacementField(vectors, spacing=2.0)
         >>> field.deform([[1.0, 1.0, 1.0], [50.0, 0.0, 0.0]]).tolist()
         [[2.0, 1.0, 1.0], [50.0, 0.0, 0.0]]
         """
@@ -212,61 +303,9 @@ class DisplacementField:
     __call__ = deform
 
     def __repr__(self) -> str:
-        return (f"DisplacementField(shape={self.shape}, spacing={self.spacing.tolist()}, "
-                f"origin={self.origin.tolist()})")  # fmt: skip
-
-
-# ---------------------------------------------------------------------------------------- reference grids
-def _grid_of(reference: Any) -> tuple[tuple[int, int, int], NDArray, NDArray, NDArray]:
-    """``(size, spacing, origin, direction)`` of a reference: an image file, a SimpleITK image, a field or a mapping."""
-    import SimpleITK as sitk
-
-    if isinstance(reference, DisplacementField):
-        return reference.shape, reference.spacing, reference.origin, reference.direction
-    if isinstance(reference, (str, os.PathLike)):
-        check_regular_file(reference)
-        reader = sitk.ImageFileReader()
-        reader.SetFileName(os.fspath(reference))
-        try:
-            reader.ReadImageInformation()
-        except RuntimeError as exc:
-            raise FileFormatError(reference, None, f"not an image SimpleITK can read: {_first_line(exc)}") from None
-        if reader.GetDimension() != 3:
-            raise FileFormatError(reference, None, f"expected a 3D image, got {reader.GetDimension()}D")
-        return (tuple(reader.GetSize()), np.array(reader.GetSpacing()), np.array(reader.GetOrigin()),
-                np.array(reader.GetDirection()).reshape(3, 3))  # fmt: skip
-    if isinstance(reference, sitk.Image):
-        if reference.GetDimension() != 3:
-            raise ValueError(f"expected a 3D reference image, got {reference.GetDimension()}D")
-        return (tuple(reference.GetSize()), np.array(reference.GetSpacing()), np.array(reference.GetOrigin()),
-                np.array(reference.GetDirection()).reshape(3, 3))  # fmt: skip
-    if isinstance(reference, Mapping):
-        unknown = set(reference) - {"size", "spacing", "origin", "direction"}
-        if "size" not in reference or unknown:
-            raise ValueError("a reference grid given as a mapping needs 'size' and may have 'spacing', 'origin', "
-                             f"'direction' (got {sorted(reference)})")  # fmt: skip
-        size = tuple(int(n) for n in np.asarray(reference["size"]).reshape(3))
-        spacing = np.broadcast_to(np.asarray(reference.get("spacing", 1.0), dtype=np.float64), (3,)).copy()
-        origin = np.asarray(reference.get("origin", (0.0, 0.0, 0.0)), dtype=np.float64).reshape(3)
-        direction = np.asarray(reference.get("direction", np.eye(3)), dtype=np.float64).reshape(3, 3)
-        return size, spacing, origin, direction  # type: ignore[return-value]
-    raise TypeError("reference must be an image file, a SimpleITK image, a DisplacementField or a mapping with "
-                    f"size/spacing/origin/direction, got {type(reference).__name__}")  # fmt: skip
-
-
-def reference_grid(reference: Any) -> dict[str, Any]:
-    """A reference's voxel grid as ``{"size", "spacing", "origin", "direction"}`` .
-
-    ``reference``: an image file, a SimpleITK image, a :class:`DisplacementField` or such a mapping
-    (``size`` required; spacing 1, origin 0 and identity direction by default).
-
-    Examples
-    --------
-    >>> reference_grid({"size": (4, 5, 6)})["spacing"].tolist()
-    [1.0, 1.0, 1.0]
-    """
-    size, spacing, origin, direction = _grid_of(reference)
-    return {"size": tuple(size), "spacing": spacing, "origin": origin, "direction": direction}
+        rule = "" if self.outside == "zero" else f", outside={self.outside!r}"
+        return (f"DisplacementField(size={self.size}, spacing={self.spacing.tolist()}, "
+                f"origin={self.origin.tolist()}{rule})")  # fmt: skip
 
 
 def _first_line(exc: BaseException) -> str:
@@ -274,11 +313,21 @@ def _first_line(exc: BaseException) -> str:
     return lines[-1][:200] if lines else type(exc).__name__
 
 
-def _deformer(deformation: Any) -> Callable[[NDArray[np.float64]], NDArray[np.float64]]:
-    if hasattr(deformation, "deform"):
-        return deformation.deform
-    if callable(deformation):
+class _Callable:
+    """A callable on ``(N, 3)`` points as a deformation (``deform``)."""
+
+    def __init__(self, function: Callable[[NDArray[np.float64]], Any]) -> None:
+        self.function = function
+
+    def deform(self, points: NDArray[np.float64]) -> Any:
+        return self.function(points)
+
+
+def _as_deformation(deformation: Any) -> Any:
+    if callable(getattr(deformation, "deform", None)):
         return deformation
+    if callable(deformation):
+        return _Callable(deformation)
     raise TypeError(f"expected a deformation (an object with deform(points), or a callable), got "
                     f"{type(deformation).__name__}")  # fmt: skip
 
@@ -288,16 +337,18 @@ def sample_displacement_field(deformation: Any, reference: Any) -> DisplacementF
 
     ``deformation`` is anything with ``deform(points)`` (an :class:`~ffd_notebook.FFD`, an
     :class:`~ffd_notebook.io.ElastixTransform`, a field) or a callable on ``(N, 3)`` points;
-    ``reference`` an image file, a SimpleITK image, a :class:`DisplacementField` or a mapping
-    ``{"size": (nx, ny, nz), "spacing": ..., "origin": ..., "direction": ...}``.
+    ``reference`` anything :func:`~ffd_notebook.images.reference_grid` reads. It is evaluated by the
+    engine's one evaluator on a grid (:class:`~ffd_notebook.ffd.grid.GridEvaluator`): separably for an
+    FFD whose lattice runs along the grid, with every option of the FFD (an FFD's per-point weights
+    are then one per voxel, in array order), point by point otherwise.
 
     Parameters
     ----------
     deformation : FFD, ElastixTransform, DisplacementField or callable
         What moves points (a callable maps ``(N, 3)`` points to moved points).
-    reference : image, DisplacementField or mapping
-        The grid: a SimpleITK image or image file, a field, or a mapping with ``size`` and optionally
-        ``spacing``, ``origin``, ``direction``.
+    reference : ImageGrid, image, image file, DisplacementField or mapping
+        The grid: anything :func:`~ffd_notebook.images.reference_grid` reads (a mapping with ``size`` and
+        optionally ``spacing``, ``origin``, ``direction``).
 
     Returns
     -------
@@ -311,55 +362,22 @@ def sample_displacement_field(deformation: Any, reference: Any) -> DisplacementF
     >>> field = sample_displacement_field(FFD(lat), {"size": (2, 2, 2)})
     >>> field.vectors[1, 1, 1].round(12).tolist()
     [0.5, 0.0, 0.0]
+    >>> sample_displacement_field(FFD(lat, strength=0.5), {"size": (2, 2, 2)}).vectors[1, 1, 1].round(12).tolist()
+    [0.25, 0.0, 0.0]
     """
-    size, spacing, origin, direction = _grid_of(reference)
-    if min(size) < 1 or int(np.prod(size)) > _MAX_VOXELS:
-        raise ValueError(f"a reference grid of {size} voxels: expected 1 to {_MAX_VOXELS} voxels")
-    grid = DisplacementField(np.zeros((1, 1, 1, 3)), spacing, origin, direction)
-    nx, ny, nz = size
-    placement = direction * spacing
-    fast = _aligned_ffd(deformation, cast("tuple[int, int, int]", tuple(size)), grid)
-    if fast is not None:
-        return DisplacementField(fast, grid.spacing, grid.origin, grid.direction)
-    deform = _deformer(deformation)
-    vectors = np.empty((nx, ny, nz, 3))
-    per_slab = max(1, _SLAB_POINTS // (ny * nz))
-    jk = np.stack(np.meshgrid(np.arange(ny, dtype=np.float64), np.arange(nz, dtype=np.float64), indexing="ij"), -1)
-    plane = jk.reshape(-1, 2) @ placement[:, 1:].T + origin  # the voxel centres of the i = 0 layer
-    for start in range(0, nx, per_slab):
-        stop = min(nx, start + per_slab)
-        rows = np.arange(start, stop, dtype=np.float64)[:, None, None] * placement[:, 0]
-        points = (plane[None] + rows).reshape(-1, 3)
-        moved = np.asarray(deform(points), dtype=np.float64)
-        vectors[start:stop] = (moved - points).reshape(stop - start, ny, nz, 3)
+    grid = reference_grid(reference)
+    if grid.dim != 3:
+        raise ValueError(f"a displacement field needs a 3D reference grid, got a {grid.dim}D one")
+    if int(np.prod(grid.size)) > _MAX_VOXELS:
+        raise ValueError(f"a reference grid of {grid.size} voxels: expected at most {_MAX_VOXELS} voxels")
+    evaluator = GridEvaluator(_as_deformation(deformation), grid.index_to_physical(), grid.shape)
+    nz, ny, nx = grid.shape
+    vectors = np.empty((nz, ny, nx, 3))
+    per_slab = max(1, _SLAB_POINTS // (ny * nx))
+    for start in range(0, nz, per_slab):
+        stop = min(nz, start + per_slab)
+        vectors[start:stop] = np.moveaxis(evaluator.displacements(start, stop), 0, -1)
     return DisplacementField(vectors, grid.spacing, grid.origin, grid.direction)
-
-
-def _aligned_ffd(deformation: Any, size: tuple[int, int, int], grid: DisplacementField) -> NDArray | None:
-    """An FFD's displacement on a grid along its lattice axes, axis by axis (see :mod:`.tensor_grid`), or ``None``."""
-    if not isinstance(deformation, FFD) or deformation.basis != "bspline" or deformation.border != "zero":
-        return None
-    lat = deformation.lattice
-    if not np.allclose(grid.direction, lat.rotation, rtol=0, atol=1e-12):
-        return None
-    start = lat.to_lattice(grid.origin[None])[0]
-    step = (np.diag(lat.rotation.T @ grid.direction) * grid.spacing) / lat.spacing
-    local = lat.offsets
-    for axis in range(3):
-        u = start[axis] + np.arange(size[axis]) * step[axis]
-        weights = axis_weights(u, lat.shape[axis])
-        if deformation.only_inside:  # the domain is a box: a sample outside it on any axis gets nothing
-            weights[(u < 1.0) | (u > lat.shape[axis] - 2.0)] = 0.0
-        local = apply_along(weights, local, axis)
-    linear = deformation.affine[:3, :3] - np.eye(3)
-    if linear.any() or deformation.affine[:3, 3].any():
-        placement = grid.direction * grid.spacing
-        local = local + (linear @ grid.origin + deformation.affine[:3, 3])
-        for axis in range(3):
-            shape = [1, 1, 1, 3]
-            shape[axis] = size[axis]
-            local += (np.arange(size[axis], dtype=np.float64)[:, None] * (linear @ placement[:, axis])).reshape(shape)
-    return np.ascontiguousarray(local)
 
 
 # ---------------------------------------------------------------------------------------- files
@@ -405,14 +423,11 @@ def save_displacement_field(path: str | os.PathLike[str], deformation: Any, refe
         if not isinstance(deformation, DisplacementField):
             raise ValueError("a reference grid is needed to sample this deformation (an image, a field or a mapping)")
         field = deformation
-    elif isinstance(deformation, DisplacementField) and _same_grid(deformation, reference):
+    elif isinstance(deformation, DisplacementField) and deformation.grid == reference_grid(reference):
         field = deformation
     else:
         field = sample_displacement_field(deformation, reference)
-    image = sitk.GetImageFromArray(np.ascontiguousarray(field.vectors.transpose(2, 1, 0, 3)), isVector=True)
-    image.SetSpacing(field.spacing.tolist())
-    image.SetOrigin(field.origin.tolist())
-    image.SetDirection(field.direction.ravel().tolist())
+    image = field.to_sitk()
     writer = sitk.ImageFileWriter()
     writer.SetImageIO(FIELD_SUFFIXES[suffix])
     writer.SetUseCompression(suffix == ".nii.gz")
@@ -427,19 +442,24 @@ def save_displacement_field(path: str | os.PathLike[str], deformation: Any, refe
             staging.unlink(missing_ok=True)
 
 
-def _same_grid(field: DisplacementField, reference: Any) -> bool:
-    size, spacing, origin, direction = _grid_of(reference)
-    return (tuple(size) == field.shape and np.array_equal(spacing, field.spacing)
-            and np.array_equal(origin, field.origin) and np.array_equal(direction, field.direction))  # fmt: skip
+def load_displacement_field(path: str | os.PathLike[str], *, within: str | os.PathLike[str] | None = None
+                            ) -> DisplacementField:  # fmt: skip
+    """Read a displacement field file (``.nii``, ``.nii.gz``, ``.nrrd``, ``.mha``), whole or not at all.
 
-
-def load_displacement_field(path: str | os.PathLike[str]) -> DisplacementField:
-    """Read a displacement field file (``.nii``, ``.nii.gz``, ``.nrrd``, ``.mha``) with SimpleITK.
+    The file goes through the package's one image reader (:func:`~ffd_notebook.images.open_image`):
+    its header is checked before ITK reads it (a MetaImage or NRRD header that names data files
+    reads them only inside ``within``), and its vectors are read whole or refused (a file cut
+    short says how many bytes of how many it holds). A field with a NaN or infinite component
+    anywhere is refused, naming how many vectors have one: SimpleITK's NIfTI reader turns them
+    into 0 (no displacement) without a word, so they are counted in the file's own data.
 
     Parameters
     ----------
     path : str or os.PathLike
         A ``.nii``, ``.nii.gz``, ``.nrrd`` or ``.mha`` file of 3-vectors.
+    within : str or os.PathLike, optional
+        The folder the files its header names must be in (the app passes its folder); ``None``:
+        anywhere, as ITK reads it.
 
     Returns
     -------
@@ -449,8 +469,8 @@ def load_displacement_field(path: str | os.PathLike[str]) -> DisplacementField:
     Raises
     ------
     FileFormatError
-        Not an image SimpleITK reads, not 3D, not 3 components per voxel, too large, or
-        non-finite values; names the file.
+        Not an image the package reads, not 3D, not 3 components per voxel, too large, data that
+        ends early, a data file refused, or non-finite vectors; names the file.
 
     Examples
     --------
@@ -464,30 +484,27 @@ def load_displacement_field(path: str | os.PathLike[str]) -> DisplacementField:
     >>> save_displacement_field(path, field)
     >>> load_displacement_field(path).deform([[1.0, 1.0, 1.0]]).tolist()
     [[2.0, 1.0, 1.0]]
+    >>> vectors[1, 1, 1] = np.nan
+    >>> import SimpleITK as sitk
+    >>> sitk.WriteImage(sitk.GetImageFromArray(vectors, isVector=True), str(path))
+    >>> load_displacement_field(path)
+    Traceback (most recent call last):
+    ...
+    ffd_notebook.errors.FileFormatError: ...warp.nii.gz: 1 of its 27 vectors hold NaN or infinite values: refused
     """
     import SimpleITK as sitk
 
     _check_suffix(path)
-    check_regular_file(path)
-    reader = sitk.ImageFileReader()
-    reader.SetFileName(os.fspath(path))
-    reader.SetImageIO(FIELD_SUFFIXES[field_suffix(path)])  # type: ignore[index]
+    image_file = open_image(path, within=within)
+    dims, components = image_file.dimension, image_file.components
+    if dims != 3 or components != 3:
+        raise FileFormatError(path, None, f"expected a 3D image of 3-vectors (a displacement field), got "
+                              f"{dims}D with {components} component(s) per voxel")  # fmt: skip
+    size = image_file.grid.size
+    if int(np.prod(size)) > _MAX_VOXELS:
+        raise FileFormatError(path, None, f"a field of {size} voxels is larger than the limit ({_MAX_VOXELS})")
+    image = image_file.read(pixel_type=sitk.sitkVectorFloat64, finite=True)
     try:
-        reader.ReadImageInformation()
-        dims, components = reader.GetDimension(), reader.GetNumberOfComponents()
-        size = tuple(reader.GetSize())
-        if dims != 3 or components != 3:
-            raise FileFormatError(path, None, f"expected a 3D image of 3-vectors (a displacement field), got "
-                                  f"{dims}D with {components} component(s) per voxel")  # fmt: skip
-        if int(np.prod(size)) > _MAX_VOXELS:
-            raise FileFormatError(path, None, f"a field of {size} voxels is larger than the limit ({_MAX_VOXELS})")
-        reader.SetOutputPixelType(sitk.sitkVectorFloat64)
-        image = reader.Execute()
-    except RuntimeError as exc:
-        raise FileFormatError(path, None, f"not a displacement field SimpleITK can read: {_first_line(exc)}") from None
-    vectors = sitk.GetArrayFromImage(image).transpose(2, 1, 0, 3)
-    try:
-        return DisplacementField(vectors, image.GetSpacing(), image.GetOrigin(),
-                                 np.array(image.GetDirection()).reshape(3, 3))  # fmt: skip
+        return DisplacementField.from_sitk(image)
     except ValueError as exc:
         raise FileFormatError(path, None, str(exc)) from None

@@ -7,10 +7,15 @@ What elastix computes (``elxTransformBase.hxx``, ``elxAdvancedBSplineTransform.h
   transform before it (``InitialTransformParameterFileName``, ``"NoInitialTransform"`` for none).
   ``HowToCombineTransforms "Compose"`` (the default) makes ``T(x) = T1(T0(x))``; any other
   value adds, ``T(x) = T1(x) + T0(x) - x``, where ``T0`` is the whole chain before.
-- elastix writes that name as its working directory saw it. It is looked for as written, then
-  relative to the file's folder (elastix's two rules), then as its last part in the file's folder
-  (results folders get moved). A chain that comes back to a file, or runs deeper than
-  :data:`MAX_CHAIN`, is refused.
+- elastix writes that name as its working directory saw it. It is looked for beside the file
+  first, then as written (relative to the working folder: elastix's other rule), then as its last
+  part beside the file (results folders get moved); a name found both beside the file and in the
+  working folder, as two different files, is refused rather than guessed (a stray file of the
+  same name in a notebook's folder was chained silently). A chain that comes back to a file, or
+  runs deeper than :data:`MAX_CHAIN`, is refused. Every file of the chain goes through the one
+  rule for files a file names (:func:`~ffd_notebook._util.file_access.named_file`): with
+  ``within``, the chain stays in that folder, and a name outside it is "not in the folder"
+  whether it exists or not.
 - ``BSplineTransform`` and ``RecursiveBSplineTransform``: a grid of ``GridSize`` coefficients at
   ``GridOrigin + GridDirection @ (GridSpacing * (GridIndex + ijk))``; ``GridDirection`` is written
   column by column (ITK's fixed parameters write it row by row). ``TransformParameters``: all x
@@ -41,10 +46,13 @@ from typing import Any, cast
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from .._util.file_access import is_inside, named_file, read_bytes
 from .._util.points import as_points
 from ..ffd import oneshot as _oneshot
 from ..ffd.deform import FFD
-from ..ffd.lattice import Lattice
+from ..ffd.lattice import Lattice, nearest_rotation
+from ..ffd.support import in_domain
+from ..images.geometry import ImageGrid
 from .elastix_text import ParameterMap, read_parameter_file, write_parameter_file
 from .itk_model import strip_padding
 
@@ -56,7 +64,6 @@ _MAX_AXIS = 4096
 _LINEAR = ("AffineTransform", "EulerTransform", "SimilarityTransform", "TranslationTransform")
 _BSPLINE = ("BSplineTransform", "RecursiveBSplineTransform")
 _PAD = 3  # zero layers that make the valid region cover a zero-border lattice's reach (as for ITK files)
-_ORTHOGONAL = 1e-12
 #: The fixed-image keys kept from a loaded file and written back (transformix resamples onto that grid).
 GEOMETRY_KEYS = ("Size", "Index", "Spacing", "Origin", "Direction")
 
@@ -106,8 +113,7 @@ class BSplineStep:
 
     def apply(self, points: NDArray[np.float64]) -> NDArray[np.float64]:
         rows = self.grid_index(points)
-        dims = np.array(self.coefficients.shape[:3], dtype=np.float64)[:, None]
-        valid = np.all((rows >= 1.0) & (rows < dims - 2.0), axis=0)
+        valid = in_domain("bspline", self.coefficients.shape[:3], rows.T, "half-open")  # elastix's valid region
         out = points.copy()
         if valid.any():
             inside = np.ascontiguousarray(rows[:, valid])
@@ -149,6 +155,30 @@ class ElastixTransform:
         self.combine = list(combine)
         self.geometry = dict(geometry or {})
 
+    @property
+    def grid(self) -> ImageGrid | None:
+        """The fixed image's grid the last file names (``Size``, ``Spacing``, ``Origin``, ``Direction``), or None.
+
+        elastix writes ``Direction`` column by column. A chain with a grid is a reference grid itself
+        (:func:`~ffd_notebook.images.reference_grid`): fields and fitted lattices default to it.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> step = LinearStep("TranslationTransform", np.eye(3), np.zeros(3))
+        >>> geometry = {"Size": [4, 5, 6], "Spacing": [1.0, 1.0, 2.0], "Origin": [0.0, 0.0, 0.0],
+        ...             "Direction": [0.0, 1.0, 0.0, -1.0, 0.0, 0.0, 0.0, 0.0, 1.0]}
+        >>> grid = ElastixTransform([step], [], geometry).grid
+        >>> grid.size, grid.direction[:, 0].tolist()      # the first axis runs along +y
+        ((4, 5, 6), [0.0, 1.0, 0.0])
+        >>> ElastixTransform([step], []).grid is None
+        True
+        """
+        g = self.geometry
+        if not all(k in g for k in ("Size", "Spacing", "Origin", "Direction")):
+            return None
+        return ImageGrid(g["Size"], g["Spacing"], g["Origin"], np.reshape(g["Direction"], (3, 3)).T)
+
     def deform(self, points: ArrayLike) -> NDArray[np.float64]:
         """Where the chain takes ``(N, 3)`` points (transformix's ``OutputPoint``).
 
@@ -187,9 +217,9 @@ class ElastixTransform:
 
         A chain with exactly one B-spline: linear steps composed before it pull its grid back
         (the lattice is placed by the inverse map), any other linear step becomes the FFD's affine
-        part (composed after it: the offsets turn with it). ``only_inside=True`` (points outside
-        the B-spline's valid region do not move), unless the grid has three zero layers all
-        round (what :func:`save_elastix` writes), which are dropped.
+        part (composed after it: the offsets turn with it). ``only_inside="half-open"`` (points outside
+        the B-spline's valid region do not move; the region is open at its far faces, as elastix's),
+        unless the grid has three zero layers all round (what :func:`save_elastix` writes), which are dropped.
 
         A linear map with shear composed before the B-spline (elastix's usual affine-then-B-spline
         registration) gives a sheared lattice (:attr:`~ffd_notebook.Lattice.sheared`): elastix
@@ -250,7 +280,7 @@ class ElastixTransform:
         if stripped is not None:
             stripped.metadata = lattice.metadata
             return FFD(stripped, "bspline", border="zero", affine=affine)
-        return FFD(lattice, "bspline", border="zero", affine=affine, only_inside=True)
+        return FFD(lattice, "bspline", border="zero", affine=affine, only_inside="half-open")
 
     def __repr__(self) -> str:
         parts = [self.steps[0].kind]
@@ -262,14 +292,11 @@ class ElastixTransform:
 def _lattice(rotation: NDArray[np.float64], spacing: NDArray[np.float64], origin: NDArray[np.float64],
              offsets: NDArray[np.float64]) -> Lattice:  # fmt: skip
     """The lattice with control point ``ijk`` at ``origin + rotation @ (spacing * ijk)`` (sheared if need be)."""
-    error = np.abs(rotation.T @ rotation - np.eye(3)).max()
-    if _ORTHOGONAL < error <= 1e-6:  # rounded direction cosines: the nearest rotation
-        u, _, vt = np.linalg.svd(rotation)
-        rotation = u @ vt
-    elif error > 1e-6:  # a sheared grid: unit columns exactly, their lengths in the spacing
+    snapped = nearest_rotation(rotation)  # rounded direction cosines: the rotation they round
+    if snapped is None:  # a sheared grid: unit columns exactly, their lengths in the spacing
         lengths = np.linalg.norm(rotation, axis=0)
         rotation, spacing = rotation / lengths, spacing * lengths
-    return Lattice(offsets.shape[:3], spacing, origin, rotation, offsets)
+    return Lattice(offsets.shape[:3], spacing, origin, rotation if snapped is None else snapped, offsets)
 
 
 # ---------------------------------------------------------------------------------------- reading
@@ -374,17 +401,37 @@ def _step(params: ParameterMap) -> ElastixStep:
 
 
 def _candidates(current: Path, name: str) -> Iterable[Path]:
-    """Where an ``InitialTransformParameterFileName`` may be: as written, beside the file, its last part beside it."""
+    """Where an ``InitialTransformParameterFileName`` may be: beside the file, as written, its last part beside it."""
     written = Path(name)
-    yield written
     if not written.is_absolute():
         yield current.parent / written
+    yield written
     last = name.replace("\\", "/").rstrip("/").rsplit("/", 1)[-1]
     if last:
         yield current.parent / last
 
 
-def _initial(params: ParameterMap, current: Path) -> Path | None:
+def _is_file(path: Path) -> bool:
+    try:
+        return path.is_file()
+    except (OSError, ValueError):  # a name too long, or with a NUL in it: not there
+        return False
+
+
+def _same_file(a: Path, b: Path) -> bool:
+    """Whether two existing files are the same file or hold the same bytes."""
+    if os.path.realpath(a) == os.path.realpath(b):
+        return True
+    try:
+        return read_bytes(a) == read_bytes(b)
+    except (OSError, ValueError):
+        return False
+
+
+def _initial(params: ParameterMap, current: Path, within: str | os.PathLike[str] | None) -> Path | None:
+    """The file before ``current`` in its chain, or None; looked for beside ``current`` first (see the module
+    docstring). With ``within``, a candidate outside that folder is passed over without asking the file system
+    about it, and "not found" is said the same way whether a file outside exists or not."""
     key = next((k for k in ("InitialTransformParameterFileName", "InitialTransformParametersFileName") if k in params),
                None)  # fmt: skip
     if key is None:
@@ -392,23 +439,35 @@ def _initial(params: ParameterMap, current: Path) -> Path | None:
     name = params.values(key)[0]  # elastix reads the first value (a quoted name keeps its blanks)
     if name == "NoInitialTransform":
         return None
-    for candidate in _candidates(current, name):
-        try:
-            if candidate.is_file():
-                return candidate
-        except (OSError, ValueError):  # a name too long, or with a NUL in it: not there
-            continue
-    raise params.error(key, f"the initial transform {name!r} is not found (looked as written, in "
-                       f"{current.parent}, and for {Path(name.replace(chr(92), '/')).name!r} there)")  # fmt: skip
+    candidates = list(_candidates(current, name))
+    if within is not None:
+        candidates = [c for c in candidates if is_inside(os.path.abspath(c), within)]
+    found = [c for c in candidates if _is_file(c)]
+    if not found:
+        if within is not None:
+            raise params.error(key, "the initial transform is not in the folder this file may read from "
+                               f"({name!r}; an uploaded file cannot name others)")  # fmt: skip
+        raise params.error(key, f"the initial transform {name!r} is not found (looked in {current.parent}, as "
+                           f"written, and for {Path(name.replace(chr(92), '/')).name!r} beside it)")  # fmt: skip
+    beside, written = current.parent / name, Path(name)
+    if (not written.is_absolute() and found[0] == beside and written in found
+            and not _same_file(beside, written)):  # fmt: skip
+        raise params.error(key, "the initial transform is both beside this file and in the working folder, and "
+                           f"the two differ: refused ({name!r} in {os.getcwd()}; move one away)")  # fmt: skip
+    return Path(named_file(current, os.path.abspath(found[0]), within=within, what="initial transform",
+                           line=params.line(key)))  # fmt: skip
 
 
-def load_elastix(path: str | os.PathLike[str]) -> ElastixTransform:
+def load_elastix(path: str | os.PathLike[str], *, within: str | os.PathLike[str] | None = None) -> ElastixTransform:
     """Read an elastix transform parameter file and the chain of files before it.
 
     Parameters
     ----------
     path : str or os.PathLike
         An elastix transform parameter file (``TransformParameters.N.txt``).
+    within : str or os.PathLike, optional
+        The folder every file of the chain must be in (the app passes its folder, or an upload's
+        own folder, so an uploaded chain cannot name others); ``None``: anywhere.
 
     Returns
     -------
@@ -444,7 +503,7 @@ def load_elastix(path: str | os.PathLike[str]) -> ElastixTransform:
         params = read_parameter_file(current)
         files.append(params)
         seen[os.path.realpath(current)] = current
-        following = _initial(params, current)
+        following = _initial(params, current, within)
         if following is None:
             break
         key = next(k for k in ("InitialTransformParameterFileName", "InitialTransformParametersFileName")

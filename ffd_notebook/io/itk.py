@@ -2,8 +2,8 @@
 
 A B-spline FFD (the "zero" border, the seed formula) is ITK's ``BSplineTransform`` of order 3,
 exactly; an affine part makes it a ``CompositeTransform`` (see :mod:`.itk_model` for the
-correspondence). Text files (``.tfm``, ``.txt``) and HDF5 files (``.h5``, ``.hdf5``) are chosen
-by extension, as SimpleITK does.
+correspondence). Text files (``.tfm``, ``.txt``), HDF5 files (``.h5``, ``.hdf5``) and MATLAB files
+(``.mat``, what ANTs writes its affine transforms in) are chosen by extension, as SimpleITK does.
 """
 
 from __future__ import annotations
@@ -13,12 +13,13 @@ from pathlib import Path
 
 from ..ffd.deform import FFD
 from .itk_h5 import read_itk_h5, write_itk_h5
-from .itk_model import ffd_to_transforms, transforms_to_ffd
+from .itk_matlab import read_itk_matlab, write_itk_matlab
+from .itk_model import RawTransform, ffd_to_transforms, transforms_to_ffd
 from .itk_text import read_itk_text, write_itk_text
 
-__all__ = ["ITK_SUFFIXES", "load_transform", "save_transform"]
+__all__ = ["ITK_SUFFIXES", "load_transform", "read_transforms", "save_transform", "write_transforms"]
 
-ITK_SUFFIXES = {".tfm": "text", ".txt": "text", ".h5": "hdf5", ".hdf5": "hdf5"}
+ITK_SUFFIXES = {".tfm": "text", ".txt": "text", ".h5": "hdf5", ".hdf5": "hdf5", ".mat": "matlab"}
 
 
 def _kind(path: str | os.PathLike[str]) -> str:
@@ -27,6 +28,38 @@ def _kind(path: str | os.PathLike[str]) -> str:
         raise ValueError(f"{os.fspath(path)}: unknown transform file extension {suffix!r}; expected one of "
                          f"{', '.join(ITK_SUFFIXES)}")  # fmt: skip
     return ITK_SUFFIXES[suffix]
+
+
+def read_transforms(path: str | os.PathLike[str]) -> list[RawTransform]:
+    """The transforms of an ITK transform file as written, by its extension (text, HDF5 or MATLAB).
+
+    Examples
+    --------
+    >>> import pathlib, tempfile
+    >>> from ffd_notebook import FFD, Lattice
+    >>> path = pathlib.Path(tempfile.mkdtemp()) / "warp.tfm"
+    >>> save_transform(path, FFD(Lattice((4, 4, 4), 1.0)))
+    >>> [t.kind for t in read_transforms(path)]
+    ['BSplineTransform_double_3_3']
+    """
+    kind = _kind(path)
+    if kind == "text":
+        return read_itk_text(path)
+    return read_itk_h5(path) if kind == "hdf5" else read_itk_matlab(path)
+
+
+def write_transforms(path: str | os.PathLike[str], transforms: list[RawTransform]) -> None:
+    """Write ITK transforms in the format the extension names, atomically (see :func:`read_transforms`)."""
+    kind = _kind(path)
+    if kind == "matlab" and transforms and transforms[0].kind.startswith("CompositeTransform"):
+        raise ValueError(f"{os.fspath(path)}: an ITK .mat file holds one transform, not a composite of several "
+                         "(ITK's MATLAB reader would not compose them); write a .h5 or .tfm file")  # fmt: skip
+    if kind == "text":
+        write_itk_text(path, transforms)
+    elif kind == "hdf5":
+        write_itk_h5(path, transforms)
+    else:
+        write_itk_matlab(path, transforms)
 
 
 def load_transform(path: str | os.PathLike[str]) -> FFD:
@@ -40,7 +73,7 @@ def load_transform(path: str | os.PathLike[str]) -> FFD:
     Parameters
     ----------
     path : str or os.PathLike
-        A ``.tfm`` or ``.txt`` (text) or ``.h5`` or ``.hdf5`` (HDF5) transform file.
+        A ``.tfm`` or ``.txt`` (text), ``.h5`` or ``.hdf5`` (HDF5) or ``.mat`` (MATLAB) transform file.
 
     Returns
     -------
@@ -69,9 +102,7 @@ def load_transform(path: str | os.PathLike[str]) -> FFD:
     >>> back.lattice.shape, bool(abs(back.lattice.offsets - lat.offsets).max() == 0)
     ((4, 5, 4), True)
     """
-    kind = _kind(path)
-    transforms = read_itk_text(path) if kind == "text" else read_itk_h5(path)
-    return transforms_to_ffd(path, transforms)
+    return transforms_to_ffd(path, read_transforms(path))
 
 
 def save_transform(path: str | os.PathLike[str], ffd: FFD) -> None:
@@ -106,12 +137,9 @@ def save_transform(path: str | os.PathLike[str], ffd: FFD) -> None:
     >>> load_transform(path).affine[0, 0]
     np.float64(2.0)
     """
-    kind = _kind(path)
+    _kind(path)
     try:
         transforms = ffd_to_transforms(ffd)
     except ValueError as exc:
         raise ValueError(f"{os.fspath(path)}: {exc}") from None
-    if kind == "text":
-        write_itk_text(path, transforms)
-    else:
-        write_itk_h5(path, transforms)
+    write_transforms(path, transforms)

@@ -6,16 +6,19 @@ The layout ITK's ``HDF5TransformIO`` writes (learnt from files SimpleITK wrote):
 ``TransformFixedParameters`` (1-D float arrays). A composite transform is a group holding only its
 ``TransformType``, followed by its children. ITK also writes ``/ITKVersion``, ``/HDFVersion``,
 ``/OSName`` and ``/OSVersion`` strings, which its reader does not need.
+
+Only what the file itself holds is read (:mod:`ffd_notebook._util.hdf5`): external storage,
+virtual datasets and links to other files are refused, as are a FIFO and a damaged global heap.
 """
 
 from __future__ import annotations
 
 import os
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from .._util.hdf5 import dataset_shape, hdf5_get, open_hdf5, read_dataset
 from ..errors import FileFormatError
 from ._atomic import atomic_path
 from .itk_model import RawTransform
@@ -32,12 +35,13 @@ def _fail(path: str | os.PathLike[str], dataset: str, problem: str) -> FileForma
 
 def _string(path: str | os.PathLike[str], group: Any, name: str) -> str:
     where = f"{group.name}/{name}"
-    item = group.get(name)
+    item = hdf5_get(path, group, name)
     if item is None or not hasattr(item, "dtype"):
         raise _fail(path, where, "missing; expected the transform type as a string")
-    if item.dtype.kind not in "OSU" or item.shape not in ((1,), ()):
+    if item.dtype.kind not in "OSU" or dataset_shape(path, item, max_values=1) not in ((1,), ()):
         raise _fail(path, where, f"expected one string, got {item.dtype} data of shape {item.shape}")
-    value = item[()] if item.shape == () else item[0]
+    value = read_dataset(path, item, max_values=1)
+    value = value if item.shape == () else value[0]
     if isinstance(value, bytes):
         try:
             value = value.decode("ascii")
@@ -48,45 +52,15 @@ def _string(path: str | os.PathLike[str], group: Any, name: str) -> str:
 
 def _floats(path: str | os.PathLike[str], group: Any, name: str) -> np.ndarray:
     where = f"{group.name}/{name}"
-    item = group.get(name)
+    item = hdf5_get(path, group, name)
     if item is None or not hasattr(item, "dtype"):
         raise _fail(path, where, "missing; expected a 1-D array of numbers")
-    if item.dtype.kind not in "fiu" or len(item.shape) != 1:
+    if item.dtype.kind not in "fiu" or item.shape is None or len(item.shape) != 1:
         raise _fail(path, where, f"expected a 1-D array of numbers, got {item.dtype} data of shape {item.shape}")
-    if item.shape[0] > _MAX_VALUES:
-        raise _fail(path, where, f"{item.shape[0]} values, more than the {_MAX_VALUES} accepted")
-    values = np.asarray(item[()], dtype=np.float64)
+    values = np.asarray(read_dataset(path, item, max_values=_MAX_VALUES), dtype=np.float64)
     if not np.all(np.isfinite(values)):
         raise _fail(path, where, "contains NaN or infinite values")
     return values
-
-
-def _check_global_heaps(path: str | os.PathLike[str]) -> None:
-    """Refuse a damaged HDF5 global heap before the HDF5 library reads it.
-
-    The global heap holds variable-length data such as ITK's ``TransformType`` strings, and the
-    HDF5 C library can loop forever on a collection whose object sizes do not add up (found by
-    fuzzing mutated SimpleITK files). A collection is ``"GCOL"``, version 1, three zero bytes, its
-    size (8 bytes), then objects: index (2), reference count (2), reserved (4), size (8), data
-    padded to 8 bytes; index 0 is the free space that ends it, its size (header included) all that
-    is left. Lengths are 8 bytes, the HDF5 default that ITK and h5py write. This catches the damage
-    fuzzing found (an object size that walks into the free space), not every possible one.
-    """
-    data = Path(path).read_bytes()
-    start = data.find(b"GCOL\x01\x00\x00\x00")
-    while start >= 0:
-        end = start + int.from_bytes(data[start + 8 : start + 16], "little")
-        at = start + 16
-        while at + 16 <= end <= len(data):
-            size = int.from_bytes(data[at + 8 : at + 16], "little")
-            if int.from_bytes(data[at : at + 2], "little") == 0:  # free space: exactly the rest of the collection
-                at = at + size if size == end - at else -1
-                break
-            at += 16 + -(-size // 8) * 8
-        if at < 0 or not 0 <= end - at < 16 or end > len(data):
-            raise FileFormatError(path, None, f"damaged HDF5 global heap at byte {start} (its objects do not fill "
-                                  "the collection): not read")  # fmt: skip
-        start = data.find(b"GCOL\x01\x00\x00\x00", start + 4)
 
 
 def read_itk_h5(path: str | os.PathLike[str]) -> list[RawTransform]:
@@ -100,16 +74,7 @@ def read_itk_h5(path: str | os.PathLike[str]) -> list[RawTransform]:
     >>> [(t.kind, t.parameters.tolist(), t.where["parameters"]) for t in read_itk_h5(p)]
     [('TranslationTransform_double_3_3', [1.0, 2.0, 3.0], '/TransformGroup/0/TransformParameters')]
     """
-    import h5py
-
-    _check_global_heaps(path)
-    try:
-        f = h5py.File(path, "r")
-    except FileNotFoundError:
-        raise
-    except (OSError, ValueError) as exc:
-        raise FileFormatError(path, None, f"not a readable HDF5 file ({exc})") from None
-    with f:
+    with open_hdf5(path) as f:
         try:
             return _read_groups(path, f)
         except FileFormatError:
@@ -119,7 +84,7 @@ def read_itk_h5(path: str | os.PathLike[str]) -> list[RawTransform]:
 
 
 def _read_groups(path: str | os.PathLike[str], f: Any) -> list[RawTransform]:
-    root = f.get(_GROUP)
+    root = hdf5_get(path, f, _GROUP)
     if root is None or not hasattr(root, "keys"):
         raise _fail(path, f"/{_GROUP}", "missing; not an ITK HDF5 transform file")
     names = list(root.keys())
@@ -127,7 +92,7 @@ def _read_groups(path: str | os.PathLike[str], f: Any) -> list[RawTransform]:
         raise _fail(path, f"/{_GROUP}", f"expected subgroups named 0, 1, ..., got {names[:10]}")
     out = []
     for i in range(len(names)):
-        group = root[str(i)]
+        group = hdf5_get(path, root, str(i))
         if not hasattr(group, "keys"):
             raise _fail(path, group.name, "expected a group")
         kind = _string(path, group, "TransformType")

@@ -31,34 +31,44 @@ from __future__ import annotations
 import os
 import re
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
 from ..errors import FileFormatError
 from ..ffd.deform import FFD
-from ..ffd.lattice import Lattice
+from ..ffd.lattice import Lattice, nearest_rotation, orthogonality_error
 from ..ffd.support import pad_offsets
+from .displacement_field import DisplacementField
+from .transform_chain import AffineTransform, TransformChain
 
-__all__ = ["RawTransform", "ffd_to_transforms", "strip_padding", "transforms_to_ffd"]
+__all__ = [
+    "RawTransform",
+    "deformation_to_transforms",
+    "ffd_to_transforms",
+    "strip_padding",
+    "transforms_to_deformation",
+    "transforms_to_ffd",
+]
 
 ITK_BSPLINE_TRANSFORM = "BSplineTransform_double_3_3"
 AFFINE = "AffineTransform_double_3_3"
 COMPOSITE = "CompositeTransform_double_3_3"
 _AFFINE_LIKE = ("AffineTransform", "MatrixOffsetTransformBase")
 _KNOWN = ("BSplineTransform", "TranslationTransform", "CompositeTransform", *_AFFINE_LIKE)
+_FIELD = "DisplacementFieldTransform"
 _KIND = re.compile(r"([A-Za-z0-9]+)_(double|float)_(\d+)_(\d+)")
 _PAD = 3  # zero layers that make ITK's domain cover a zero-border lattice's whole reach
 _MAX_AXIS = 4096
-_ORTHOGONAL = 1e-12  # a direction orthogonal to rounding: kept as it is
-_NEAR_ORTHOGONAL = 1e-6  # float32-rounded rotations (SimpleITK's initializer writes them): orthonormalised
 
 
 @dataclass
 class RawTransform:
     """One transform of a file: ITK type name, parameters, fixed parameters, where each was read.
 
-    ``where`` maps ``"kind"``, ``"parameters"`` and ``"fixed"`` to a line number (text files) or
-    an HDF5 dataset name, for error messages.
+    ``where`` maps ``"kind"``, ``"parameters"`` and ``"fixed"`` to a line number (text files), an HDF5
+    dataset's path (``/TransformGroup/...``) or a MATLAB matrix (``matrix 'AffineTransform_double_3_3'``), for
+    error messages.
     """
 
     kind: str
@@ -69,8 +79,8 @@ class RawTransform:
 
 def _error(path: str | os.PathLike[str], raw: RawTransform, key: str, problem: str) -> FileFormatError:
     where = raw.where.get(key)
-    if isinstance(where, str):
-        return FileFormatError(path, None, f"HDF5 dataset {where}: {problem}")
+    if isinstance(where, str):  # an HDF5 dataset's path, or a MATLAB matrix named as such
+        return FileFormatError(path, None, f"{'HDF5 dataset ' if where.startswith('/') else ''}{where}: {problem}")
     return FileFormatError(path, where, problem)
 
 
@@ -116,19 +126,17 @@ def _grid(path: str | os.PathLike[str], raw: RawTransform) -> tuple[Lattice, np.
     spacing, origin, direction = fixed[6:9], fixed[3:6], fixed[9:].reshape(3, 3)
     if np.any(spacing <= 0):
         raise _error(path, raw, "fixed", f"expected a positive grid spacing, got {spacing.tolist()}")
-    error = np.abs(direction.T @ direction - np.eye(3)).max()
-    if error > _NEAR_ORTHOGONAL:
-        raise _error(path, raw, "fixed", f"the grid direction is not orthogonal (off by {error:.2g}: a sheared "
-                     "grid); a lattice's rotation must be, so this transform cannot be read exactly")  # fmt: skip
-    if error > _ORTHOGONAL:  # the nearest rotation; the deformation then differs by about error * |x|
-        u, _, vt = np.linalg.svd(direction)
-        direction = u @ vt
+    rotation = nearest_rotation(direction)  # float32-rounded directions: the rotation they round
+    if rotation is None:
+        raise _error(path, raw, "fixed", f"the grid direction is not orthogonal (off by "
+                     f"{orthogonality_error(direction):.2g}: a sheared grid); a lattice's rotation must be, so this "
+                     "transform cannot be read exactly")  # fmt: skip
     n = int(np.prod(shape))
     if len(raw.parameters) != 3 * n:
         raise _error(path, raw, "parameters", f"a {shape[0]}x{shape[1]}x{shape[2]} grid has {3 * n} parameters, "
                      f"got {len(raw.parameters)}")  # fmt: skip
     coefficients = raw.parameters.reshape(3, shape[2], shape[1], shape[0]).transpose(3, 2, 1, 0)
-    return Lattice(shape, spacing, origin, direction), coefficients
+    return Lattice(shape, spacing, origin, rotation), coefficients
 
 
 def _compose(pairs: list[tuple[np.ndarray, np.ndarray]]) -> tuple[np.ndarray, np.ndarray]:
@@ -145,8 +153,8 @@ def _pull_back(path, raw: RawTransform, lattice: Lattice, a: np.ndarray, b: np.n
         return Lattice(lattice.shape, lattice.spacing, lattice.origin - b, lattice.rotation)
     columns = a.T @ lattice.rotation / lattice.spacing  # must be R' / spacing' for a lattice R', spacing'
     spacing = 1.0 / np.linalg.norm(columns, axis=0)
-    rotation = columns * spacing
-    if not np.allclose(rotation.T @ rotation, np.eye(3), rtol=0, atol=_ORTHOGONAL):
+    rotation = nearest_rotation(columns * spacing)
+    if rotation is None:
         raise _error(path, raw, "kind", "the affine applied before the B-spline shears its grid; an FFD "
                      "(affine after the lattice) cannot hold that exactly")  # fmt: skip
     origin = np.linalg.solve(a, lattice.origin - b)
@@ -164,18 +172,23 @@ def strip_padding(lattice: Lattice) -> Lattice | None:
     return Lattice(inner.shape[:3], lattice.spacing, origin, lattice.rotation, inner)
 
 
+def _children(path: str | os.PathLike[str], transforms: list[RawTransform]) -> list[RawTransform]:
+    """A file's transforms without their CompositeTransform: what it composes (or the one transform)."""
+    first = transforms[0]
+    if _base(path, first) == "CompositeTransform":
+        if len(transforms) == 1:
+            raise _error(path, first, "kind", "an empty CompositeTransform")
+        return transforms[1:]
+    if len(transforms) > 1:
+        raise _error(path, transforms[1], "kind", f"{len(transforms)} transforms side by side; expected one "
+                     "(several belong in a CompositeTransform)")  # fmt: skip
+    return transforms
+
+
 def transforms_to_ffd(path: str | os.PathLike[str], transforms: list[RawTransform]) -> FFD:
     """The FFD equal to a file's transforms everywhere, or a :class:`FileFormatError` saying why not."""
     first = transforms[0]
-    if _base(path, first) == "CompositeTransform":
-        chain = transforms[1:]
-        if not chain:
-            raise _error(path, first, "kind", "an empty CompositeTransform: no B-spline for a lattice")
-    elif len(transforms) > 1:
-        raise _error(path, transforms[1], "kind", f"{len(transforms)} transforms side by side; expected one "
-                     "(several belong in a CompositeTransform)")  # fmt: skip
-    else:
-        chain = transforms
+    chain = _children(path, transforms)
     bases = [_base(path, raw) for raw in chain]
     for raw, base in zip(chain, bases, strict=True):
         if base not in _KNOWN:
@@ -206,6 +219,61 @@ def transforms_to_ffd(path: str | os.PathLike[str], transforms: list[RawTransfor
     if stripped is not None:
         return FFD(stripped, "bspline", affine=affine)
     return FFD(lattice, "bspline", affine=affine, only_inside=True)
+
+
+def _field(path: str | os.PathLike[str], raw: RawTransform) -> DisplacementField:
+    """A ``DisplacementFieldTransform``: fixed parameters size, origin, spacing, direction (row by row); parameters
+    the vectors, interleaved, x fastest (ITK's image buffer order)."""
+    fixed = raw.fixed
+    if len(fixed) != 18:
+        raise _error(path, raw, "fixed", f"a 3D DisplacementFieldTransform has 18 fixed parameters (size, origin, "
+                     f"spacing, direction), got {len(fixed)}")  # fmt: skip
+    size = fixed[:3]
+    if np.any(size != np.round(size)) or np.any(size < 1) or np.prod(size) * 3 != len(raw.parameters):
+        raise _error(path, raw, "parameters", f"a field of size {size.tolist()} has 3 values per voxel, got "
+                     f"{len(raw.parameters)} parameters")  # fmt: skip
+    nx, ny, nz = (int(n) for n in size)
+    vectors = raw.parameters.reshape(nz, ny, nx, 3)  # SimpleITK's array order, as DisplacementField keeps it
+    try:
+        return DisplacementField(vectors, fixed[6:9], fixed[3:6], fixed[9:].reshape(3, 3))
+    except ValueError as exc:
+        raise _error(path, raw, "fixed", str(exc)) from None
+
+
+def transforms_to_deformation(
+    path: str | os.PathLike[str], transforms: list[RawTransform]
+) -> FFD | AffineTransform | TransformChain:
+    """What a file's transforms mean: an FFD (one B-spline with affine parts, :func:`transforms_to_ffd`), an
+    :class:`AffineTransform` (affine parts only) or a :class:`TransformChain` (displacement fields among them, as in
+    ANTs' composite files; the chain lists them in the order they move a point, the composite's last child first).
+    """
+    children = _children(path, transforms)
+    bases = [_base(path, raw) for raw in children]
+    if _FIELD not in bases:
+        if "BSplineTransform" in bases or "CompositeTransform" in bases:
+            return transforms_to_ffd(path, transforms)
+        parts = [_affine_of(path, raw, base) for raw, base in zip(children, bases, strict=True)]
+        return AffineTransform(_homogeneous(*_compose(parts)))
+    steps: list[Any] = []
+    for raw, base in zip(reversed(children), reversed(bases), strict=True):
+        if base == _FIELD:
+            steps.append(_field(path, raw))
+        elif base == "BSplineTransform":
+            steps.append(transforms_to_ffd(path, [raw]))
+        elif base == "CompositeTransform":
+            raise _error(path, raw, "kind", "a CompositeTransform inside a CompositeTransform is not supported")
+        else:
+            matrix = _homogeneous(*_affine_of(path, raw, base))
+            if steps and isinstance(steps[-1], AffineTransform):  # consecutive affine parts: one map
+                matrix = matrix @ steps.pop().matrix
+            steps.append(AffineTransform(matrix))
+    return TransformChain(steps)
+
+
+def _homogeneous(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    matrix = np.eye(4)
+    matrix[:3, :3], matrix[:3, 3] = a, b
+    return matrix
 
 
 # ---------------------------------------------------------------------------------------- writing
@@ -261,3 +329,41 @@ def ffd_to_transforms(ffd: FFD) -> list[RawTransform]:
         return [bspline]
     affine = RawTransform(AFFINE, np.concatenate([a.ravel(), b]), np.zeros(3))
     return [RawTransform(COMPOSITE, np.zeros(0), np.zeros(0)), affine, bspline]
+
+
+def _field_transform(field: DisplacementField) -> RawTransform:
+    fixed = np.concatenate([np.asarray(field.size, dtype=np.float64), field.origin, field.spacing,
+                            field.direction.ravel()])  # fmt: skip
+    vectors = np.ascontiguousarray(field.vectors).ravel()
+    return RawTransform(_FIELD + "_double_3_3", vectors, fixed)
+
+
+def deformation_to_transforms(deformation: Any) -> list[RawTransform]:
+    """ITK transforms equal to an FFD, an :class:`AffineTransform`, a displacement field or a
+    :class:`TransformChain` of them (a ``CompositeTransform`` for a chain); refuses what ITK cannot hold.
+
+    Examples
+    --------
+    >>> from ffd_notebook import FFD, Lattice
+    >>> chain = TransformChain([FFD(Lattice((4, 4, 4), 1.0)), AffineTransform(np.diag([2.0, 1.0, 1.0, 1.0]))])
+    >>> [t.kind for t in deformation_to_transforms(chain)]
+    ['CompositeTransform_double_3_3', 'AffineTransform_double_3_3', 'BSplineTransform_double_3_3']
+    """
+    if isinstance(deformation, FFD):
+        return ffd_to_transforms(deformation)
+    if isinstance(deformation, AffineTransform):
+        return [RawTransform(AFFINE, np.concatenate([deformation.matrix[:3, :3].ravel(), deformation.matrix[:3, 3]]),
+                             np.zeros(3))]  # fmt: skip
+    if isinstance(deformation, DisplacementField):
+        if deformation.outside != "zero":
+            raise ValueError("this displacement field moves points beyond its grid (NiftyReg's rule); ITK's "
+                             "DisplacementFieldTransform leaves them where they are")  # fmt: skip
+        return [_field_transform(deformation)]
+    if isinstance(deformation, TransformChain):
+        children: list[RawTransform] = []
+        for step in reversed(deformation.steps):  # a composite's last child moves the point first
+            parts = deformation_to_transforms(step)
+            children.extend(parts[1:] if parts[0].kind.startswith("CompositeTransform") else parts)
+        return [RawTransform(COMPOSITE, np.zeros(0), np.zeros(0)), *children]
+    raise TypeError(f"expected an FFD, an AffineTransform, a DisplacementField or a TransformChain, got "
+                    f"{type(deformation).__name__}")  # fmt: skip

@@ -91,12 +91,14 @@ def decimate_keeping_colors(mesh: pv.PolyData, reduction: float, attribute_error
     """Quadric decimation that carries per-vertex colours (and all other point data) to the new vertices.
 
     VTK's ``vtkQuadricDecimation`` with ``MapPointData`` on: each remaining vertex gets the
-    point data interpolated on the original surface where it lands. Colours are decimated as
-    floats and rounded back to uint8. With ``attribute_error=True`` the colours also enter the
-    error metric (``AttributeErrorMetric`` + ``ScalarsAttribute``) and VTK then solves vertex
-    colours from the quadrics instead; measured on the shared face scans (80 % reduction, mean
-    ``|colour error|`` of the decimated surface against every original vertex, 0-255 scale):
-    template 0.16 without vs 1.05 with, james 8.9 vs 11.8, so mapping alone is the default.
+    point data interpolated on the original surface where it lands. Colours (the arrays named
+    in :data:`COLOR_ARRAYS`) are decimated as floats in [0, 1] (integers divided by their type's
+    maximum) and given back in their own type and scale (integers rounded). With
+    ``attribute_error=True`` the colours also enter the error metric (``AttributeErrorMetric`` +
+    ``ScalarsAttribute``) and VTK then solves vertex colours from the quadrics instead; measured
+    on the shared face scans (80 % reduction, mean ``|colour error|`` of the decimated surface
+    against every original vertex, 0-255 scale): template 0.16 without vs 1.05 with, james 8.9
+    vs 11.8, so mapping alone is the default.
 
     Parameters
     ----------
@@ -127,8 +129,11 @@ def decimate_keeping_colors(mesh: pv.PolyData, reduction: float, attribute_error
         raise ValueError(f"reduction must be in [0, 1), got {reduction!r}")
     surf = mesh.triangulate() if not mesh.is_all_triangles else mesh.copy()
     color_names = [n for n in COLOR_ARRAYS if n in surf.point_data]
-    for name in color_names:  # interpolate as floats: uint8 would be truncated
-        surf.point_data[name] = np.asarray(surf.point_data[name], dtype=np.float32) / 255.0
+    kinds = {name: np.asarray(surf.point_data[name]).dtype for name in color_names}
+    # interpolated as floats in [0, 1] (integers would be truncated; the error metric wants one scale)
+    full = {name: float(np.iinfo(kind).max) if kind.kind in "ui" else 1.0 for name, kind in kinds.items()}
+    for name in color_names:
+        surf.point_data[name] = np.asarray(surf.point_data[name], dtype=np.float64) / full[name]
     alg = vtkQuadricDecimation()
     alg.SetInputData(surf)
     alg.SetTargetReduction(float(reduction))
@@ -140,8 +145,11 @@ def decimate_keeping_colors(mesh: pv.PolyData, reduction: float, attribute_error
         alg.SetScalarsAttribute(True)
     alg.Update()
     out = pv.wrap(alg.GetOutput())
-    for name in color_names:
-        out.point_data[name] = np.clip(np.rint(np.asarray(out.point_data[name]) * 255.0), 0, 255).astype(np.uint8)
+    for name, kind in kinds.items():  # back to the array's own type and scale
+        values = np.asarray(out.point_data[name], dtype=np.float64) * full[name]
+        if kind.kind in "ui":
+            values = np.clip(np.rint(values), np.iinfo(kind).min, np.iinfo(kind).max)
+        out.point_data[name] = values.astype(kind)
     return out
 
 

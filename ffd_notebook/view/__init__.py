@@ -14,6 +14,7 @@ from .rendering import is_headless, new_plotter
 if TYPE_CHECKING:  # the lazy names below, declared for type checkers and IDEs
     from .editor import EditingSession as EditingSession
     from .editor import Editor as Editor
+    from .editor import animate as animate
     from .editor import edit as edit
     from .editor.notebook import ControlPanel as ControlPanel
     from .gp import GPExplorer as GPExplorer
@@ -27,6 +28,7 @@ _LAZY = {
     "Editor": "ffd_notebook.view.editor",
     "edit": "ffd_notebook.view.editor",
     "EditingSession": "ffd_notebook.view.editor",
+    "animate": "ffd_notebook.view.editor",
     "ControlPanel": "ffd_notebook.view.editor.notebook",
     "GPExplorer": "ffd_notebook.view.gp",
     "TexturedOrgan": "ffd_notebook.view.solidtex",

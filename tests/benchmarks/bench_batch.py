@@ -39,7 +39,7 @@ sys.path.insert(0, str(ROOT))
 from ffd_notebook.batch import FoldFree, RandomLattice, generate, local_cluster  # noqa: E402
 from ffd_notebook.batch.engine import task_groups  # noqa: E402
 from ffd_notebook.batch.output import Layout  # noqa: E402
-from ffd_notebook.batch.sample import Job, mesh_sha256, run_samples  # noqa: E402
+from ffd_notebook.batch.sample import Job, file_sha256, run_samples  # noqa: E402
 from ffd_notebook.io import read_mesh  # noqa: E402
 
 FACE = ROOT.parent / "shared" / "data" / "face" / "template.ply"
@@ -171,7 +171,7 @@ def main() -> None:
     loops, clusters = [], []
     try:
         job = Job(mesh, model.to_spec(), 0, rule, str(scratch / "loop"), "ply")
-        Layout(job.out).claim(job.settings(mesh_sha256(mesh)))
+        Layout(job.out).claim(job.settings(file_sha256(mesh)))
         run_samples(job, [n])  # bind the model outside the timing, as the loop's set-up
 
         local, result = run_generate(mesh, model, rule, n, scratch / "local", workers=WORKERS)
@@ -187,7 +187,7 @@ def main() -> None:
             for r in range(args.repeat):
                 loop = run_loop(job, list(range(n)))
                 shutil.rmtree(job.out)
-                Layout(job.out).claim(job.settings(mesh_sha256(mesh)))
+                Layout(job.out).claim(job.settings(file_sha256(mesh)))
                 cl, _ = run_generate(mesh, model, rule, n, scratch / "cluster", client=client)
                 loops.append(loop)
                 clusters.append(cl)

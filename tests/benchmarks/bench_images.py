@@ -2,7 +2,8 @@
 
 Run from the repository root:
 
-    python tests/benchmarks/bench_images.py [--size 256] [--repeats 3] [--only warp,rotated,interpolators]
+    python tests/benchmarks/bench_images.py [--size 256] [--repeats 3] [--only warp,rotated,interpolators,slices]
+                                           [--against REV]
 
 Prints, for a float32 ``size^3`` image (64 MiB at 256^3) with an 11 x 12 x 11 lattice of random
 offsets over it:
@@ -15,7 +16,12 @@ offsets over it:
   evaluated point by point (``FFD.deform`` per slab): the general path, no target;
 * ``interpolators``: the interpolation step alone on the same precomputed ``T``, slab by slab:
   ``scipy.ndimage.map_coordinates`` (what ``warp_image`` uses) against ``sitk.Resample`` with a
-  ``DisplacementFieldTransform`` per slab (the alternative the issue names).
+  ``DisplacementFieldTransform`` per slab (the alternative the issue names);
+* ``slices``: the editor's three warped slices of the image (``WarpedSlices``): binding them, and
+  one drag step of a control point (``update``), lattice along the image;
+* ``--against REV``: ``warp`` and ``slices`` timed under this tree and under the package at git
+  revision ``REV`` (e.g. the commit before a change), interleaved in one run, with their ratio
+  (:mod:`against`; issue 35: no slower than 1.2x).
 
 Timings are medians of ``--repeats`` runs (the machine is shared); memory is the peak resident set
 (``VmHWM``, reset through ``/proc/self/clear_refs``) above the resident set before the call.
@@ -135,13 +141,50 @@ def bench_interpolators(image: sitk.Image, repeats: int) -> None:
         print(f"interpolation alone, {name:20s}: {statistics.median(times):6.2f} s (runs {runs})")
 
 
+def bench_slices(image: sitk.Image, repeats: int) -> None:
+    from ffd_notebook.images import WarpedSlices
+
+    ffd = make_ffd(ImageGrid.of(image), rotated=False)
+    binds, drags = [], []
+    for _ in range(repeats):
+        start = time.perf_counter()
+        slices = WarpedSlices(image, ffd)
+        binds.append(time.perf_counter() - start)
+        ffd.lattice.offsets[5, 6, 5] += (0.5, -0.3, 0.2)
+        start = time.perf_counter()
+        slices.update([(5, 6, 5)])
+        drags.append(time.perf_counter() - start)
+    print(f"slices   {ImageGrid.of(image).size}: bind {statistics.median(binds) * 1e3:.1f} ms, one drag step "
+          f"{statistics.median(drags) * 1e3:.1f} ms (medians of {repeats})")  # fmt: skip
+
+
+_SETUP = """
+from bench_images import make_image, make_ffd
+from ffd_notebook.images import ImageGrid, WarpedSlices, warp_image
+image = make_image({size})
+ffd = make_ffd(ImageGrid.of(image), rotated=False)
+slices = WarpedSlices(image, ffd)
+"""
+_DRAG = "ffd.lattice.offsets[5, 6, 5] += (0.01, 0.0, 0.0); slices.update([(5, 6, 5)])"
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--size", type=int, default=256)
     parser.add_argument("--repeats", type=int, default=3)
-    parser.add_argument("--only", default="warp,rotated,interpolators")
+    parser.add_argument("--only", default="warp,rotated,interpolators,slices")
+    parser.add_argument("--against", metavar="REV", help="also time warp and slices under git revision REV")
     args = parser.parse_args()
     only = set(args.only.split(","))
+    if args.against:
+        from against import compare
+
+        setup = _SETUP.format(size=args.size)
+        compare(f"warp_image {args.size}^3, lattice along the image", setup, "warp_image(image, ffd)", args.against,
+                args.repeats)  # fmt: skip
+        compare("WarpedSlices, bind the three slices", setup, "WarpedSlices(image, ffd)", args.against, args.repeats)
+        compare("WarpedSlices, 20 drag steps of one control point", setup, f"for _ in range(20): {_DRAG}",
+                args.against, args.repeats)  # fmt: skip
     image = make_image(args.size)
     print(f"image {args.size}^3 float32 ({sitk.GetArrayViewFromImage(image).nbytes / 2**20:.0f} MiB), "
           f"{sitk.ProcessObject.GetGlobalDefaultNumberOfThreads()} ITK threads")  # fmt: skip
@@ -151,6 +194,8 @@ def main() -> None:
         bench_warp(image, 1, rotated=True)
     if "interpolators" in only:
         bench_interpolators(image, args.repeats)
+    if "slices" in only:
+        bench_slices(image, args.repeats)
 
 
 if __name__ == "__main__":

@@ -1,4 +1,4 @@
-"""Benchmark of registration results in and out: python tests/benchmarks/bench_registration.py
+"""Benchmark of registration results in and out: python tests/benchmarks/bench_registration.py [--against REV]
 
 Prints (median of a few repeats where cheap; the machine is shared):
 - loading a 51,300-parameter elastix file (a 19x25x36 B-spline grid, the issue's size): the chain,
@@ -8,11 +8,18 @@ Prints (median of a few repeats where cheap; the machine is shared):
 - writing a displacement field at 256^3 (NIfTI, and compressed NIfTI),
 - ``fit_lattice`` of a 160x160x128 field by a 16^3 lattice: time and peak memory (tracemalloc:
   NumPy's arrays; targets <= 10 s and <= 2 GB).
+
+With ``--against REV`` it times instead, under this tree and under the package at git revision ``REV``,
+interleaved in one run (:mod:`against`), ``fit_lattice`` of that field, sampling an FFD's field on a
+160x160x128 grid along its lattice, and ``save_displacement_field`` of a 256^3 grid along it, with
+the ratios (issue 35: no slower than 1.2x).
 """
 
 from __future__ import annotations
 
+import argparse
 import statistics
+import sys
 import tempfile
 import time
 import tracemalloc
@@ -66,7 +73,42 @@ def _registration_like(folder: Path) -> tuple[Path, Path]:
     return added, composed
 
 
+_SETUP = """
+import tempfile
+from pathlib import Path
+import numpy as np
+from bench_registration import ROTATED
+from ffd_notebook import FFD, Lattice
+from ffd_notebook.io import fit_lattice, sample_displacement_field, save_displacement_field
+field_grid = {"size": (160, 160, 128), "spacing": (1.0, 1.0, 1.25), "origin": (5.0, -3.0, 2.0), "direction": ROTATED}
+spacing = (np.array(field_grid["size"]) - 1) * field_grid["spacing"] / 13
+truth = Lattice((16, 16, 16), spacing, origin=np.array(field_grid["origin"]) - ROTATED @ spacing, rotation=ROTATED)
+truth.offsets[...] = np.random.default_rng(2).normal(0.0, 2.0, truth.offsets.shape)
+field = sample_displacement_field(lambda p: FFD(truth).deform(p) + 0.3 * np.sin(p / 7.0), field_grid)
+big = {"size": (256, 256, 256), "spacing": (1.0, 1.0, 1.0), "origin": (-40.0, -60.0, -20.0), "direction": ROTATED}
+folder = Path(tempfile.mkdtemp())
+"""
+
+
+def against(revision: str, repeats: int) -> None:
+    from against import compare
+
+    compare("fit_lattice 160x160x128 field, 16^3 lattice", _SETUP, "fit_lattice(field, (16, 16, 16))", revision,
+            repeats)  # fmt: skip
+    compare("sample_displacement_field of an FFD, 160x160x128 grid along its lattice", _SETUP,
+            "sample_displacement_field(FFD(truth), field_grid)", revision, repeats)  # fmt: skip
+    compare("save_displacement_field 256^3 .nii, grid along the lattice", _SETUP,
+            "save_displacement_field(folder / 'f.nii', FFD(truth), big)", revision, repeats)  # fmt: skip
+
+
 def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--against", metavar="REV", help="time fit_lattice and field sampling against revision REV")
+    parser.add_argument("--repeats", type=int, default=3)
+    args = parser.parse_args(sys.argv[1:])
+    if args.against:
+        against(args.against, args.repeats)
+        return
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp)
         added, composed = _registration_like(folder)

@@ -18,6 +18,7 @@ import contextlib
 import json
 import math
 import os
+import re
 import shutil
 import socket
 import statistics
@@ -74,6 +75,15 @@ INIT_JS = r"""
   for (const type of ['pointerdown', 'pointermove', 'pointerup']) {
     window.addEventListener(type, (e) => window.__ptr.push({t: now(), type, x: e.clientX, y: e.clientY}), true);
   }
+  if (window === window.top) {  // when each view's iframe enters the page: its data-ffd-seen attribute
+    new MutationObserver((records) => {
+      for (const record of records) for (const node of record.addedNodes) {
+        if (node.nodeType !== 1) continue;
+        const views = node.matches('iframe.pyvista') ? [node] : node.querySelectorAll('iframe.pyvista');
+        for (const view of views) if (!view.dataset.ffdSeen) view.dataset.ffdSeen = String(now());
+      }
+    }).observe(document, {childList: true, subtree: true});
+  }
 })();
 """
 
@@ -106,6 +116,28 @@ def stop_process(proc: subprocess.Popen, grace_s: float = 15.0) -> None:
     except subprocess.TimeoutExpired:
         proc.kill()
         proc.wait(5)
+
+
+@contextlib.contextmanager
+def app_server(args: list[str], cwd: Path, timeout: float = 90) -> Iterator[str]:
+    """``python ARGS`` (``["-m", "ffd_notebook", "--port", P, ...]`` or ``serve_instrumented_app.py``) run in ``cwd``,
+    its output in ``cwd/app.log``; yields the URL it prints once listening (with its token); stopped on exit."""
+    log_path = Path(cwd) / "app.log"
+    with open(log_path, "w") as log:
+        proc = subprocess.Popen(
+            [sys.executable, *args], cwd=cwd, stdout=log, stderr=subprocess.STDOUT, env=server_env()
+        )
+        try:
+
+            def started() -> str | None:
+                if proc.poll() is not None:
+                    raise RuntimeError(f"the app exited with {proc.returncode}:\n{log_path.read_text()}")
+                found = re.search(r"running at (http://\S+)", log_path.read_text())
+                return found.group(1) if found else None
+
+            yield wait_for(started, timeout, "the app to print its URL")
+        finally:
+            stop_process(proc)
 
 
 def read_jsonl(path: str | os.PathLike[str]) -> list[dict[str, Any]]:
@@ -141,13 +173,15 @@ def wait_for(predicate: Callable[[], Any], timeout: float, what: str, interval: 
 
 
 # ---------------------------------------------------------------------- browser
-def launch_browser(playwright: Any, profile_dir: str | os.PathLike[str], width: int = 1280, height: int = 900) -> Any:
-    """A headless Chromium context (Debian's chromium, a fresh profile); the init script is installed."""
+def launch_browser(playwright: Any, profile_dir: str | os.PathLike[str], width: int = 1280, height: int = 900,
+                   args: tuple[str, ...] = ()) -> Any:  # fmt: skip
+    """A headless Chromium context (Debian's chromium, a fresh profile, more command-line ``args``); the init
+    script is installed."""
     context = playwright.chromium.launch_persistent_context(
         str(profile_dir),
         executable_path=CHROMIUM,
         headless=True,
-        args=CHROMIUM_ARGS,
+        args=[*CHROMIUM_ARGS, *args],
         viewport={"width": width, "height": height},
     )
     context.add_init_script(INIT_JS)
@@ -404,14 +438,123 @@ def record_metrics(name: str, metrics: dict[str, Any]) -> None:
     print(f"\n[{name}] browser metrics:\n{json.dumps(metrics, indent=1)}")
 
 
+# ---------------------------------------------------------------------- a panel that fits
+# Every visible piece of text in ``root`` (a CSS selector): its width must lie within every element that holds it,
+# up to ``root`` itself (a select's value cut to "bsp…", a button's text wider than the button, a label past the
+# panel's edge); an input's value must fit its box; no two texts may cover each other (a slider's value bubble
+# over the select above it). Returns one record per problem.
+PANEL_FIT_JS = r"""
+(root) => {
+  const panel = document.querySelector(root);
+  if (!panel) return [{problem: 'no element ' + root}];
+  const problems = [];
+  const shown = (el) => {
+    for (let e = el; e; e = e.parentElement) {
+      const s = getComputedStyle(e);
+      if (s.display === 'none' || s.visibility === 'hidden' || s.opacity === '0') return false;
+      if (e === panel) break;
+    }
+    const r = el.getBoundingClientRect();
+    return r.width > 0 && r.height > 0;
+  };
+  const name = (el) => {
+    const holder = el.closest('[id]');
+    return (holder ? '#' + holder.id + ' ' : '') + el.tagName.toLowerCase() +
+      [...el.classList].slice(0, 3).map((c) => '.' + c).join('');
+  };
+  const px = (r) => [Math.round(r.left), Math.round(r.right), Math.round(r.top), Math.round(r.bottom)];
+  const texts = [];
+  const walker = document.createTreeWalker(panel, NodeFilter.SHOW_TEXT);
+  while (walker.nextNode()) {
+    const node = walker.currentNode;
+    const text = node.textContent.trim();
+    const el = node.parentElement;
+    // (a box the user scrolls on purpose, e.g. lines of code, is marked .ffd-scroll: its lines may be wider)
+    if (!text || !shown(el) || el.closest('.ffd-scroll')) continue;
+    const range = document.createRange();
+    range.selectNodeContents(node);
+    const r = range.getBoundingClientRect();
+    if (r.width === 0) continue;
+    for (let box = el; box; box = box.parentElement) {
+      const b = box.getBoundingClientRect();
+      if (r.left < b.left - 1 || r.right > b.right + 1) {
+        problems.push({problem: 'text wider than its box', text, box: name(box), text_px: px(r), box_px: px(b)});
+        break;
+      }
+      if (box === panel) break;
+    }
+    // the part of it in sight: inside every ancestor that clips (a scrolled-away text covers nothing)
+    let seen = {left: r.left, right: r.right, top: r.top, bottom: r.bottom};
+    for (let box = el.parentElement; box; box = box.parentElement) {
+      if (getComputedStyle(box).overflow !== 'visible') {
+        const b = box.getBoundingClientRect();
+        seen = {left: Math.max(seen.left, b.left), right: Math.min(seen.right, b.right),
+                top: Math.max(seen.top, b.top), bottom: Math.min(seen.bottom, b.bottom)};
+      }
+      if (box === panel) break;
+    }
+    if (seen.right - seen.left > 1 && seen.bottom - seen.top > 1) texts.push({text, r: seen, el});
+  }
+  // (a path the user types longer than its field scrolls in it, as in any text field: the app's are .ffd-text)
+  for (const input of panel.querySelectorAll('input')) {
+    if (!shown(input) || input.readOnly || input.closest('.ffd-text')) continue;
+    if (['checkbox', 'radio', 'file', 'hidden', 'range'].includes(input.type)) continue;
+    if (input.scrollWidth > input.clientWidth + 1) {
+      problems.push({problem: 'value wider than its field', text: input.value, box: name(input),
+                     value_px: input.scrollWidth, box_px: input.clientWidth});
+    }
+  }
+  // a native select (the notebook's dropdowns) shows its option's text in its content box
+  const canvas = document.createElement('canvas').getContext('2d');
+  for (const select of panel.querySelectorAll('select')) {
+    const option = select.options[select.selectedIndex];
+    if (!shown(select) || !option) continue;
+    const style = getComputedStyle(select);
+    canvas.font = `${style.fontWeight} ${style.fontSize} ${style.fontFamily}`;
+    const room = select.clientWidth - parseFloat(style.paddingLeft) - parseFloat(style.paddingRight);
+    if (canvas.measureText(option.text).width > room + 1) {
+      problems.push({problem: 'choice wider than its field', text: option.text, box: name(select),
+                     value_px: canvas.measureText(option.text).width, box_px: room});
+    }
+  }
+  for (let i = 0; i < texts.length; i++) {
+    for (let j = i + 1; j < texts.length; j++) {
+      const a = texts[i].r, b = texts[j].r;
+      const w = Math.min(a.right, b.right) - Math.max(a.left, b.left);
+      const h = Math.min(a.bottom, b.bottom) - Math.max(a.top, b.top);
+      if (w > 1 && h > 1) {
+        problems.push({problem: 'texts cover each other', text: texts[i].text + ' / ' + texts[j].text,
+                       box: name(texts[i].el) + ' / ' + name(texts[j].el), px: [px(a), px(b)]});
+      }
+    }
+  }
+  return problems;
+}
+"""
+
+
+def cut_texts(frame: Any, root: str) -> list[dict[str, Any]]:
+    """What ``PANEL_FIT_JS`` finds wrong in the element ``root`` of ``frame`` (a page or an iframe): [] if all fits."""
+    return frame.evaluate(PANEL_FIT_JS, root)
+
+
+def open_panel_section(page: Any, section: str) -> None:
+    """Unfold the app panel's ``section`` ("Files", "Display"...) if it is folded."""
+    title = page.locator(f"#ffd-section-{section.lower().replace(' ', '-')} .v-expansion-panel-title")
+    if title.get_attribute("aria-expanded") != "true":
+        title.click()
+    wait_for(lambda: title.get_attribute("aria-expanded") == "true", 20, f"the {section} section to open")
+
+
 # ---------------------------------------------------------------------- JupyterLab
 LAB_TOKEN = "ffd-notebook-test-token"
 IDLE = ".jp-Notebook-ExecutionIndicator[data-status='idle']"
 
 
-def lab_api(port: int, path: str, method: str = "GET") -> object:
-    """Call JupyterLab's REST API (with the test token); the decoded JSON answer."""
-    request = urllib.request.Request(f"http://127.0.0.1:{port}{path}?token={LAB_TOKEN}", method=method)
+def lab_api(port: int, path: str, method: str = "GET", *, base_url: str = "/", token: str = LAB_TOKEN) -> object:
+    """Call JupyterLab's REST API (``path`` relative to its ``base_url``, with ``token``); the decoded JSON answer."""
+    url = f"http://127.0.0.1:{port}{base_url.rstrip('/')}{path}"
+    request = urllib.request.Request(url, method=method, headers={"Authorization": f"token {token}"})
     with urllib.request.urlopen(request, timeout=10) as response:
         body = response.read()
     return json.loads(body) if body else None
@@ -447,21 +590,49 @@ def _instrumenting_ipython_dir(tmp_path: Path, trace: Path, frames_trace: Path |
     return ipython
 
 
+def shut_kernels_down(lab: Lab) -> None:
+    """Shut ``lab``'s kernels down cleanly (they run the trame servers), before the server is stopped."""
+    try:
+        for kernel in lab.api("/api/kernels") or []:  # type: ignore[union-attr]
+            lab.api(f"/api/kernels/{kernel['id']}", method="DELETE")
+    except Exception:
+        pass
+
+
 class KernelReplaced(RuntimeError):
     """JupyterLab swapped the notebook's kernel while it ran (seen right after opening a notebook)."""
 
 
 class Lab:
-    """A private JupyterLab started by :func:`start_lab`: its port and folder, and ways to run a notebook in it."""
+    """A private JupyterLab started by :func:`start_lab` (or a hub user's server): its port, folder, base URL
+    and API token, and ways to run a notebook in it. With ``token_in_url`` the pages it opens carry the token
+    (a hub's browser logs in instead)."""
 
-    def __init__(self, port: int, work: Path) -> None:
-        self.port, self.work = port, work
+    def __init__(self, port: int, work: Path, *, base_url: str = "/", token: str = LAB_TOKEN,
+                 token_in_url: bool = True, host: str = "127.0.0.1") -> None:  # fmt: skip
+        self.port, self.work, self.base_url, self.token, self.token_in_url = port, work, base_url, token, token_in_url
+        self.host = host
+
+    @property
+    def origin(self) -> str:
+        """The address the browser reaches the server at (scheme, host and port; the test's API calls use
+        127.0.0.1)."""
+        return f"http://{self.host}:{self.port}"
+
+    def api(self, path: str, method: str = "GET") -> object:
+        """Call the server's REST API (``path`` under its base URL)."""
+        return lab_api(self.port, path, method, base_url=self.base_url, token=self.token)
+
+    def page_url(self, path: str, query: str = "") -> str:
+        """The address of page ``path`` (under the base URL) with ``query``, and the token when it goes in URLs."""
+        query = "&".join(filter(None, [f"token={self.token}" if self.token_in_url else "", query]))
+        return f"{self.origin}{self.base_url}{path}" + (f"?{query}" if query else "")
 
     def kernels(self) -> list[dict] | None:
         """The running kernels, or None when the server could not answer this time (it answered 500 once
         while starting a kernel on a loaded machine): callers poll again."""
         try:
-            return list(lab_api(self.port, "/api/kernels") or [])  # type: ignore[arg-type]
+            return list(self.api("/api/kernels") or [])  # type: ignore[arg-type]
         except urllib.error.HTTPError as exc:
             if exc.code >= 500:
                 return None
@@ -524,7 +695,7 @@ class Lab:
         the kernel meanwhile); ``metrics`` receives the timings."""
         metrics = {} if metrics is None else metrics
         t0 = time.monotonic()
-        page.goto(f"http://127.0.0.1:{self.port}/lab/tree/{name}?token={LAB_TOKEN}&reset", wait_until="load")
+        page.goto(self.page_url(f"lab/tree/{name}", "reset"), wait_until="load")
         page.wait_for_selector(IDLE, timeout=90_000)
         metrics["lab_and_kernel_ready_s"] = round(time.monotonic() - t0, 1)
         for attempt in (1, 2):
@@ -538,6 +709,11 @@ class Lab:
                     raise
                 metrics["kernel_replaced_during_run_all"] = True
         page.wait_for_selector(IDLE, timeout=60_000)
+
+    @staticmethod
+    def first_image_s(iframe: Any, frame: Any) -> float:
+        """Seconds from the view's iframe entering the page to its first image (the ``data-ffd-seen`` mark)."""
+        return round((image_frames(frame)[0]["t"] - float(iframe.get_attribute("data-ffd-seen"))) / 1000.0, 2)
 
     @staticmethod
     def view_iframe(page: Any, cell_text: str) -> tuple[Any, Any]:
@@ -560,28 +736,48 @@ class Lab:
         return Lab.view_iframe(page, cell_text)[1]
 
 
-@contextlib.contextmanager
-def start_lab(tmp_path: Path, work: Path, trace: Path, frames_trace: Path | None = None,
-              pythonpath: Path = REPO) -> Iterator[Lab]:  # fmt: skip
-    """JupyterLab on a free port serving ``work``, kernels instrumented (see :func:`_instrumenting_ipython_dir`)
-    and importing ffd_notebook from ``pythonpath``; its kernels and the server are stopped on exit."""
-    port = free_port()
+def lab_options(tmp_path: Path) -> list[str]:
+    """JupyterLab's options for a test: private settings and workspaces, no news or update checks."""
+    return [
+        f"--LabApp.user_settings_dir={_lab_settings(tmp_path)}",
+        f"--LabApp.workspaces_dir={tmp_path / '.lab-workspaces'}",
+        "--LabApp.news_url=None", "--LabApp.check_for_updates_class=jupyterlab.NeverCheckForUpdate",
+    ]  # fmt: skip
+
+
+def kernel_env(tmp_path: Path, trace: Path, frames_trace: Path | None = None,
+               pythonpath: Path = REPO) -> dict[str, str]:  # fmt: skip
+    """The environment of a Jupyter server whose kernels are instrumented (:func:`_instrumenting_ipython_dir`),
+    import ffd_notebook from ``pythonpath`` and use the users' default backend (trame)."""
     env = server_env(
         IPYTHONDIR=str(_instrumenting_ipython_dir(tmp_path, trace, frames_trace)),
         JUPYTER_RUNTIME_DIR=str(tmp_path / "runtime"),
         PYTHONPATH=str(pythonpath),
     )
     env.pop("PYVISTA_JUPYTER_BACKEND", None)  # users' default: the trame backend
+    return env
+
+
+@contextlib.contextmanager
+def start_lab(tmp_path: Path, work: Path, trace: Path, frames_trace: Path | None = None,
+              pythonpath: Path = REPO, base_url: str = "/", options: tuple[str, ...] = (),
+              host: str = "127.0.0.1") -> Iterator[Lab]:  # fmt: skip
+    """JupyterLab on a free port of 127.0.0.1 serving ``work`` under ``base_url``, kernels instrumented (see
+    :func:`_instrumenting_ipython_dir`) and importing ffd_notebook from ``pythonpath``, with more command-line
+    ``options``; the browser reaches it as ``host`` (another name needs Chromium's
+    :func:`host_resolver_args` and Jupyter's ``--ServerApp.allow_remote_access=True``). Its kernels and the
+    server are stopped on exit."""
+    port = free_port()
+    env = kernel_env(tmp_path, trace, frames_trace, pythonpath)
     cmd = [
         sys.executable, "-m", "jupyter", "lab", "--no-browser", "--ip=127.0.0.1", f"--port={port}",
         f"--IdentityProvider.token={LAB_TOKEN}", f"--ServerApp.root_dir={work}",
-        f"--LabApp.user_settings_dir={_lab_settings(tmp_path)}",
-        f"--LabApp.workspaces_dir={tmp_path / '.lab-workspaces'}",
-        "--LabApp.news_url=None", "--LabApp.check_for_updates_class=jupyterlab.NeverCheckForUpdate",
+        f"--ServerApp.base_url={base_url}", *lab_options(tmp_path), *options,
     ]  # fmt: skip
     if sys.platform.startswith("linux") and os.geteuid() == 0:
         cmd.append("--allow-root")
     log_path = tmp_path / "jupyter.log"
+    lab = Lab(port, work, base_url=base_url, host=host)
     with open(log_path, "w") as log:
         proc = subprocess.Popen(cmd, cwd=work, stdout=log, stderr=subprocess.STDOUT, env=env)
         try:
@@ -590,17 +786,144 @@ def start_lab(tmp_path: Path, work: Path, trace: Path, frames_trace: Path | None
                 if proc.poll() is not None:
                     raise RuntimeError(f"jupyter lab exited:\n{log_path.read_text()[-3000:]}")
                 try:
-                    return lab_api(port, "/api/status")
+                    return lab.api("/api/status")
                 except OSError:
                     return None
 
             wait_for(up, 90, "JupyterLab to answer")
-            yield Lab(port, work)
+            yield lab
         finally:
-            try:  # shut the kernels down cleanly (they run the trame servers), then the server
-                for kernel in lab_api(port, "/api/kernels") or []:
-                    lab_api(port, f"/api/kernels/{kernel['id']}", method="DELETE")
-            except Exception:
-                pass
+            shut_kernels_down(lab)
             stop_process(proc)
             shutil.copy(log_path, ARTIFACTS / "jupyter.log") if ARTIFACTS.is_dir() else None
+
+
+# ---------------------------------------------------------------------- the quickstart; a browser reaching one address
+QUICKSTART = "01_quickstart.ipynb"
+QUICKSTART_SHAPE = (5, 5, 5)  # the editor's lattice at the end of the quickstart notebook
+QUICKSTART_LAST_FILE = "face_deformed.obj"  # what the notebook's last cell writes
+
+
+def quickstart_folder(tmp: Path) -> tuple[Path, Path]:
+    """``(work, trace)``: a folder ``tmp/work`` holding a fresh copy of the quickstart notebook, and the drag
+    trace's path beside it."""
+    work = tmp / "work"
+    work.mkdir()
+    copy_notebook(QUICKSTART, work)
+    return work, tmp / "trace.jsonl"
+
+
+def copy_notebook(name: str, work: Path) -> None:
+    """Copy ``notebooks/<name>`` into ``work`` with its outputs cleared, as a user would open it first."""
+    import nbformat
+
+    nb = nbformat.read(REPO / "notebooks" / name, as_version=4)
+    for cell in nb.cells:
+        if cell.cell_type == "code":
+            cell.outputs, cell.execution_count = [], None
+    nbformat.write(nb, work / name)
+
+
+def quickstart_drag(lab: Lab, page: Any, trace: Path, metrics: dict[str, Any]) -> tuple[Any, Any, list[dict[str, Any]]]:
+    """Run the quickstart notebook in ``lab`` (any kernel left by an earlier test is shut down first), drag an
+    outer control point of its editor and check from the kernel's side that the callbacks ran for that sphere
+    only and the lattice and the mesh moved. Returns ``(iframe, frame, records)``: the editor's iframe
+    locator and content frame, and the drag's trace records; ``metrics`` receives the timings."""
+    shut_kernels_down(lab)
+    wait_for(lambda: lab.kernels() == [], 60, "the earlier kernels to go")
+    (lab.work / QUICKSTART_LAST_FILE).unlink(missing_ok=True)
+    t0 = time.monotonic()
+    # the whole notebook (programmatic edits, saving, loading) must finish before the drag: its last cell
+    # writes face_deformed.obj
+    lab.run_notebook(page, QUICKSTART, (lab.work / QUICKSTART_LAST_FILE).exists, metrics)
+    metrics["notebook_done_s"] = round(time.monotonic() - t0, 1)
+    iframe, frame = lab.view_iframe(page, "editor = fn.edit(")
+    metrics["first_image_s"] = round(time.monotonic() - t0, 1)
+    traced = len(callbacks(trace))  # an earlier run's records (another kernel) come first
+    state0 = trigger(frame, "ffd_state")
+    metrics.update(drag_and_measure(page, frame, frame.locator("img").first, trace, shape=QUICKSTART_SHAPE, outer=True))
+    # the kernel saw the drag: callbacks for that sphere only, and its offset changed
+    state1, records = settled_drag_state(frame, trace, state0["n_callbacks"], traced_before=traced)
+    assert records and {r["index"] for r in records} == {metrics["widget"]}
+    assert state1["offsets_abs_sum"] != state0["offsets_abs_sum"]
+    assert state1["checksum"] != state0["checksum"], "the mesh did not change"
+    ijk = np.unravel_index(metrics["widget"], QUICKSTART_SHAPE)
+    assert any(v in (0, n - 1) for v, n in zip(ijk, QUICKSTART_SHAPE, strict=True)), "the sphere dragged is outer"
+    assert metrics["stepped"]["event_to_frame_ms"] is not None, "no new image after the callbacks"
+    assert metrics["paced"]["callbacks"] > 0
+    metrics["offsets_abs_sum"] = state1["offsets_abs_sum"]
+    return iframe, frame, records
+
+
+def reach_only(context: Any, origin: str) -> list[str]:
+    """Let the pages of ``context`` reach ``origin`` (``http://host:port``) only, like a browser that reaches a
+    notebook through one forwarded port: every other request and WebSocket is refused. Returns the list of the
+    refused addresses (filled as they come, while Playwright is called).
+
+    The routes match a regular expression (every address but ``origin``'s), which the browser evaluates
+    itself: with a Python predicate every request would wait for the test's Python side, which serves the
+    routes of the sync API only while it is inside a Playwright call (JupyterLab then never started its kernel).
+    """
+    import re
+
+    host = re.escape(origin.split("://", 1)[1])
+    refused: list[str] = []
+
+    def request(route: Any) -> None:
+        refused.append(route.request.url)
+        route.abort("addressunreachable")
+
+    def socket(ws: Any) -> None:
+        refused.append(ws.url)
+        ws.close()
+
+    context.route(re.compile(rf"^(?!https?://{host}/)"), request)
+    context.route_web_socket(re.compile(rf"^(?!wss?://{host}/)"), socket)
+    return refused
+
+
+def host_resolver_args(name: str) -> tuple[str, ...]:
+    """Chromium's arguments that make host ``name`` resolve to 127.0.0.1 (a remote machine's name, played here)."""
+    return (f"--host-resolver-rules=MAP {name} 127.0.0.1",)
+
+
+def quickstart_through_one_address(pw: Any, lab: Lab, trace: Path, tmp_path: Path, name: str,
+                                   before: Callable[[Any], None] | None = None) -> dict[str, Any]:  # fmt: skip
+    """The quickstart's drag (:func:`quickstart_drag`) in a browser that reaches ``lab.origin`` only
+    (:func:`reach_only`; ``before(page)`` runs first, e.g. a hub's login). The view must come through Jupyter's
+    proxy under ``lab.base_url`` and never try the kernel's own port, which must be out of the browser's reach
+    indeed; the page's reload cookie must stay in the proxied view's folder. Screenshots go to
+    ``test-artifacts/<name>_after_drag.png`` (``<name>_failure.png``), the metrics under ``name``."""
+    metrics: dict[str, Any] = {}
+    ARTIFACTS.mkdir(exist_ok=True)
+    names = host_resolver_args(lab.host) if lab.host != "127.0.0.1" else ()
+    context = launch_browser(pw, tmp_path / "profile", width=1400, height=1000, args=names)
+    refused = reach_only(context, lab.origin)
+    page = context.new_page()
+    try:
+        errors: list[str] = []
+        page.on("pageerror", lambda e: errors.append(str(e)))
+        if before is not None:
+            before(page)
+        iframe, frame, _ = quickstart_drag(lab, page, trace, metrics)
+        proxied = f"{lab.origin}{lab.base_url}proxy/"
+        assert frame.url.startswith(proxied), frame.url
+        metrics["iframe_to_first_image_s"] = Lab.first_image_s(iframe, frame)
+        # the token reached the page, and the reload cookie stays in the proxied view's folder
+        cookies = [c for c in context.cookies() if c["name"].startswith("ffd_notebook_")]
+        assert cookies and all(c["path"].startswith(f"{lab.base_url}proxy/") for c in cookies), cookies
+        page.screenshot(path=ARTIFACTS / f"{name}_after_drag.png")
+        # nothing tried the kernel's own port, which is out of this browser's reach indeed
+        port = frame.url.removeprefix(proxied).split("/")[0]
+        assert not [u for u in refused if f":{port}/" in u], refused
+        direct = f"http://localhost:{port}/index.html"
+        fetched = page.evaluate(f"fetch('{direct}', {{mode: 'no-cors'}}).then(() => 'ok', () => 'refused')")
+        assert fetched == "refused" and direct in refused, (fetched, refused)
+        assert not errors, errors
+    except Exception:
+        page.screenshot(path=ARTIFACTS / f"{name}_failure.png")
+        raise
+    finally:
+        context.close()
+    record_metrics(name, metrics)
+    return metrics

@@ -6,10 +6,7 @@ which are also written to ``test-artifacts/browser_metrics.json`` with before/af
 
 from __future__ import annotations
 
-import re
 import shutil
-import subprocess
-import sys
 import time
 from pathlib import Path
 
@@ -18,14 +15,14 @@ import pytest
 import pyvista as pv
 from browser.helpers import (
     ARTIFACTS,
+    app_server,
     drag_and_measure,
     free_port,
     launch_browser,
     open_app_page,
+    open_panel_section,
     record_metrics,
-    server_env,
     settled_drag_state,
-    stop_process,
     trigger,
     wait_for,
 )
@@ -38,6 +35,7 @@ def save_mesh(page, path: Path):
     """Save the deformed mesh through the panel (path typed into its field, then the button) and read it."""
     import pyvista as pv
 
+    open_panel_section(page, "Files")
     page.fill("#ffd-mesh-save-path", str(path))
     page.click("#ffd-save-mesh")
     wait_for(path.exists, 20, f"the app to write {path.name}")
@@ -51,27 +49,10 @@ INSTRUMENTED_APP = Path(__file__).resolve().parent / "serve_instrumented_app.py"
 def app(tmp_path: Path):
     """``python -m ffd_notebook`` on a free port, instrumented by test code (serve_instrumented_app.py) to trace
     drag events; yields (url, trace path, log path)."""
-    port = free_port()
-    trace = tmp_path / "trace.jsonl"
-    log_path = tmp_path / "app.log"
-    with open(log_path, "w") as log:
-        proc = subprocess.Popen(
-            [sys.executable, str(INSTRUMENTED_APP), str(trace), "--port", str(port)],
-            cwd=tmp_path, stdout=log, stderr=subprocess.STDOUT, env=server_env(),
-        )  # fmt: skip
-        try:
-
-            def started() -> str | None:
-                if proc.poll() is not None:
-                    raise RuntimeError(f"the app exited with {proc.returncode}:\n{log_path.read_text()}")
-                found = re.search(r"running at (http://\S+)", log_path.read_text())
-                return found.group(1) if found else None
-
-            url = wait_for(started, 90, "the app to print its URL")  # with its session token
-            assert url.startswith(f"http://127.0.0.1:{port}/?secret=")
-            yield url, trace, log_path
-        finally:
-            stop_process(proc)
+    port, trace = free_port(), tmp_path / "trace.jsonl"
+    with app_server([str(INSTRUMENTED_APP), str(trace), "--port", str(port)], tmp_path) as url:
+        assert url.startswith(f"http://127.0.0.1:{port}/?secret=")  # with its session token
+        yield url, trace, tmp_path / "app.log"
 
 
 def test_drag_save_and_upload_in_the_app(app, tmp_path: Path):
@@ -172,12 +153,14 @@ def test_open_the_real_registration_lattice_and_drag(app, tmp_path: Path, shared
         context = launch_browser(pw, tmp_path / "profile")
         try:
             page, view, errors = open_app_page(context, url)
+            open_panel_section(page, "Files")
             page.fill("#ffd-path", "registration.ffd")  # relative to the app's root folder
             page.click("#ffd-load")
             wait_for(lambda: len(trigger(page, "ffd_widget_px")["widgets"]) == 1452 - 9 * 10 * 9, 60,
                      "the 11x12x11 lattice, its hull drawn")  # fmt: skip
             loaded = trigger(page, "ffd_state")
             assert loaded["offsets_abs_sum"] > 0  # a registration result: its offsets came with it
+            open_panel_section(page, "Display")
             page.click(".v-select:has(#ffd-points-shown) .v-field")  # open the select, pick the option
             page.get_by_role("option", name="all", exact=True).click()
             wait_for(lambda: len(trigger(page, "ffd_widget_px")["widgets"]) == 1452, 30, "every control point drawn")

@@ -9,9 +9,6 @@ Run: ``python -m pytest tests/browser/test_app_tabs_browser.py -m browser -s``.
 
 from __future__ import annotations
 
-import re
-import subprocess
-import sys
 import time
 from pathlib import Path
 
@@ -19,13 +16,12 @@ import numpy as np
 import pytest
 from browser.helpers import (
     ARTIFACTS,
+    app_server,
     free_port,
     image_frames,
     launch_browser,
     open_app_page,
     pick_widget,
-    server_env,
-    stop_process,
     trigger,
     wait_for,
     widget_xy,
@@ -39,24 +35,10 @@ INSTRUMENTED_APP = Path(__file__).resolve().parent / "serve_instrumented_app.py"
 
 @pytest.fixture
 def app_url(tmp_path: Path):
-    port = free_port()
-    log_path = tmp_path / "app.log"
-    with open(log_path, "w") as log:
-        proc = subprocess.Popen(
-            [sys.executable, str(INSTRUMENTED_APP), str(tmp_path / "trace.jsonl"), "--port", str(port)],
-            cwd=tmp_path, stdout=log, stderr=subprocess.STDOUT, env=server_env(),
-        )  # fmt: skip
-        try:
-
-            def started() -> str | None:
-                if proc.poll() is not None:
-                    raise RuntimeError(f"the app exited with {proc.returncode}:\n{log_path.read_text()}")
-                found = re.search(r"running at (http://\S+)", log_path.read_text())
-                return found.group(1) if found else None
-
-            yield wait_for(started, 90, "the app to print its URL")
-        finally:
-            stop_process(proc)
+    with app_server(
+        [str(INSTRUMENTED_APP), str(tmp_path / "trace.jsonl"), "--port", str(free_port())], tmp_path
+    ) as url:
+        yield url
 
 
 def _drag(page, start, delta, n_steps: int = 6) -> None:

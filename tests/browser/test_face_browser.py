@@ -11,9 +11,6 @@ Run: ``python -m pytest tests/browser/test_face_browser.py -m browser -s``
 from __future__ import annotations
 
 import io
-import re
-import subprocess
-import sys
 import time
 from pathlib import Path
 
@@ -22,15 +19,15 @@ import numpy as np
 import pytest
 from browser.helpers import (
     ARTIFACTS,
+    app_server,
     drag_and_measure,
     free_port,
     launch_browser,
     open_app_page,
+    open_panel_section,
     record_metrics,
-    server_env,
     settled_drag_state,
     start_lab,
-    stop_process,
     trigger,
     wait_for,
 )
@@ -90,49 +87,35 @@ def drag_moves_the_face(page, frame, view, trace: Path, state0: dict, metrics: d
 def test_upload_a_photo_in_the_app_and_drag_the_face(tmp_path: Path):
     photo = astronaut_jpeg(tmp_path)
     port = free_port()
-    trace, log_path = tmp_path / "trace.jsonl", tmp_path / "app.log"
+    trace = tmp_path / "trace.jsonl"
     ARTIFACTS.mkdir(exist_ok=True)
     metrics: dict = {}
-    with open(log_path, "w") as log:
-        proc = subprocess.Popen(
-            [sys.executable, str(INSTRUMENTED_APP), str(trace), "--port", str(port)],
-            cwd=tmp_path, stdout=log, stderr=subprocess.STDOUT, env=server_env(),
-        )  # fmt: skip
-        try:
+    with app_server([str(INSTRUMENTED_APP), str(trace), "--port", str(port)], tmp_path) as url:
+        with sync_playwright() as pw:
+            context = launch_browser(pw, tmp_path / "profile")
+            try:
+                page, view, errors = open_app_page(context, url)
+                time.sleep(1.0)
+                sample = view_picture(view)
+                assert trigger(page, "ffd_state")["n_points"] == 6393  # the sample face
 
-            def started() -> str | None:
-                if proc.poll() is not None:
-                    raise RuntimeError(f"the app exited with {proc.returncode}:\n{log_path.read_text()}")
-                found = re.search(r"running at (http://\S+)", log_path.read_text())
-                return found.group(1) if found else None
+                t0 = time.monotonic()
+                open_panel_section(page, "Files")
+                page.set_input_files("#ffd-mesh-upload", str(photo))  # the app's own upload takes photos
+                state0 = wait_for_face(page, "the face of the uploaded photo")
+                metrics["upload_to_face_s"] = round(time.monotonic() - t0, 1)
+                wait_for(lambda: "made the face in astronaut.jpg (uploaded)" in page.locator("#ffd-messages")
+                         .inner_text(), 30, "the page's message about the face")  # fmt: skip
+                time.sleep(1.0)
+                page.screenshot(path=ARTIFACTS / "face_app_after_upload.png")
+                metrics["changed_by_upload"] = round(changed(sample, view_picture(view)), 3)
+                assert metrics["changed_by_upload"] > 0.05, "the view does not show a new mesh"
 
-            url = wait_for(started, 90, "the app to print its URL")
-            with sync_playwright() as pw:
-                context = launch_browser(pw, tmp_path / "profile")
-                try:
-                    page, view, errors = open_app_page(context, url)
-                    time.sleep(1.0)
-                    sample = view_picture(view)
-                    assert trigger(page, "ffd_state")["n_points"] == 6393  # the sample face
-
-                    t0 = time.monotonic()
-                    page.set_input_files("#ffd-mesh-upload", str(photo))  # the app's own upload takes photos
-                    state0 = wait_for_face(page, "the face of the uploaded photo")
-                    metrics["upload_to_face_s"] = round(time.monotonic() - t0, 1)
-                    wait_for(lambda: "made the face in astronaut.jpg (uploaded)" in page.locator("#ffd-messages")
-                             .inner_text(), 30, "the page's message about the face")  # fmt: skip
-                    time.sleep(1.0)
-                    page.screenshot(path=ARTIFACTS / "face_app_after_upload.png")
-                    metrics["changed_by_upload"] = round(changed(sample, view_picture(view)), 3)
-                    assert metrics["changed_by_upload"] > 0.05, "the view does not show a new mesh"
-
-                    drag_moves_the_face(page, page.main_frame, view, trace, state0, metrics,
-                                        ARTIFACTS / "face_app_after_drag.png")  # fmt: skip
-                    assert not errors, errors
-                finally:
-                    context.close()
-        finally:
-            stop_process(proc)
+                drag_moves_the_face(page, page.main_frame, view, trace, state0, metrics,
+                                    ARTIFACTS / "face_app_after_drag.png")  # fmt: skip
+                assert not errors, errors
+            finally:
+                context.close()
     record_metrics("face_app", metrics)
 
 

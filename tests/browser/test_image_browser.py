@@ -11,9 +11,6 @@ Run: ``python -m pytest tests/browser/test_image_browser.py -m browser -s``.
 
 from __future__ import annotations
 
-import re
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -21,14 +18,13 @@ import pytest
 import SimpleITK as sitk
 from browser.helpers import (
     ARTIFACTS,
+    app_server,
     drag_and_measure,
     free_port,
     launch_browser,
     open_app_page,
-    server_env,
     settled_drag_state,
     start_lab,
-    stop_process,
     trigger,
     wait_for,
 )
@@ -81,29 +77,17 @@ def check_the_drag(page, frame, view, trace: Path, screenshot: str) -> None:
 
 def test_a_drag_changes_the_slices_only_where_the_control_point_reaches(tmp_path: Path):
     image = image_over_the_sample_face(tmp_path / "ct.nrrd")
-    port, trace, log_path = free_port(), tmp_path / "trace.jsonl", tmp_path / "app.log"
-    with open(log_path, "w") as log:
-        command = [sys.executable, str(INSTRUMENTED_APP), str(trace), "--port", str(port), "--image", str(image)]
-        proc = subprocess.Popen(command, cwd=tmp_path, stdout=log, stderr=subprocess.STDOUT, env=server_env())
-        try:
-
-            def started() -> str | None:
-                if proc.poll() is not None:
-                    raise RuntimeError(f"the app exited with {proc.returncode}:\n{log_path.read_text()}")
-                found = re.search(r"running at (http://\S+)", log_path.read_text())
-                return found.group(1) if found else None
-
-            url = wait_for(started, 90, "the app to print its URL")
-            with sync_playwright() as pw:
-                context = launch_browser(pw, tmp_path / "profile")
-                try:
-                    page, view, errors = open_app_page(context, url)
-                    check_the_drag(page, page.main_frame, view, trace, "app_image_after_drag.png")
-                    assert not errors, errors
-                finally:
-                    context.close()
-        finally:
-            stop_process(proc)
+    trace = tmp_path / "trace.jsonl"
+    command = [str(INSTRUMENTED_APP), str(trace), "--port", str(free_port()), "--image", str(image)]
+    with app_server(command, tmp_path) as url:
+        with sync_playwright() as pw:
+            context = launch_browser(pw, tmp_path / "profile")
+            try:
+                page, view, errors = open_app_page(context, url)
+                check_the_drag(page, page.main_frame, view, trace, "app_image_after_drag.png")
+                assert not errors, errors
+            finally:
+                context.close()
 
 
 def test_the_same_in_jupyterlab(tmp_path: Path):

@@ -21,6 +21,7 @@ import pytest
 from browser.helpers import (
     ARTIFACTS,
     callbacks,
+    cut_texts,
     drag_and_measure,
     launch_browser,
     settled_drag_state,
@@ -88,6 +89,7 @@ def test_surface_drag_then_the_registration_lattice_in_jupyterlab(tmp_path: Path
             page.locator(".ffd-panel").first.scroll_into_view_if_needed()
             layout = page.evaluate(PANEL_CUT_OFF)
             assert not layout["cut"], layout
+            assert not cut_texts(page, ".ffd-panel")  # no text wider than its box, no choice cut (issue 32)
             assert 320 <= layout["view"][2] <= 802 and layout["view"][1] <= layout["panel"] + 1, layout
             assert abs((layout["view"][2] - 2) / (layout["view"][3] - 2) - 4 / 3) < 0.02, layout  # the window's
             # the server renders at the view's size (not the 800x600 of the window it was made with)

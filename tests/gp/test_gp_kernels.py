@@ -97,23 +97,30 @@ def _points_in_and_around(lattice, n, seed):
     return lattice.to_world(uvw)
 
 
+@pytest.mark.parametrize("border", ["zero", "clamp"])
 @pytest.mark.parametrize("rotation", [None, np.diag([1.0, 1.0, -1.0]) @ np.array([[0, -1, 0], [1, 0, 0], [0, 0, 1.0]])])
-def test_bspline_weights_reproduce_the_ffd_engine(rotation):
-    lattice = Lattice((5, 4, 6), spacing=(1.0, 2.0, 0.5), origin=(3.0, -1.0, 2.0), rotation=rotation)
+def test_bspline_weights_reproduce_the_ffd_engine(rotation, border):
+    lattice = Lattice((5, 4, 6), spacing=(1.0, 2.0, 0.5), origin=(3.0, -1.0, 2.0), rotation=rotation, border=border)
     lattice.offsets[...] = np.random.default_rng(4).normal(size=lattice.offsets.shape)
     points = _points_in_and_around(lattice, 300, seed=5)
     W = bspline_weights(lattice, points)
     np.testing.assert_allclose(W @ lattice.offsets.reshape(-1, 3), FFD(lattice).displacement(points), atol=1e-12)
 
 
+@pytest.mark.parametrize("border", ["zero", "clamp"])
 @pytest.mark.parametrize("seed", [0, 7, 123])
-def test_bspline_gp_sample_is_the_ffd_of_the_same_random_offsets(seed):
-    kernel = BSplineKernel(LATTICE, scale=0.25)
-    points = _points_in_and_around(LATTICE, 200, seed)
+def test_bspline_gp_sample_is_the_ffd_of_the_same_random_offsets(seed, border):
+    lattice = LATTICE.copy()
+    lattice.border = border  # the kernel follows the lattice's border rule, as FFD(lattice) does
+    kernel = BSplineKernel(lattice, scale=0.25)
+    points = _points_in_and_around(lattice, 200, seed)
     sample = GaussianProcess(kernel).sample(points, n=1, rng=seed)[0]
     random_ffd = FFD(kernel.random_lattice(seed))
+    assert random_ffd.border == border
     np.testing.assert_allclose(sample, random_ffd.displacement(points), atol=1e-12)
     assert np.abs(sample).max() > 0.05  # a real deformation, not zeros
+    diagonal = np.diagonal(kernel.components(points, points), axis1=1, axis2=2)
+    np.testing.assert_allclose(kernel.diagonal(points), diagonal, atol=1e-12)
 
 
 def test_bspline_kernel_is_the_covariance_of_random_ffds():

@@ -7,6 +7,7 @@ import pytest
 from image_testing import awkward_grid, lattice_over, smooth_volume
 
 from ffd_notebook import FFD
+from ffd_notebook.ffd.grid import GridEvaluator
 from ffd_notebook.images import ImageGrid, WarpedSlices, warp_image
 from ffd_notebook.images.slices import intensity_window
 
@@ -18,14 +19,17 @@ def full_slices(array, ffd, grid, positions, interpolation="linear"):
     return {0: full[:, :, i], 1: full[:, j, :], 2: full[k]}
 
 
+@pytest.mark.parametrize("aligned", [False, True], ids=["deformer", "grid-evaluator"])
 @pytest.mark.parametrize("border", ["zero", "clamp"])
-def test_drags_update_only_the_reached_pixels_and_match_warp_image(border):
+def test_drags_update_only_the_reached_pixels_and_match_warp_image(border, aligned):
+    """Both evaluators of a slice: separable (lattice along the image), and the cached plain one (turned)."""
     rng = np.random.default_rng(21)
     grid = awkward_grid((30, 26, 20))
     array = smooth_volume(grid.shape, rng)
-    ffd = lattice_over(grid, (8, 8, 7), scale=1.0, rng=rng)
+    ffd = lattice_over(grid, (8, 8, 7), scale=1.0, rng=rng, aligned=aligned)
     ffd = FFD(ffd.lattice, border=border)
     slices = WarpedSlices(array, ffd, spacing=grid.spacing, origin=grid.origin, direction=grid.direction)
+    assert all(isinstance(slices._evaluators[axis], GridEvaluator) == aligned for axis in range(3))
     tolerance = 1e-5 * np.ptp(array)
     expected = full_slices(array, ffd, grid, slices.positions)
     for axis in range(3):
@@ -94,3 +98,23 @@ def test_rgb_photo_has_one_slice():
     np.testing.assert_array_equal(slices.values[2], warped)
     with pytest.raises(ValueError, match="no slice across axis 0"):
         slices.set_position(0, 3)
+
+
+@pytest.mark.parametrize("aligned", [False, True], ids=["deformer", "grid-evaluator"])
+def test_voxel_weights_reach_every_slice_as_warp_image(aligned):
+    """An FFD's weights on an image are one per voxel: each slice shows its voxels' share, set before or after."""
+    rng = np.random.default_rng(23)
+    grid = awkward_grid((16, 14, 12))
+    array = smooth_volume(grid.shape, rng)
+    ffd = lattice_over(grid, (6, 6, 6), scale=2.0, rng=rng, aligned=aligned)
+    geometry = {"spacing": grid.spacing, "origin": grid.origin, "direction": grid.direction}
+    slices = WarpedSlices(array, ffd, positions=(5, 6, 7), **geometry)
+    ffd.weights = rng.random(array.size)  # set after binding: the next update takes them
+    assert all(region.all() for region in slices.update([(2, 2, 2)]).values())
+    expected = full_slices(array, ffd, grid, slices.positions)
+    unweighted = full_slices(array, FFD(ffd.lattice), grid, slices.positions)
+    for axis in range(3):
+        np.testing.assert_allclose(slices.values[axis], expected[axis], atol=1e-5 * np.ptp(array), rtol=0)
+        assert np.abs(slices.values[axis] - unweighted[axis]).max() > 1.0
+    with pytest.raises(ValueError, match="one per voxel"):
+        WarpedSlices(array, FFD(ffd.lattice, weights=np.ones(10)), **geometry)

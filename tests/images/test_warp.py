@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import pytest
 import SimpleITK as sitk
@@ -166,3 +168,25 @@ def test_write_image_is_atomic(tmp_path):
         write_image(path, sitk.Image([4, 4, 4], sitk.sitkFloat64))
     assert sitk.GetArrayFromImage(read_image(path)).tolist() == np.full((3, 4), 7).tolist()
     assert sorted(p.name for p in tmp_path.iterdir()) == ["out.png"]
+
+
+class _NotANumberAt:
+    """T(x) is NaN at the first voxel, +inf and -inf in x at the next two, beyond any index at the fourth."""
+
+    def deform(self, points):
+        out = np.array(points, dtype=np.float64)
+        out[0] = np.nan
+        out[1, 0], out[2, 0], out[3] = np.inf, -np.inf, 1e300
+        return out
+
+
+@pytest.mark.parametrize("dtype", [np.float32, np.uint8, np.int16])
+@pytest.mark.parametrize("interpolation", ["nearest", "linear", "bspline"])
+def test_positions_that_are_not_numbers_read_the_default_value(dtype, interpolation):
+    """ITK's IsInsideBuffer is false for NaN: its default value, not a NaN pixel (or 0 and a cast warning)."""
+    image = np.full((4, 5, 6), 7, dtype=dtype)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # no "invalid value encountered in cast"
+        out = warp_image(image, _NotANumberAt(), interpolation=interpolation, default_value=3)
+    assert out.reshape(-1)[:4].tolist() == [3, 3, 3, 3]
+    assert (out.reshape(-1)[4:] == 7).all()

@@ -9,7 +9,7 @@ from image_testing import awkward_grid, lattice_over, sitk_image, smooth_volume
 
 from ffd_notebook import FFD, Lattice, save_transform
 from ffd_notebook.images import ImageGrid, warp_image
-from ffd_notebook.images.separable import GridFFDSampler, index_sampler
+from ffd_notebook.images.sample import IndexSampler
 
 ITK_INTERPOLATORS = {"linear": sitk.sitkLinear, "nearest": sitk.sitkNearestNeighbor}
 
@@ -40,8 +40,7 @@ def test_equals_sitk_resample_with_saved_transform(tmp_path, size, interpolation
     array = smooth_volume(grid.shape, rng)
     image = sitk_image(array, grid)
     ffd = lattice_over(grid, (7, 6, 6), scale=3.0, rng=rng, aligned=aligned)
-    sampler = index_sampler(ffd, grid, grid)
-    assert isinstance(sampler, GridFFDSampler) == aligned
+    assert IndexSampler(ffd, grid, grid).separable == aligned
     expected = sitk.GetArrayFromImage(itk_resample(image, ffd, tmp_path / "t.tfm", image, interpolation, -7.0))
     got = warp_image(image, ffd, interpolation=interpolation, default_value=-7.0)
     assert isinstance(got, sitk.Image)
@@ -75,7 +74,7 @@ def test_other_reference_grid_and_affine_part(tmp_path, dim, separable):
     size = (30, 22, 12) if dim == 3 else (44, 25)
     turned = None if separable else grid.direction
     reference = ImageGrid(size, spacing=(hi - lo)[:dim] / np.array(size), origin=lo[:dim] + 0.3, direction=turned)
-    assert isinstance(index_sampler(ffd, reference, grid), GridFFDSampler) == separable
+    assert IndexSampler(ffd, reference, grid).separable == separable
     ref_image = reference.to_sitk(sitk.Image(list(size), sitk.sitkFloat32))
     expected = sitk.GetArrayFromImage(itk_resample(image, ffd, tmp_path / "t.h5", ref_image, "linear", 0.0))
     got = warp_image(image, ffd, reference=reference)

@@ -48,7 +48,7 @@ def test_lattice_to_field_on_a_reference_grid_and_field_needs_fit(tmp_path, caps
     assert main(args) == 0
     field = load_displacement_field(tmp_path / "field.nii.gz")
     points = field.grid_points()
-    assert field.shape == (12, 10, 9) and np.abs(field.deform(points) - FFD(lat).deform(points)).max() < 1e-6
+    assert field.size == (12, 10, 9) and np.abs(field.deform(points) - FFD(lat).deform(points)).max() < 1e-6
     assert main(["convert", str(tmp_path / "field.nii.gz"), str(tmp_path / "x.tfm")]) == 1
     assert "a displacement field is not a lattice; give --fit SHAPE" in capsys.readouterr().err
     assert not (tmp_path / "x.tfm").exists()

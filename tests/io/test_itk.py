@@ -210,8 +210,10 @@ def test_writer_refuses_what_itk_cannot_hold(tmp_path):
         save_transform(path, FFD(Lattice((4, 4, 4), 1.0, border="clamp")))
     with pytest.raises(ValueError, match="singular"):
         save_transform(path, FFD(lat, affine=np.diag([1.0, 0.0, 1.0, 1.0])))
-    with pytest.raises(ValueError, match=r"unknown transform file extension '\.mat'"):
-        save_transform(tmp_path / "x.mat", FFD(lat))
+    with pytest.raises(ValueError, match=r"unknown transform file extension '\.xfm'"):
+        save_transform(tmp_path / "x.xfm", FFD(lat))
+    with pytest.raises(ValueError, match=r"x.mat: an ITK .mat file holds one transform, not a composite"):
+        save_transform(tmp_path / "x.mat", FFD(lat, affine=np.diag([2.0, 1.0, 1.0, 1.0])))
     assert path.read_text() == "old"  # refused before the file was touched
     assert sorted(os.listdir(tmp_path)) == ["keep.tfm"]  # and no temporary file left behind
 

@@ -107,3 +107,58 @@ def test_a_gaussian_process_sample_on_mesh_points():
     assert report["rms"] < 0.1 * np.sqrt(np.mean(np.sum(sample**2, axis=1)))  # a smooth sample: a good fit
     with pytest.raises(ValueError, match="match the region's points"):
         fit_lattice(sample[:10], 5, region=points)
+
+
+def test_scattered_points_solve_for_the_control_points_they_reach_only(monkeypatch):
+    """A 100^3 lattice around 20 points: the factorised system has at most 20 * 64 unknowns, not a million."""
+    import scipy.sparse.linalg
+
+    factorise = scipy.sparse.linalg.splu
+    sizes = []
+
+    def spy(matrix, *args, **kwargs):
+        sizes.append(matrix.shape[0])
+        if matrix.shape[0] > 20 * 64:
+            raise AssertionError(f"a {matrix.shape[0]}-unknown system for 20 points")
+        return factorise(matrix, *args, **kwargs)
+
+    monkeypatch.setattr(scipy.sparse.linalg, "splu", spy)
+    points = np.random.default_rng(5).random((20, 3)) * 10
+    fitted = fit_lattice(lambda p: p + 0.1 * np.sin(p[:, [1, 2, 0]]), 100, region=points)
+    assert 0 < sizes[0] <= 20 * 64
+    assert fitted.lattice.metadata["fit"]["max"] < 1e-9  # 20 points, a thousand unknowns: met exactly
+    moved = np.argwhere(fitted.lattice.offsets.any(axis=-1))
+    assert 0 < len(moved) <= sizes[0]  # every other control point keeps a zero offset
+
+
+def test_a_system_that_would_not_fit_is_refused_with_its_size():
+    points = np.random.default_rng(6).random((5000, 3))  # filling the box: they reach almost every control point
+    with pytest.raises(ValueError, match=r"reach 6\d{4} control points of the 40x40x40 lattice.*GiB"):
+        fit_lattice(lambda p: p, 40, region=points)
+    with pytest.raises(ValueError, match=r"2000x2000x2000 lattice's offsets alone would take 179 GiB"):
+        fit_lattice(lambda p: p, 2000, region=points)
+
+
+def test_sheared_and_permuted_grids_take_the_separable_solve(monkeypatch):
+    """A field on a sheared grid (NiftyReg, FSL, elastix affine-then-B-spline) and a lattice whose axes run along
+    the grid's in another order, flipped: the per-axis solve of the engine's grid pairing, exactly."""
+    from ffd_notebook.io import lattice_fitting
+
+    def general(*args, **kwargs):
+        raise AssertionError("the scattered-points solve ran where the separable one holds")
+
+    monkeypatch.setattr(lattice_fitting, "_sparse_fit", general)
+    shear = np.array([[1.0, 0.3, 0.1], [0.0, 1.0, -0.2], [0.0, 0.0, 1.0]])
+    shear /= np.linalg.norm(shear, axis=0)
+    grid = {"size": (17, 15, 13), "spacing": (1.0, 1.3, 0.8), "origin": (2.0, -1.0, 3.0), "direction": shear}
+    axes = shear[:, [2, 0, 1]] * [1.0, -1.0, 1.0]  # lattice x along the grid's k, y along -i, z along j
+    spacing = np.array([3.0, 5.0, 4.0])
+    truth = Lattice((6, 7, 8), spacing, origin=(4.0, 9.0, 0.0), rotation=axes)
+    truth.offsets[...] = np.random.default_rng(4).normal(0.0, 1.0, truth.offsets.shape)
+    field = sample_displacement_field(FFD(truth), grid)
+    fitted = fit_lattice(field, truth)
+    assert fitted.lattice.metadata["fit"]["max"] < 1e-9
+    reached = np.abs(field.vectors).max() > 0.5  # the field is not zero: the recovery means something
+    assert reached
+    new = fit_lattice(field, (7, 6, 6))  # a new lattice over a sheared field: its axes are the grid's
+    assert new.lattice.sheared and np.allclose(new.lattice.rotation, shear)

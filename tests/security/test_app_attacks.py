@@ -281,7 +281,7 @@ def test_http_answers_during_a_slow_load_and_uploads_go_at_exit(tmp_path):
                 await s.hello(app.token)
                 await s.set_state(ffd_upload={"name": "up.ffd", "content": (app.root / "lattice.ffd").read_bytes()})
                 await s.wait_for_state(lambda st: not st["busy"] and "up.ffd (uploaded)" in messages(st)[0], 60)
-                uploads = list((tmp_path / "tmp").glob("ffd_notebook_upload_*/up.ffd"))
+                uploads = list((tmp_path / "tmp").glob("ffd_notebook_upload_*/upload_*/up.ffd"))  # one folder each
                 reply = await s.trigger("ffd_load_mesh", "big.obj")
                 t_reply = time.monotonic()
                 busy = (await s.state())["busy"]

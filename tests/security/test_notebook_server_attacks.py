@@ -104,10 +104,13 @@ def test_direct_mode_own_origin_and_token_only(view_server):
 
 def test_proxy_mode_accepts_jupyters_host_but_still_needs_same_origin_and_token(view_server):
     jupyter = "jupyter.example.org"  # what jupyter-server-proxy forwards: Jupyter's Host and Origin
-    with pytest.raises(Refused):  # not proxied: a foreign name is a DNS-rebinding attempt
-        run(hello(view_server.ws, f"https://{jupyter}", view_server.token, host=jupyter))
+    rebound = f"{jupyter}:{view_server.port}"  # a page that reached this port itself names it: DNS rebinding
+    with pytest.raises(Refused):
+        run(hello(view_server.ws, f"http://{rebound}", view_server.token, host=rebound))
     view_server.proxy(True)
     try:
+        ok = run(hello(view_server.ws, f"http://{rebound}", view_server.token, host=rebound))
+        assert "result" in ok  # PyVista's setting accepts any Host, as asked; the Origin and token still count
         ok = run(hello(view_server.ws, f"https://{jupyter}", view_server.token, host=jupyter))
         assert "result" in ok and "result" in ok["state"]
         assert "error" in run(hello(view_server.ws, f"https://{jupyter}", DEFAULT_SECRET, host=jupyter))
@@ -153,13 +156,47 @@ def test_through_jupyter_server_proxy(view_server, jupyter_proxy):
     # by a page); the view server still refuses the foreign Origin, and Jupyter then closes the socket
     with pytest.raises((Refused, ConnectionError)):
         run(hello(ws, "http://evil.example", view_server.token))
-    # a Jupyter reached by a name (a hub, a remote host): its Host is not loopback; accepted only in proxy mode
+    # a Jupyter reached by a name (a remote host through one port): its Host names Jupyter's port, not the
+    # view server's, so it came through a forwarder; accepted with no setting, still same-origin and with the token
     named = f"jupyter.example.org:{jp}"
-    with pytest.raises((Refused, ConnectionError, TimeoutError)):
-        run(hello(ws, f"http://{named}", view_server.token, host=named), timeout=30)
-    view_server.proxy(True)
+    ok = run(hello(ws, f"http://{named}", view_server.token, host=named))
+    assert "result" in ok and "result" in ok["state"]
+    assert "error" in run(hello(ws, f"http://{named}", DEFAULT_SECRET, host=named))
+    for origin in ("http://evil.example", f"http://jupyter.example.org:{view_server.port}", "null"):
+        with pytest.raises((Refused, ConnectionError)):  # a foreign page, through the proxied route
+            run(hello(ws, origin, view_server.token, host=named))
+    # the same name naming the view server's own port came straight to it: a DNS-rebinding page
+    rebound = f"jupyter.example.org:{view_server.port}"
+    with pytest.raises(Refused):
+        run(hello(view_server.ws, f"http://{rebound}", view_server.token, host=rebound))
+    view_server.proxy(True)  # PyVista's setting (a hub's environment): any Host, the rest unchanged
     try:
         ok = run(hello(ws, f"http://{named}", view_server.token, host=named))
         assert "result" in ok and "result" in ok["state"]
+        with pytest.raises((Refused, ConnectionError)):
+            run(hello(ws, "http://evil.example", view_server.token, host=named))
     finally:
         view_server.proxy(False)
+
+
+def test_the_proxied_page_names_its_server_and_scopes_its_cookie(view_server, jupyter_proxy):
+    """What the iframe's first page checks before it sends the token through Jupyter (the server's public id),
+    and the reload cookie: no Path, so the browser keeps it to ``<base_url>proxy/<port>/``, away from Jupyter's
+    other pages (a hub's other users' servers)."""
+    import urllib.request
+
+    from ffd_notebook.view.serving.web_security import SERVER_ID_HEADER
+
+    def get(url: str) -> tuple[str, list[str]]:  # the server id, and the cookies the view server set
+        request = urllib.request.Request(url, headers={"Authorization": "token T"})  # (Jupyter's token)
+        with urllib.request.urlopen(request) as answer:
+            cookies = [c for c in answer.headers.get_all("Set-Cookie") or [] if c.startswith("ffd_notebook_")]
+            return answer.headers[SERVER_ID_HEADER], cookies
+
+    page = f"http://127.0.0.1:{jupyter_proxy}/proxy/{view_server.port}/index.html?ui=x"
+    server_id, cookies = get(page)
+    assert not cookies  # no token, no cookie
+    assert server_id and len(server_id) == 16 and server_id not in view_server.token
+    again, cookies = get(f"{page}&secret={view_server.token}")
+    assert again == server_id and len(cookies) == 1
+    assert view_server.token in cookies[0] and "path" not in cookies[0].lower() and "HttpOnly" in cookies[0]

@@ -20,6 +20,7 @@ from typing import TYPE_CHECKING
 from ..._util.lazy import lazy_getattr
 
 if TYPE_CHECKING:  # the lazy names below, declared for type checkers and IDEs
+    from .animation import animate as animate
     from .app import EditorApp as EditorApp
     from .app import run_app as run_app
     from .editor import Editor as Editor
@@ -42,6 +43,7 @@ _LAZY = {
     "ControlPanel": "ffd_notebook.view.editor.notebook",
     "EditorApp": "ffd_notebook.view.editor.app",
     "run_app": "ffd_notebook.view.editor.app",
+    "animate": "ffd_notebook.view.editor.animation",
 }
 
 __all__ = sorted(_LAZY)

@@ -24,7 +24,9 @@ from __future__ import annotations
 import functools
 import os
 import time
-from typing import Any
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pyvista as pv
@@ -35,77 +37,33 @@ from ..._util.paths import StrPath
 from ...ffd.basis import BasisName
 from ...ffd.deform import FFD
 from ...ffd.lattice import Lattice
-from ...io import write_mesh
-from ...meshing import as_surface, color_array_name, decimate_keeping_colors, deformed_copy
 from ..serving.lifetime import Lifetime, weak_method
+from .meshes import PYVISTA_MESH_IO, face_surface, surface_of
 from .scene.proxy import INTERACTIVE_CELLS
 from .scene.scene import EditorScene
+from .session.lattices import copy_ffd
 from .session.message_log import MessageLog
-from .session.session import EditingSession, Field, MeshIO, PointsShown
+from .session.script import MeshOrigin
+from .session.session import EditingSession, Field, PointsShown
+
+if TYPE_CHECKING:
+    from .animation import Recording
 
 __all__ = ["PYVISTA_MESH_IO", "Editor", "edit", "face_surface"]
 
 
-def read_surface(path: StrPath) -> pv.PolyData:
-    """A mesh file's surface, checked (:func:`ffd_notebook.io.read_mesh` + :func:`ffd_notebook.meshing.as_surface`)."""
-    from ...io import read_mesh
-
-    return as_surface(read_mesh(path))
-
-
-def face_surface(photo: Any) -> pv.PolyData:
-    """The coloured face in a photo (path, array or ``face.Photo``): :func:`ffd_notebook.face_from_photo`."""
-    from ...face import face_from_photo
-
-    return face_from_photo(photo)
-
-
-#: PyVista's mesh operations, for sessions of PyVista meshes
-PYVISTA_MESH_IO = MeshIO(
-    read=read_surface,
-    write=write_mesh,
-    decimate=decimate_keeping_colors,
-    with_points=deformed_copy,
-    color_array=color_array_name,
-    face=face_surface,
-)
-
-
-def image_box(image: Any) -> pv.PolyData:
-    """The box of an image's voxel centres as a surface (subdivided so it bends with the lattice), in physical
-    space; a flat rectangle for a 2D image. The editor's mesh when it edits a lattice over an image alone."""
-    from ...images.pixels import as_pixels
-
-    if isinstance(image, tuple):
-        _, grid, _ = as_pixels(image[0], **image[1])
-    else:
-        _, grid, _ = as_pixels(image)
-    size = list(grid.size) + [1] * (3 - grid.dim)
-    if grid.dim == 3:
-        box = pv.Box(bounds=(0, size[0] - 1, 0, size[1] - 1, 0, size[2] - 1), level=8, quads=False)
-    else:
-        centre = ((size[0] - 1) / 2, (size[1] - 1) / 2, 0.0)
-        box = pv.Plane(center=centre, i_size=size[0] - 1, j_size=size[1] - 1, i_resolution=16, j_resolution=16)
-        box = box.triangulate()
-    to_physical = grid.index_to_physical()
-    box.points = box.points @ to_physical[:3, :3].T + to_physical[:3, 3]
-    return box
-
-
-def _surface_of(mesh_or_path: Any, image: Any = None) -> pv.PolyData:
+def _origin_of(mesh_or_path: Any, image: Any = None) -> MeshOrigin:
+    """Where the editor's mesh came from, for its script (:meth:`Editor.to_code`)."""
     from ...face import is_photo
 
-    if mesh_or_path is None and image is not None:
-        return image_box(image)
     if mesh_or_path is None:
-        from ...datasets import sample_mesh
-
-        return as_surface(sample_mesh())
-    if is_photo(mesh_or_path):  # a photo path (.jpg, .png...) or an (H, W, 3) uint8 array: the face in it
-        return face_surface(mesh_or_path)
-    if isinstance(mesh_or_path, (str, os.PathLike)):
-        return read_surface(mesh_or_path)
-    return as_surface(mesh_or_path)
+        return MeshOrigin("image") if image is not None else MeshOrigin("sample")
+    path = os.fspath(mesh_or_path) if isinstance(mesh_or_path, (str, os.PathLike)) else None
+    if is_photo(mesh_or_path):
+        return MeshOrigin("photo", path or "")
+    if path is not None:
+        return MeshOrigin("file", path)
+    return MeshOrigin("given", surface=not isinstance(mesh_or_path, pv.PolyData))
 
 
 def _end_drag(session: EditingSession) -> Any:
@@ -142,6 +100,10 @@ class Editor:
         (``editor.session.image``: slice positions, window/level, saving the warped image); a NumPy
         array comes with its geometry as ``(array, {"spacing": ..., "origin": ..., "direction": ...})``.
         Without a mesh (``mesh_or_path=None``), the lattice is fitted to the image's box alone.
+    deformation : path or deformation, optional
+        A deformation file to start from (any format :func:`ffd_notebook.io.load_deformation` reads: its
+        lattice, editable, where it is one), or a deformation already loaded (an FSL FNIRT file needs its
+        images: ``load_deformation(path, reference=..., source=...)``); see :meth:`load_deformation`.
 
     Examples
     --------
@@ -169,6 +131,7 @@ class Editor:
         off_screen: bool | None = None,
         interactive_cells: int | None = INTERACTIVE_CELLS,
         image: Any = None,
+        deformation: Any = None,
     ) -> None:
         if isinstance(image, str | os.PathLike):
             from ...images import read_image
@@ -177,13 +140,16 @@ class Editor:
         else:
             path = None
         self.session = EditingSession(
-            _surface_of(mesh_or_path, image), mesh_io=PYVISTA_MESH_IO, lattice=lattice, shape=shape, basis=basis
+            surface_of(mesh_or_path, image), mesh_io=PYVISTA_MESH_IO, lattice=lattice, shape=shape, basis=basis
         )
+        self.session.script.origin = _origin_of(mesh_or_path, image)
         if image is not None and mesh_or_path is None:
             self.session.image.box = self.session.mesh  # the image's box stands in for a mesh
         if image is not None:
             self.session.image.use(self.session.image.read(image), path if path is not None else image,
                                    os.path.basename(os.fspath(path)) if path is not None else "image")  # fmt: skip
+        if deformation is not None:  # a file or a loaded deformation: its lattice, or one fitted to it
+            self.session.files.load_deformation(deformation)
         # the scene's VTK callbacks are held by C++ objects, out of the garbage collector's sight: they refer to
         # the editor weakly, and nothing the lifetime closes refers to it, so an editor nobody uses is freed
         self.scene = EditorScene(
@@ -425,15 +391,20 @@ class Editor:
         """
         self.session.show_points(which)
 
-    def load_deformation(self, path: StrPath) -> FFD:
-        """Load a deformation file (.ffd, ITK .tfm/.txt/.h5/.hdf5, PyGeM .prm; one undo step) and return the FFD.
+    def load_deformation(self, path: StrPath | Any) -> FFD:
+        """Load a deformation file (.ffd, ITK and ANTs .tfm/.txt/.h5/.hdf5/.mat, elastix, PyGeM .prm, NiftyReg
+        grids, displacement fields; one undo step), or a deformation already loaded, and return the FFD.
+
+        A lattice file gives its lattice; a field, or a chain of transforms, a lattice of the editor's shape fitted
+        to it (the message tells the residual); an affine transform the FFD's affine part.
 
         A bad file raises and changes nothing (:meth:`.session.files.SessionFiles.load_deformation`).
 
         Parameters
         ----------
-        path : str or os.PathLike
-            The file; its extension says the format.
+        path : str, os.PathLike or deformation
+            The file (its extension, and a NIfTI file's header, say the format), or what
+            :func:`ffd_notebook.io.load_deformation` returned.
 
         Returns
         -------
@@ -581,6 +552,170 @@ class Editor:
         >>> editor.close()
         """
         return self.session.files.load_face(photo)
+
+    def to_code(self) -> str:
+        """Python that rebuilds the lattice from what the editor started with: every edit as code.
+
+        The mesh read again (the file the editor opened, the photo, the bundled sample; a variable ``mesh`` when
+        the editor was given an object), the lattice's creation, one statement per step of the undo history as
+        it stands (one drag is one step; undone steps are absent), the deformed mesh and the saves made. Run in
+        a fresh interpreter on the same mesh it gives these offsets bit for bit
+        (:class:`~.session.script.SessionScript`).
+
+        Returns
+        -------
+        str
+            The script; it defines ``mesh``, ``lattice``, ``ffd`` and ``deformed``.
+
+        Examples
+        --------
+        >>> import pyvista as pv
+        >>> from ffd_notebook.view import Editor
+        >>> editor = Editor(pv.Sphere(theta_resolution=8, phi_resolution=8), shape=(4, 4, 4), window_size=(64, 48))
+        >>> editor.lattice.offsets[1, 2, 1] = (0.0, 0.0, 0.25)
+        >>> editor.update()
+        >>> print(editor.to_code())  # doctest: +ELLIPSIS
+        # What the editor did, as code (1 step of its undo history; editor.to_code()).
+        import ffd_notebook as fn
+        <BLANKLINE>
+        # mesh: the mesh the editor was given, 50 points
+        lattice = fn.Lattice.around(mesh, (4, 4, 4), border="clamp")
+        ffd = fn.FFD(lattice)
+        <BLANKLINE>
+        # an edit from code (editor.update())
+        lattice.offsets[1, 2, 1] = (0.0, 0.0, 0.25)
+        <BLANKLINE>
+        # the deformed mesh
+        deformed = mesh.copy()
+        deformed.points = ffd.deform(mesh.points)
+        <BLANKLINE>
+        >>> editor.close()
+        """
+        return self.session.script.to_code()
+
+    def code_cell(self) -> None:
+        """Put :meth:`to_code` in a new cell below the cell that runs this (JupyterLab, Notebook 7 and VS Code do).
+
+        IPython's ``set_next_input`` answers the request that ran the cell: it works from a cell, not from a
+        click in the panel (a click runs no cell; JupyterLab would add the cell only after the next one runs),
+        so the panel's "Code" button shows the code to copy and this puts it in a cell. Outside IPython it
+        prints the code.
+
+        Examples
+        --------
+        >>> import pyvista as pv
+        >>> from ffd_notebook.view import Editor
+        >>> editor = Editor(pv.Sphere(theta_resolution=8, phi_resolution=8), shape=(4, 4, 4), window_size=(64, 48))
+        >>> editor.code_cell()  # doctest: +ELLIPSIS
+        # What the editor did, as code (0 steps of its undo history; editor.to_code()).
+        ...
+        >>> editor.close()
+        """
+        from IPython import get_ipython
+
+        shell, code = get_ipython(), self.to_code()
+        if shell is None:
+            print(code, end="")
+        else:
+            shell.set_next_input(code, replace=False)
+
+    def recording(
+        self,
+        *,
+        frames: int = 24,
+        fps: float = 12.0,
+        orbit: float | bool = False,
+        lattice: bool = True,
+        states: Sequence[FFD] | None = None,
+    ) -> Recording:
+        """A :class:`~.animation.Recording` of the deformation as the editor shows it (see :meth:`animate`), to
+        write frame by frame (the panels do, with a progress bar).
+
+        Parameters
+        ----------
+        frames, fps, orbit, lattice, states
+            As for :meth:`animate`.
+
+        Returns
+        -------
+        Recording
+            Its :meth:`~.animation.Recording.write` yields after each frame; :meth:`~.animation.Recording.run`
+            writes them all.
+
+        Examples
+        --------
+        >>> import os, tempfile
+        >>> import pyvista as pv
+        >>> from ffd_notebook.view import Editor
+        >>> editor = Editor(pv.Sphere(theta_resolution=8, phi_resolution=8), shape=(4, 4, 4), window_size=(64, 48))
+        >>> recording = editor.recording(frames=3)
+        >>> list(recording.write(os.path.join(tempfile.mkdtemp(), "rest.gif")))
+        [1, 2, 3]
+        >>> recording.close(); editor.close()
+        """
+        from .animation import Recording
+
+        session = self.session
+        chosen = [copy_ffd(session.ffd)] if states is None else list(states)
+        size = tuple(self.plotter.window_size)
+        return Recording(session.mesh, chosen, frames=frames, fps=fps, orbit=orbit, lattice=lattice, window_size=size,
+                         camera=self.plotter.camera, field=session.field, colors=session.colors_shown,
+                         points_shown=session.points_shown)  # fmt: skip
+
+    def animate(
+        self,
+        path: StrPath,
+        *,
+        frames: int = 24,
+        fps: float = 12.0,
+        orbit: float | bool = False,
+        lattice: bool = True,
+        states: Sequence[FFD] | None = None,
+        progress: Callable[[int, int], None] | None = None,
+    ) -> Path:
+        """Write a GIF or MP4 of the mesh going from rest to the deformation (or through saved ``states``).
+
+        As the editor shows it: its camera, window size, colours or field and control points; drawn in a
+        scene of its own, so the editor is not touched while it records (:func:`~.animation.animate`).
+
+        Parameters
+        ----------
+        path : str or path-like
+            ``.gif`` or a movie (``.mp4``...); written whole or not at all.
+        frames : int, default 24
+            Frames in all: the first at rest, the last at the deformation.
+        fps : float, default 12
+            Frames a second.
+        orbit : float or bool, default False
+            Turn the camera around the mesh by this many degrees over the animation (True: a whole turn).
+        lattice : bool, default True
+            Draw the lattice.
+        states : sequence of FFD, optional
+            States to go through instead (``copy_ffd(editor.session.ffd)`` saved along a lesson, say): from rest
+            to the first, then on to each next one; they share the lattice and options, only offsets differ.
+        progress : callable, optional
+            ``progress(done, total)`` after each frame.
+
+        Returns
+        -------
+        pathlib.Path
+            The file written.
+
+        Examples
+        --------
+        >>> import os, tempfile
+        >>> import imageio.v3 as iio
+        >>> import pyvista as pv
+        >>> from ffd_notebook.view import Editor
+        >>> editor = Editor(pv.Sphere(theta_resolution=8, phi_resolution=8), shape=(4, 4, 4), window_size=(64, 48))
+        >>> editor.lattice.offsets[3, 3, 3] = (0.0, 0.0, 0.5)
+        >>> editor.update()
+        >>> path = editor.animate(os.path.join(tempfile.mkdtemp(), "bulge.gif"), frames=4)
+        >>> iio.imread(path).shape
+        (4, 48, 64, 3)
+        >>> editor.close()
+        """
+        return self.recording(frames=frames, fps=fps, orbit=orbit, lattice=lattice, states=states).run(path, progress)
 
     def screenshot(self, path: StrPath | None = None) -> NDArray[np.uint8]:
         """Render and return the image ``(h, w, 3)`` uint8; also write a PNG if ``path`` is given.

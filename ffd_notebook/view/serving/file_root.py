@@ -158,6 +158,23 @@ class ScratchFolder:
         base = re.sub(r"[^A-Za-z0-9._-]", "_", Path(str(name)).name).lstrip(".") or "upload"
         return self.path / base[-100:]
 
+    def private_file(self, name: str) -> Path:
+        """A path for a file called ``name`` (as :meth:`file`) alone in a new folder of its own inside this one.
+
+        An upload stored there and read with ``within=`` its folder cannot name another file (the
+        uploads before it, the downloads).
+
+        Examples
+        --------
+        >>> scratch = ScratchFolder()
+        >>> a, b = scratch.private_file("a.mha"), scratch.private_file("a.mha")
+        >>> a.parent != b.parent and a.parent.parent == scratch.path, a.name
+        (True, 'a.mha')
+        >>> scratch.cleanup()
+        """
+        folder = Path(tempfile.mkdtemp(prefix="upload_", dir=self.path))
+        return folder / self.file(name).name
+
     def cleanup(self) -> None:
         """Remove the folder and everything in it."""
         shutil.rmtree(self.path, ignore_errors=True)

@@ -6,13 +6,29 @@ kernel; the page holds one :class:`~.remote_view.RemoteView` of the plotter. Ser
 is what sphere widgets need: every mouse event reaches VTK in the kernel, the widget callback
 changes the scene and the server streams the new image, paced by the renderer (see
 :mod:`.remote_view` for why this view rather than PyVista's ``show_trame(mode="server")``).
-The iframe's address honours ``pyvista.global_theme.trame.server_proxy_enabled`` /
-``server_proxy_prefix`` (for jupyter-server-proxy), exactly like ``plotter.show()``.
+
+Where the iframe loads the page from is decided in the browser, so that the view works however the
+notebook is reached (:func:`view_iframe_html`). The server listens on the kernel's machine, on a port
+of its own; a browser elsewhere (an SSH tunnel to a lab machine, Docker's ``-p 8888:8888``, VS Code's
+port forwarding, a hub) reaches only Jupyter's port. So the iframe first asks Jupyter's own
+jupyter-server-proxy for the page (``<base_url>proxy/<port>/``, the base URL read from the notebook
+page) and uses that address if *this* server answers there (:data:`.web_security.SERVER_ID_HEADER`);
+otherwise (no jupyter-server-proxy in the Jupyter server, a front-end that is not Jupyter's) it opens
+the server's own address, ``http://localhost:<port>/``. The proxied address is tried first because it
+is the safe one: the probe goes to the notebook's own origin, which the user has already trusted and
+logged into, and the token is sent only once the answer proves to come from this server; opening the
+direct address first would hand the token to whatever listens on that port of the *browser's*
+machine, which is not the kernel's one in every case above, and the browser cannot check who
+answers there without being allowed to by the answer itself. The price of going through Jupyter is
+small: the first image came no later (medians of 0.6-1.2 s on either route, on a loaded 2-core
+machine) and a drag's frames 1-6 % later (``tests/benchmarks/bench_first_image.py``). When PyVista's
+``pyvista.global_theme.trame.server_proxy_enabled`` is set (JupyterHub's environment sets it), the
+iframe opens its ``server_proxy_prefix`` address directly, as ``plotter.show()`` does.
 
 The trame server is the package's own (not PyVista's shared one, which may already run unprotected):
-it requires a fresh random token, which the iframe's ``src`` carries, and refuses WebSockets from
+it requires a fresh random token, which the iframe's address carries, and refuses WebSockets from
 other sites' pages (:mod:`.web_security`). Behind jupyter-server-proxy the iframe comes from
-Jupyter's origin, which Jupyter has checked; the token is still required.
+Jupyter's origin, which Jupyter has checked (see :mod:`.web_security`); the token is still required.
 
 With the ``"static"`` (or ``"none"``) Jupyter backend, e.g. when notebooks run headless in CI,
 :func:`show_plotter` falls back to ``plotter.show()``. Changes made from code reach the browser
@@ -49,6 +65,7 @@ __all__ = [
     "serve_plotter",
     "show_changes",
     "show_plotter",
+    "view_iframe_html",
     "views_of",
 ]
 
@@ -56,7 +73,9 @@ STATIC_BACKENDS = ("static", "none")
 #: the narrowest a view gets in a narrow notebook (pixels; see :func:`fit_to_output`)
 MIN_VIEW_WIDTH = 320
 SERVER_NAME = "ffd_notebook_views"  # the package's own trame server for its views (see jupyter_server)
-_tokens: dict[str, str] = {}  # server name -> its session token
+_policies: dict[str, Any] = {}  # server name -> its AccessPolicy (session token, public id)
+#: how long the view waits for Jupyter's proxy to answer before it opens the server's own address
+PROXY_PROBE_TIMEOUT_S = 10.0
 _pages = itertools.count(1)  # page (template) names of the served plotters
 
 
@@ -100,12 +119,12 @@ def jupyter_server() -> Any:
     # trame-rca before the start: its protocol (the views' images and events) is set up when the server starts
     for module in (html, vtk_widgets, rca, vuetify if server.client_type == "vue2" else vuetify3):
         module.initialize(server)
-    if SERVER_NAME not in _tokens:  # not started yet by this process (a start in progress has its token)
+    if SERVER_NAME not in _policies:  # not started yet by this process (a start in progress has its token)
         backend = "jupyter" if pv.global_theme.trame.jupyter_extension_enabled else "aiohttp"
         host = os.environ.get("TRAME_DEFAULT_HOST", "127.0.0.1")
-        _tokens[SERVER_NAME] = new_token()
         proxied = lambda: bool(pv.global_theme.trame.server_proxy_enabled)  # noqa: E731 - asked per request
-        protect(server, AccessPolicy(_tokens[SERVER_NAME], bind_host=host, behind_proxy=proxied))
+        _policies[SERVER_NAME] = AccessPolicy(new_token(), bind_host=host, behind_proxy=proxied, forwarded=True)
+        protect(server, _policies[SERVER_NAME])
 
         async def start() -> None:
             server.start(
@@ -132,7 +151,9 @@ def serve_plotter(plotter: pv.Plotter) -> Any:
 
     The iframe shows a page of :func:`jupyter_server` holding a :class:`~.remote_view.RemoteView`
     that fills it; its address carries the server's session token (the trame client reads it from
-    there). The view joins the plotter's :class:`BrowserViews`, so :func:`push_to_browser` reaches it.
+    there) and is found by the browser (:func:`view_iframe_html`); the widget's ``src`` is the
+    server's own address (or the configured proxied one). The view joins the plotter's
+    :class:`BrowserViews`, so :func:`push_to_browser` reaches it.
     Cameras nobody has placed are aimed at the scene first (:func:`aim_unset_cameras`).
     """
     from trame.ui.html import DivLayout
@@ -147,9 +168,16 @@ def serve_plotter(plotter: pv.Plotter) -> Any:
     with DivLayout(server, template_name=page) as layout:
         layout.root.style = "width: 100vw; height: 100vh; margin: 0; padding: 0; overflow: hidden;"
         view = RemoteView(plotter, style="width: 100%; height: 100%;")
-    src = url_with_token(build_url(server, ui=page), _tokens[SERVER_NAME])
+    policy = _policies[SERVER_NAME]
+    src = url_with_token(build_url(server, ui=page), policy.token)
     widget = _view_widget_class()(view, src)
-    fit_to_output(widget, src, *plotter.window_size)
+    if pv.global_theme.trame.server_proxy_enabled:  # the address is configured (a hub): open it
+        iframe = view_iframe_html(src)
+    else:  # the browser finds its way (see the module docstring)
+        direct = url_with_token(build_url(server, ui=page, server_proxy_enabled=False), policy.token)
+        proxied = build_url(server, ui=page, server_proxy_enabled=True, server_proxy_prefix="proxy/")
+        iframe = view_iframe_html(direct, proxied=proxied, token=policy.token, server_id=policy.server_id)
+    fit_to_output(widget, iframe, *plotter.window_size)
     views_of(plotter).add(view, on_close=functools.partial(_retire_page, server, page, weakref.ref(widget)))
     return widget
 
@@ -222,28 +250,95 @@ def aim_unset_cameras(plotter: pv.Plotter) -> None:
             renderer.reset_camera(render=False)
 
 
-def fit_to_output(widget: Any, src: str, width: int, height: int) -> None:
-    """Make the view's iframe as wide as its row allows, up to ``width`` pixels (at least
-    :data:`MIN_VIEW_WIDTH`), keeping the ``width : height`` proportions: a narrow notebook (JupyterLab
-    with its file browser open on a laptop screen) shrinks the view instead of cutting off what is
-    next to it. The server renders at the iframe's size, so the picture stays sharp and framed.
+def view_iframe_html(src: str, *, proxied: str | None = None, token: str = "", server_id: str = "") -> str:
+    """The view's ``<iframe class="pyvista">`` (without a style; :func:`fit_to_output` adds it).
+
+    With only ``src``, the iframe opens ``src``. With ``proxied`` (the page's address relative to
+    Jupyter's base URL, ``proxy/<port>/index.html?...``, without the token), the iframe holds a small
+    page (``srcdoc``, which has the notebook page's origin) that reads Jupyter's base URL from the
+    notebook page, asks Jupyter for ``<base_url><proxied>`` and, if the answer carries
+    :data:`.web_security.SERVER_ID_HEADER` equal to ``server_id``, opens that address with ``token``
+    added; otherwise (no Jupyter page around, no jupyter-server-proxy, another server answering, no
+    answer within :data:`PROXY_PROBE_TIMEOUT_S`) it opens ``src``. See the module docstring for why
+    in this order.
+
+    Examples
+    --------
+    >>> view_iframe_html("http://localhost:1/index.html?ui=a&secret=b")
+    '<iframe src="http://localhost:1/index.html?ui=a&amp;secret=b" class="pyvista" scrolling="no"></iframe>'
+    >>> html = view_iframe_html("http://localhost:1/index.html?ui=a&secret=b", proxied="proxy/1/index.html?ui=a",
+    ...                         token="b", server_id="c0ffee")
+    >>> html.startswith('<iframe srcdoc="'), "proxy/1/index.html?ui=a" in html, "src=" in html
+    (True, True, False)
+    """
+    import html
+    import json
+
+    from .web_security import SERVER_ID_HEADER, url_with_token
+
+    if proxied is None:
+        return f'<iframe src="{html.escape(src)}" class="pyvista" scrolling="no"></iframe>'
+    view = {
+        "direct": src,
+        "probe": proxied,
+        "proxied": url_with_token(proxied, token),
+        "header": SERVER_ID_HEADER,
+        "id": server_id,
+        "timeout_ms": round(PROXY_PROBE_TIMEOUT_S * 1000),
+    }
+    page = _FIND_THE_VIEW.replace("__VIEW__", json.dumps(view).replace("</", "<\\/"))
+    return f'<iframe srcdoc="{html.escape(page)}" class="pyvista" scrolling="no"></iframe>'
+
+
+#: the iframe's first page (see view_iframe_html): it runs with the notebook page's origin (a srcdoc)
+_FIND_THE_VIEW = """<!doctype html><meta charset="utf-8">
+<body style="margin: 0; padding: 0.5em; font: 13px sans-serif; color: #888;">Opening the view&hellip;
+<script>
+(async () => {
+  const view = __VIEW__;
+  let base = null;
+  try {  // the notebook's page: JupyterLab and Notebook 7 publish their base URL, the classic notebook too
+    const page = window.parent.document;
+    const config = page.getElementById("jupyter-config-data");
+    base = config ? JSON.parse(config.textContent).baseUrl : page.body.dataset.baseUrl || null;
+  } catch (error) {}  // not a Jupyter page, or another origin's: only the direct address is left
+  if (base) {
+    base = base.endsWith("/") ? base : base + "/";
+    try {  // Jupyter's proxy, without the token: is it this server that answers there?
+      const answer = await fetch(base + view.probe, {
+        credentials: "same-origin", cache: "no-store", signal: AbortSignal.timeout(view.timeout_ms),
+      });
+      if (answer.ok && answer.headers.get(view.header) === view.id) {
+        window.location.replace(base + view.proxied);
+        return;
+      }
+    } catch (error) {}
+  }
+  window.location.replace(view.direct);
+})();
+</script>"""
+
+
+def fit_to_output(widget: Any, iframe: str, width: int, height: int) -> None:
+    """Show ``iframe`` (:func:`view_iframe_html`) in ``widget``, as wide as its row allows, up to ``width``
+    pixels (at least :data:`MIN_VIEW_WIDTH`), keeping the ``width : height`` proportions: a narrow notebook
+    (JupyterLab with its file browser open on a laptop screen) shrinks the view instead of cutting off what
+    is next to it. The server renders at the iframe's size, so the picture stays sharp and framed.
 
     Examples
     --------
     >>> import ipywidgets
     >>> widget = ipywidgets.HTML()
-    >>> fit_to_output(widget, "http://127.0.0.1:1/index.html?ui=a&token=b", 800, 600)
+    >>> fit_to_output(widget, view_iframe_html("http://127.0.0.1:1/index.html?ui=a&token=b"), 800, 600)
     >>> "aspect-ratio: 802 / 602" in widget.value, "ui=a&amp;token=b" in widget.value, widget.layout.max_width
     (True, True, '802px')
     """
-    import html
-
     import ipywidgets as widgets
 
     # border-box: at its widest the iframe's inside is exactly width x height (the window's size)
     border = "border: 1px solid rgb(221,221,221); box-sizing: border-box; display: block;"
     style = f"width: 100%; aspect-ratio: {width + 2} / {height + 2}; {border}"
-    widget.value = f'<iframe src="{html.escape(src)}" class="pyvista" scrolling="no" style="{style}"></iframe>'
+    widget.value = iframe.replace("<iframe ", f'<iframe style="{style}" ', 1)
     narrowest = f"{min(width, MIN_VIEW_WIDTH) + 2}px"  # (+ the border)
     # grows from the narrowest: in a row with a panel, the panel keeps its width and the view takes the rest
     widget.layout = widgets.Layout(flex=f"1 1 {narrowest}", max_width=f"{width + 2}px", min_width=narrowest)

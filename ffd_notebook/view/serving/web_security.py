@@ -15,10 +15,23 @@ itself:
    from the ``secret`` parameter of the page's URL (and then removes it from the address bar), so
    the URL the app prints, or the notebook's iframe ``src``, carries it; nobody else knows it.
 
-Behind jupyter-server-proxy (``pyvista.global_theme.trame.server_proxy_enabled``) the browser
-talks to Jupyter, which checks its own token and Origin and forwards the request with *its* Host
-and Origin (same-origin with each other); then any Host is accepted, the Origin must still match
-it, and the token is still required.
+Behind jupyter-server-proxy (Jupyter's ``<base_url>proxy/<port>/``) the browser talks to Jupyter,
+which checks its own token, Host and Origin and forwards the request with the browser's Host and
+Origin, those of Jupyter's page (same-origin with each other). Such a Host names *Jupyter's* port,
+not the one the connection reached this server on: a page that reaches this server directly (a
+DNS-rebinding page included) can only name the port it connected to, so a Host naming another port
+came through a forwarder and is accepted, whatever its name (a remote Jupyter, a hub); the Origin
+must still match it and the token is still required. Only the notebook views' server accepts such a
+Host (``AccessPolicy(forwarded=True)``); the standalone app, reached directly, does not. With PyVista's
+``pyvista.global_theme.trame.server_proxy_enabled`` (set by JupyterHub's environment) any Host is
+accepted, under the same two conditions.
+
+The page (``index.html``) carries the header :data:`SERVER_ID_HEADER`: a public fingerprint of the
+token (:attr:`AccessPolicy.server_id`), by which the notebook's view checks that an address answers
+with *this* server before it sends the token there (:mod:`.jupyter`). The reload cookie (see
+:func:`_guard_middleware`) is scoped to the page's own folder as the browser sees it: through
+Jupyter's proxy, ``<base_url>proxy/<port>/``, so it never travels to Jupyter's other pages or, on a
+hub, to other users' servers.
 
 The product registers no trigger that returns internal state: the tests' instrumentation
 (``tests/editor_instrument.py``) is installed by test code only, never by a setting.
@@ -36,6 +49,7 @@ from typing import Any
 from urllib.parse import parse_qsl, urlencode, urlsplit, urlunsplit
 
 __all__ = [
+    "SERVER_ID_HEADER",
     "TOKEN_PARAM",
     "AccessPolicy",
     "is_loopback",
@@ -45,6 +59,8 @@ __all__ = [
 ]
 
 TOKEN_PARAM = "secret"  # the URL parameter the trame client reads wslink's secret from
+#: the response header naming the server that answered (:attr:`AccessPolicy.server_id`)
+SERVER_ID_HEADER = "X-Ffd-Notebook-Server"
 _DEFAULT_PORTS = {"http": 80, "https": 443, "ws": 80, "wss": 443}
 
 
@@ -145,6 +161,10 @@ class AccessPolicy:
     behind_proxy : callable returning bool
         Asked per request: is the server reached through jupyter-server-proxy now? Then any Host is
         accepted (Jupyter has checked the request), still same-origin with the Origin.
+    forwarded : bool
+        Whether the server may be reached through a forwarder (Jupyter's proxy, for the notebook views):
+        then a Host naming another port than the one the request's connection reached is accepted
+        (only a forwarder sends one). The standalone app, reached directly, leaves it off.
 
     Examples
     --------
@@ -157,19 +177,49 @@ class AccessPolicy:
     False
     >>> policy.allows({"Host": "localhost:8080"})  # no Origin: not a browser; the token decides
     True
+
+    A notebook view's server (``forwarded``): a request that reached port 8080 naming another port came
+    through a forwarder (Jupyter's proxy); one naming 8080 itself came straight from the page that names it:
+
+    >>> view = AccessPolicy("t", forwarded=True)
+    >>> view.allows({"Host": "lab.example:8888", "Origin": "http://lab.example:8888"}, arrived_port=8080)
+    True
+    >>> view.allows({"Host": "evil.example:8080", "Origin": "http://evil.example:8080"}, arrived_port=8080)
+    False
+    >>> view.allows({"Host": "lab.example:8888", "Origin": "http://evil.example"}, arrived_port=8080)
+    False
+    >>> policy.allows({"Host": "lab.example:8888", "Origin": "http://lab.example:8888"}, arrived_port=8080)
+    False
     """
 
     token: str
     bind_host: str = "127.0.0.1"
     behind_proxy: Callable[[], bool] = field(default=lambda: False)
+    forwarded: bool = False
 
-    def host_allowed(self, host_header: str | None) -> bool:
-        """Whether a request's Host header names this server (not a rebound foreign name)."""
-        host, _ = _split_host(host_header or "")
+    @property
+    def server_id(self) -> str:
+        """A public name of the server: a fingerprint of its token, which it does not reveal.
+
+        Examples
+        --------
+        >>> a = AccessPolicy("t")
+        >>> a.server_id == AccessPolicy("t").server_id != AccessPolicy("u").server_id, len(a.server_id)
+        (True, 16)
+        """
+        return hashlib.sha256(b"ffd_notebook server id:" + self.token.encode()).hexdigest()[:16]
+
+    def host_allowed(self, host_header: str | None, arrived_port: int | None = None) -> bool:
+        """Whether a request's Host header names this server (not a rebound foreign name), or a forwarder
+        of it: another port than ``arrived_port``, the one the request's connection reached (see the
+        module docstring)."""
+        host, port = _split_host(host_header or "")
         if not host:
             return False
         if is_loopback(host) or self.behind_proxy():
             return True
+        if self.forwarded and arrived_port is not None and port != arrived_port:
+            return True  # named another port: a forwarder (Jupyter's proxy), which checked the Host itself
         if is_loopback(self.bind_host):
             return False
         return _is_ip(host) or host in _machine_names() or host == self.bind_host.lower()
@@ -184,10 +234,10 @@ class AccessPolicy:
             return False  # includes "null" (sandboxed frames, file:// pages)
         return _split_host(parts.netloc, parts.scheme) == _split_host(host_header or "", parts.scheme)
 
-    def allows(self, headers: Mapping[str, str]) -> bool:
-        """Host and Origin checks for one request's headers."""
+    def allows(self, headers: Mapping[str, str], *, arrived_port: int | None = None) -> bool:
+        """Host and Origin checks for one request's headers; ``arrived_port``: the port its connection reached."""
         host = headers.get("Host")
-        return self.host_allowed(host) and self.origin_allowed(headers.get("Origin"), host)
+        return self.host_allowed(host, arrived_port) and self.origin_allowed(headers.get("Origin"), host)
 
 
 def _cookie_name(token: str) -> str:
@@ -200,7 +250,12 @@ def _guard_middleware(policy: AccessPolicy) -> Any:
     The trame client removes the token from the address bar once it has read it, so a reload
     would lose it. The page loaded with the token therefore also sets an HttpOnly, SameSite=Strict
     cookie holding it, and a later request for the page with that cookie but no token is
-    redirected to the address with the token. Another site's page cannot read either.
+    redirected to the address with the token. Another site's page cannot read either. The cookie
+    has no ``Path``: the browser scopes it to the folder of the page's address as *it* sees it
+    (``/`` directly, ``<base_url>proxy/<port>/`` through Jupyter), which this server cannot know.
+
+    The page also names the server (:data:`SERVER_ID_HEADER`), for the notebook view's check of an
+    address before it sends the token there.
     """
     from aiohttp import web
 
@@ -208,15 +263,19 @@ def _guard_middleware(policy: AccessPolicy) -> Any:
 
     @web.middleware
     async def guard(request: Any, handler: Any) -> Any:
-        if not policy.allows(request.headers):
+        sockname = request.transport.get_extra_info("sockname") if request.transport is not None else None
+        arrived_port = sockname[1] if isinstance(sockname, tuple) and len(sockname) >= 2 else None
+        if not policy.allows(request.headers, arrived_port=arrived_port):
             return web.Response(status=403, text="403: this server only answers its own pages")
-        if request.path.endswith("/index.html") and request.method == "GET":
+        if request.path.endswith("/index.html") and request.method in ("GET", "HEAD"):
             given = request.query.get(TOKEN_PARAM)
             if given is None and secrets.compare_digest(request.cookies.get(cookie, ""), policy.token):
                 raise web.HTTPFound(url_with_token(str(request.rel_url), policy.token))
             response = await handler(request)
+            response.headers[SERVER_ID_HEADER] = policy.server_id
             if given is not None and secrets.compare_digest(given, policy.token):
-                response.set_cookie(cookie, policy.token, httponly=True, samesite="Strict", path="/")
+                # path "": no Path attribute (see above); aiohttp would write Path=/ by default
+                response.set_cookie(cookie, policy.token, httponly=True, samesite="Strict", path="")
             return response
         return await handler(request)
 

@@ -23,7 +23,7 @@ def editor():
 
 
 def notebook_widget(panel: ControlPanel, control: Control):
-    return getattr(panel, f"{control.key}_button" if control.kind == "button" else control.key)
+    return getattr(panel, f"{control.key}_button" if control.kind in ("button", "code", "record") else control.key)
 
 
 def app_html(app: EditorApp) -> str:

@@ -6,30 +6,13 @@ import numpy as np
 import pytest
 import pyvista as pv
 import SimpleITK as sitk
+from editor_testing import full_slices
 
-from ffd_notebook.images import ImageGrid, read_image, warp_image, write_image
+from ffd_notebook.images import ImageGrid, read_image, warp_image
 from ffd_notebook.view.editor import Editor
 from ffd_notebook.view.editor.editor import PYVISTA_MESH_IO
 from ffd_notebook.view.editor.session import EditingSession
 from ffd_notebook.view.editor.session.controls import by_key, run, session_state
-
-
-@pytest.fixture
-def ct(tmp_path):
-    """A CT-like volume around the unit sphere (anisotropic voxels), as a NIfTI file."""
-    grid = ImageGrid((34, 30, 26), spacing=(0.075, 0.085, 0.095), origin=(-1.25, -1.25, -1.2))
-    points = grid.physical_points()
-    r = np.linalg.norm(points, axis=1)
-    values = np.where(r < 0.5, 300.0, -200.0) + 100.0 * np.sin(6.0 * points[:, 0])
-    path = tmp_path / "ct.nii.gz"
-    write_image(path, grid.to_sitk(sitk.GetImageFromArray(values.reshape(grid.shape).astype(np.float32))))
-    return path
-
-
-def full_slices(image, ffd, positions):
-    full = sitk.GetArrayFromImage(warp_image(image, ffd))
-    i, j, k = positions
-    return {0: full[:, :, i], 1: full[:, j, :], 2: full[k]}
 
 
 def drag(session, ijk, by):
@@ -211,3 +194,22 @@ def test_the_notebook_panel_loads_an_image_and_sets_its_window(ct):
         assert editor.session.image.slices.positions[0] == 7
     finally:
         editor.close()
+
+
+def test_the_meshs_vertex_weights_are_not_the_images(ct):
+    """Vertex weights are one per vertex: the image follows the lattice fully (its slices and its saved file)."""
+    session = EditingSession(pv.Sphere(radius=0.5), mesh_io=PYVISTA_MESH_IO, shape=(7, 7, 7))
+    session.ffd.weights = np.linspace(0.0, 1.0, session.mesh.n_points)
+    session.image.load(ct)  # the slices took the mesh's weights for the voxels' (ValueError) before
+    drag(session, (3, 3, 4), (0.15, 0.0, -0.1))
+    session.ffd.weights = np.zeros(session.mesh.n_points)  # weights painted after the image is shown
+    drag(session, (3, 4, 3), (0.0, 0.1, 0.05))
+    image = session.image
+    whole = image.deformation()
+    assert whole.weights is None and whole.lattice is session.lattice
+    expected = full_slices(read_image(ct), whole, image.slices.positions)
+    for axis in range(3):
+        np.testing.assert_allclose(image.slices.values[axis], expected[axis], atol=1e-3, rtol=0)
+    np.testing.assert_array_equal(sitk.GetArrayFromImage(image.warped()), sitk.GetArrayFromImage(warp_image(ct, whole)))
+    with pytest.raises(ValueError, match="one per voxel"):
+        warp_image(ct, session.ffd)  # warp_image itself does not take a mesh's weights for an image's

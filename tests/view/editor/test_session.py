@@ -20,7 +20,7 @@ from hypothesis import strategies as st
 
 from ffd_notebook import FFD
 from ffd_notebook.view.editor import Change, EditingSession
-from ffd_notebook.view.editor.editor import PYVISTA_MESH_IO, read_surface
+from ffd_notebook.view.editor.meshes import PYVISTA_MESH_IO, read_surface
 
 SESSION_DIR = Path(__file__).resolve().parents[3] / "ffd_notebook" / "view" / "editor" / "session"
 VIEW_LIBRARIES = ("vtk", "vtkmodules", "pyvista", "trame", "ipywidgets")
@@ -166,6 +166,39 @@ def test_update_picks_up_in_place_edits():
     np.testing.assert_array_equal(mirror.offsets, session.lattice.offsets.reshape(-1, 3))
     session.update(changed=[(3, 3, 3)])  # nothing edited: the hint alone, no new step
     assert mirror.changes[-1].points.tolist() == [session.flat_index((3, 3, 3))] and len(session.history) == 1
+
+
+def test_a_failed_update_or_set_offsets_changes_nothing():
+    """Commands check everything before they change anything (issue 36): a hint outside the lattice used to
+    record the step, then raise from the deformer, leaving the mesh off the lattice from then on; a negative
+    index wrote the wrapped row, then raised."""
+    session = new_session()
+    session.move_control_point((1, 1, 1), (0.0, 0.0, 0.05))
+    shown, n_steps = session.deformed_points.copy(), len(session.history)
+    session.lattice.offsets[2, 2, 2] = (0.05, 0.0, 0.0)  # an edit in place, then a bad hint
+    for hint in ([(9, 9, 9)], [(-1, 0, 0)], [(1, 1)], [(0.5, 0, 0)]):
+        with pytest.raises(ValueError, match="control point"):
+            session.update(hint)
+        assert len(session.history) == n_steps
+        np.testing.assert_array_equal(session.deformed_points, shown)
+    session.update([(2, 2, 2)])  # once called right, the edit is one step and the mesh follows
+    assert len(session.history) == n_steps + 1
+    assert_follows_the_model(session)
+    offsets, shown, n_steps = session.lattice.offsets.copy(), session.deformed_points.copy(), len(session.history)
+    for points, values in (
+        ([(-1, 0, 0)], [[0.0, 0.0, 0.1]]),  # would write row (3, 0, 0)
+        ([(0, 0, 4)], [[0.0, 0.0, 0.1]]),
+        ([(0, 0, 1), (0, 0, 2)], [[0.0, 0.0, 0.1]] * 3),
+        ([(0, 0, 1)], [[0.0, np.nan, 0.1]]),
+    ):
+        with pytest.raises(ValueError):
+            session.set_offsets(points, values, label="code")
+        np.testing.assert_array_equal(session.lattice.offsets, offsets)
+        np.testing.assert_array_equal(session.deformed_points, shown)
+        assert len(session.history) == n_steps
+    session.set_offsets([(0, 0, 1), (0, 0, 2)], [0.0, 0.0, 0.1], label="code")  # one row for all still works
+    assert session.lattice.offsets[0, 0, 1:3, 2].tolist() == [0.1, 0.1]
+    assert_follows_the_model(session)
 
 
 def test_a_failing_view_becomes_a_message_and_the_others_still_follow():

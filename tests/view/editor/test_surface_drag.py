@@ -297,3 +297,14 @@ def test_picking_agrees_with_vtk_cell_picker(surface_editor):
             shown = editor.session.ffd.deform(ours[None])[0]  # the picked rest point, where it is now
             np.testing.assert_allclose(shown, picker.GetPickPosition(), atol=0.02)
     assert n_hits > 50
+
+
+def test_a_drag_the_lattice_can_hardly_make_is_refused(session):
+    """With a strength near 0 the least-norm fit would need offsets past any float (it divides by the strength):
+    the drag is refused and the offsets stay as they were (hypothesis found NaN meshes: issue 33's code test)."""
+    session.set_strength(2e-174)
+    session.surface.begin(0)
+    before = session.lattice.offsets.copy()
+    with pytest.raises(ValueError, match="the lattice hardly moves it"):
+        session.surface.move(session.rest_points[0] + (0.0, 0.1, 0.0))
+    assert np.array_equal(session.lattice.offsets, before) and np.isfinite(session.deformed_points).all()

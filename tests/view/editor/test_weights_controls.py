@@ -134,6 +134,30 @@ def test_bad_weights_change_nothing_and_a_decimation_clears_them():
     assert_follows(session)
 
 
+def test_a_basis_change_keeps_strength_and_weights_as_a_size_change_does(tmp_path):
+    """Strength and painted weights belong to the deformation, not to the lattice: a new size, a new basis and
+    undo keep them alike (issue 36). A new mesh keeps the strength; its vertices are other ones, so the weights
+    go, and a message says so."""
+    session = new_session()
+    weights = np.linspace(0.0, 1.0, len(session.rest_points))
+    session.set_strength(0.5)
+    session.paint.set(weights)
+    for change in (lambda: session.set_shape((6, 5, 5)), lambda: session.set_basis("bernstein"),
+                   lambda: session.set_basis("bspline"), session.undo, session.undo, session.redo):  # fmt: skip
+        change()
+        assert session.ffd.strength == 0.5
+        np.testing.assert_array_equal(session.weights, weights)
+        assert_follows(session)
+    cube = pv.Cube().triangulate().subdivide(2)
+    cube.save(tmp_path / "cube.vtp")
+    session.files.load_mesh(tmp_path / "cube.vtp")
+    assert session.ffd.strength == 0.5 and session.weights is None
+    assert any("weights were cleared" in m for m in list(session.messages)[-2:]), list(session.messages)
+    assert_follows(session)
+    session.files.load_mesh(tmp_path / "cube.vtp")  # nothing painted: nothing to say
+    assert not any("weights" in m for m in list(session.messages)[-2:])
+
+
 def test_falloff_is_smooth_and_zero_outside():
     d = np.linspace(0.0, 2.0, 9)
     f = brush_falloff(d, 1.0)

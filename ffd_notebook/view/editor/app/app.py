@@ -102,6 +102,10 @@ class EditorApp:
             mesh_format_items=MESH_FORMATS,
             busy=False,
             busy_text="",
+            code_text="",
+            code_open=False,
+            recording=False,
+            record_progress=0,
         )
         for name_, method in (
             ("ffd_load_ffd", self.files.load_deformation_in_background),
@@ -118,6 +122,9 @@ class EditorApp:
             ("ffd_decimate", self.files.decimate),
             ("ffd_load_image", self.files.load_image_in_background),
             ("ffd_save_image", self.files.save_image_in_background),
+            ("ffd_show_code", self.files.show_code),
+            ("ffd_download_code", self.files.download_code),
+            ("ffd_record", self.files.record),
         ):
             self.server.controller.trigger(name_)(method)
         self.layout, self.view = build_layout(self)

@@ -6,7 +6,9 @@ regular files of bounded size, the right extension to write) and every message t
 through :func:`~ffd_notebook.view.serving.file_root.client_message` (no file content, the root-relative
 name). A remote user needs no server path at all: lattice files (.ffd, ITK .tfm/.txt/.h5/.hdf5,
 PyGeM .prm), meshes and photos of a face (the mesh upload makes the face in a photo) can be uploaded
-from the browser, and the lattice and the deformed mesh downloaded to it.
+from the browser, and the lattice and the deformed mesh downloaded to it. A file that names other
+files (an elastix chain, a MetaImage or NRRD header) reads them only inside the app's folder, and an
+upload, stored alone in a private folder, cannot name any.
 
 Reading and writing files run in a worker thread (:meth:`AppFiles.in_background`) so the
 event loop keeps answering (HTTP, other clients, the page's own messages) and the page shows a
@@ -37,8 +39,9 @@ from ...serving.file_root import (
     refuse_special_or_oversize,
 )
 from ..scene.scene import prepare_display
-from ..session.controls import numbers
+from ..session.controls import number, numbers
 from ..session.lattices import copy_ffd
+from ..session.session import ChangedMeanwhile
 
 __all__ = ["MESH_FORMATS", "AppFiles", "upload_bytes"]
 
@@ -166,12 +169,15 @@ class AppFiles:
             return None
 
     # ------------------------------------------------------------------ reading
-    def _read_ffd(self, path: Path, shown: str) -> None:
+    def _read_ffd(self, path: Path, shown: str, within: Path, name: str | None = None) -> None:
+        """Read a deformation file in a worker; the files it names (an elastix chain, a field's data files) must be
+        in ``within``: the app's folder for a typed path, the upload's own folder for an upload. ``name`` is what
+        the session's code reads (the path shown by default)."""
         files = self.session.files
-        self.in_background(f"reading {shown}", lambda: files.read_deformation(path),
-                            lambda result: files.use_deformation(*result, shown), shown, "load")  # fmt: skip
+        self.in_background(f"reading {shown}", lambda: files.read_deformation(path, within=within),
+                            lambda result: files.use_deformation(*result, shown, path=name), shown, "load")  # fmt: skip
 
-    def _read_mesh(self, path: Path, shown: str) -> None:
+    def _read_mesh(self, path: Path, shown: str, name: str | None = None) -> None:
         def work() -> tuple[Any, Any, Any]:
             mesh, deformer = self.session.files.read_mesh(path)
             return mesh, deformer, prepare_display(mesh, deformer.current(), self.editor.scene.interactive_cells)
@@ -179,11 +185,11 @@ class AppFiles:
         def done(result: tuple[Any, Any, Any]) -> None:
             mesh, deformer, prepared = result
             self.editor.scene.offer_display(prepared)
-            self.session.files.use_mesh(mesh, deformer, shown)
+            self.session.files.use_mesh(mesh, deformer, shown, path=name)
 
         self.in_background(f"reading {shown}", work, done, shown, "load")
 
-    def _read_face(self, path: Path, shown: str) -> None:
+    def _read_face(self, path: Path, shown: str, name: str | None = None) -> None:
         """The face of a photo (a path checked by the root folder, or an upload) as the mesh, made in a worker."""
 
         def work() -> tuple[Any, Any, Any]:
@@ -193,14 +199,17 @@ class AppFiles:
         def done(result: tuple[Any, Any, Any]) -> None:
             mesh, deformer, prepared = result
             self.editor.scene.offer_display(prepared)
-            self.session.files.use_face(mesh, deformer, shown)
+            self.session.files.use_face(mesh, deformer, shown, path=shown if name is None else name)
 
         self.in_background(f"finding the face in {shown}", work, done, shown, "make a face")
 
     # ------------------------------------------------------------------ lattice
     def rebuild(self, *values: Any) -> None:
         """Fit a lattice of the typed size (``nx, ny, nz``) around the mesh; binding it to the mesh
-        (seconds on a big mesh) runs in a worker thread."""
+        (seconds on a big mesh) runs in a worker thread.
+
+        Edits made meanwhile stay: weights painted or set are weighed into the result; another strength or
+        interpolation starts the fit again with it (:class:`~..session.session.ChangedMeanwhile`)."""
         session = self.session
         try:
             shape = numbers(list(values), "lattice size", int)
@@ -215,7 +224,11 @@ class AppFiles:
         def done(deformer: Any) -> None:
             if session.mesh is not mesh:
                 raise ValueError("the mesh changed meanwhile; rebuild again")
-            session.set_shape(shape, deformer)
+            try:
+                session.set_shape(shape, deformer)
+            except ChangedMeanwhile as exc:
+                session.info(f"{exc}: fitting again")
+                self.rebuild(*values)
 
         self.in_background(f"fitting a {name} lattice", lambda: ffd.bind(mesh.points), done,
                             f"the {name} lattice", "rebuild")  # fmt: skip
@@ -240,7 +253,8 @@ class AppFiles:
         self.in_background(f"{verb}: binding the lattice to the mesh", prepared.bind, act, "the lattice", verb)
 
     def set_basis(self, basis: Any) -> None:
-        """Switch the basis; the refitted lattice is bound to the mesh in a worker thread."""
+        """Switch the basis; the refitted lattice is bound to the mesh in a worker thread (edits made meanwhile
+        stay, as for :meth:`rebuild`)."""
         session = self.session
         if basis == session.basis:
             return
@@ -254,15 +268,26 @@ class AppFiles:
         def done(deformer: Any) -> None:
             if session.mesh is not mesh:
                 raise ValueError("the mesh changed meanwhile; choose the basis again")
-            session.set_basis(str(basis), deformer)
+            try:
+                session.set_basis(str(basis), deformer)
+            except ChangedMeanwhile as exc:
+                session.info(f"{exc}: switching again")
+                self.set_basis(basis)
 
         self.in_background(f"switching to the {basis} basis", lambda: ffd.bind(mesh.points), done,
                             f"the {basis} basis", "switch the basis")  # fmt: skip
 
     def decimate(self, reduction: Any) -> None:
         """Decimate the mesh in a worker thread (seconds on a 500k-point mesh), with the lattice bound to the
-        result and its plotted copy prepared there too; the loop only swaps them in."""
+        result and its plotted copy prepared there too; the loop only swaps them in. A reduction that is not
+        a number is refused at once; what fails in the worker is one message, posted from the loop."""
         session, scene = self.session, self.editor.scene
+        try:
+            reduction = number(reduction, "the reduction")
+        except ValueError as exc:
+            session.error(f"could not decimate: {exc}")
+            self.sync()
+            return
 
         def work() -> tuple[Any, Any]:
             done = session.decimation(reduction)
@@ -283,28 +308,23 @@ class AppFiles:
         in the app's messages (nothing is returned)."""
         target = self._typed(path, self.root.for_reading, "load")
         if target is not None:
-            self._read_ffd(target, self.root.shown(target))
+            self._read_ffd(target, self.root.shown(target), self.root.path)
 
     def load_image_in_background(self, path: str) -> None:
         """Start showing an image (NIfTI, NRRD, MetaImage, PNG...) from a path in the app's folder (a worker thread).
 
-        A header that names a data file (MetaImage, NRRD) is refused unless that file is in the folder too.
+        A header that names data files (MetaImage, NRRD: one name, a ``LIST`` or a pattern) is read only if every
+        one of them is in the folder too (:func:`~ffd_notebook.images.read_image` with ``within=`` the folder).
         """
-        target = self._typed(path, self._image_for_reading, "load")
+        from ....images import read_image
+
+        target = self._typed(path, self.root.for_reading, "load")
         if target is None:
             return
-        shown = self.root.shown(target)
+        shown, folder = self.root.shown(target), self.root.path
         image = self.session.image
-        self.in_background(f"reading {shown}", lambda: image.read(target),
+        self.in_background(f"reading {shown}", lambda: image.read(read_image(target, within=folder)),
                             lambda slices: image.use(slices, target, shown), shown, "load")  # fmt: skip
-
-    def _image_for_reading(self, typed: str) -> Path:
-        from ....images import image_data_files
-
-        target = self.root.for_reading(typed)
-        for data_file in image_data_files(target):
-            self.root.for_reading(data_file)  # PathRefused if it is outside the root
-        return target
 
     def save_image_in_background(self, path: str) -> None:
         """Start writing the warped image in the app's folder (format from the extension, atomically)."""
@@ -313,8 +333,8 @@ class AppFiles:
         target = self._typed(path, lambda p: self.root.for_writing(p, IMAGE_WRITE_SUFFIXES), "save")
         if target is not None:
             shown = self.root.shown(target)
-            image = self.session.image
-            self.in_background(f"writing {shown}", lambda: image.save(target, announce=False),
+            image, ffd = self.session.image, copy_ffd(self.session.ffd)  # the deformation as it is now
+            self.in_background(f"writing {shown}", lambda: image.save(target, announce=False, ffd=ffd),
                                 lambda _: self.session.messages.append(f"saved the warped image to {shown}"),
                                 shown, "save")  # fmt: skip
 
@@ -340,8 +360,7 @@ class AppFiles:
         if target is not None:
             ffd, shown = copy_ffd(self.session.ffd), self.root.shown(target)
             self.in_background(f"writing {shown}", lambda: _write_deformation(target, ffd, shown),
-                                lambda _: self.session.messages.append(f"saved the lattice to {shown}"), shown,
-                                "save")  # fmt: skip
+                                lambda _: self._saved("lattice", shown), shown, "save")  # fmt: skip
 
     def save_mesh_in_background(self, path: str) -> None:
         """Start saving the deformed mesh in the app's folder (format from the extension, atomically)."""
@@ -351,8 +370,12 @@ class AppFiles:
         if target is not None:
             mesh, shown = self.session.deformed_mesh, self.root.shown(target)
             self.in_background(f"writing {shown}", lambda: write_mesh(target, mesh),
-                                lambda _: self.session.messages.append(f"saved the deformed mesh to {shown}"),
-                                shown, "save")  # fmt: skip
+                                lambda _: self._saved("mesh", shown), shown, "save")  # fmt: skip
+
+    def _saved(self, what: str, shown: str) -> None:
+        """A save is written: say so, and the session's code saves there too (a path in the root folder)."""
+        self.session.messages.append(f"saved the {'lattice' if what == 'lattice' else 'deformed mesh'} to {shown}")
+        self.session.script.saved(what, shown)
 
     # the names of 0.1, which did not say that they return before the work is done; kept until 0.3
     load_ffd = renamed(load_deformation_in_background, "load_ffd")
@@ -380,7 +403,9 @@ class AppFiles:
             if len(content) > self.root.max_bytes:
                 raise PathRefused(f"{Path(name).name!r} is bigger than the limit of "
                                   f"{self.root.max_bytes / 2**20:.0f} MiB")  # fmt: skip
-            target = self._scratch_file(name)
+            if self._scratch is None:
+                self._scratch = ScratchFolder()
+            target = self._scratch.private_file(name)  # alone in its folder: it can name no other file
             target.write_bytes(content)
             refuse_special_or_oversize(target, self.root.max_bytes)
         except (PathRefused, OSError) as exc:
@@ -392,7 +417,8 @@ class AppFiles:
         """A .ffd file arrived from the browser's file input: load it."""
         received = self._receive(ffd_upload, FFD_SUFFIXES, "ffd_upload")
         if received is not None:
-            self._read_ffd(*received)
+            target, shown = received
+            self._read_ffd(target, shown, target.parent, name=target.name)  # (the code reads it by its own name)
 
     def receive_mesh_upload(self, mesh_upload: Any, **_: Any) -> None:
         """A mesh arrived from the browser's file input: load it; a photo (JPEG, PNG...): the face in it."""
@@ -400,9 +426,9 @@ class AppFiles:
         if received is None:
             return
         if received[0].suffix.lower() in PHOTO_SUFFIXES:
-            self._read_face(*received)
+            self._read_face(*received, name=received[0].name)
         else:
-            self._read_mesh(*received)
+            self._read_mesh(*received, name=received[0].name)
 
     async def _written_bytes(self, name: str, write: Callable[[Path], None]) -> bytes:
         target = self._scratch_file(name)
@@ -425,6 +451,50 @@ class AppFiles:
             raise ValueError(f"mesh format must be one of {MESH_FORMATS}")
         mesh = self.session.deformed_mesh
         return await self._written_bytes(f"download.{fmt}", lambda path: write_mesh(path, mesh))
+
+    # ------------------------------------------------------------------ teaching: the code, an animation
+    def show_code(self) -> None:
+        """Show the editor's code (:meth:`~..editor.Editor.to_code`) in the page's code dialog."""
+        with self.state:
+            self.state.code_text = self.editor.to_code()
+            self.state.code_open = True
+
+    async def download_code(self) -> bytes:
+        """The editor's code as the bytes of a ``.py`` file (the code dialog's download button saves them)."""
+        return self.editor.to_code().encode("utf-8")
+
+    async def record(self, fmt: str = "gif", orbit: Any = False) -> bytes:
+        """Record the deformation as the view shows it (``fmt`` ``"gif"`` or ``"mp4"``); returns the file's bytes
+        (the page downloads them). A frame at a time, the progress on the page between frames: the event loop
+        keeps answering. Edits made meanwhile are not in it (the deformation as it was at the click)."""
+        from ..session.controls import MOVIE_CHOICES, RECORD_FPS, RECORD_FRAMES
+
+        if fmt not in dict(MOVIE_CHOICES):
+            raise ValueError(f"an animation is one of {', '.join(dict(MOVIE_CHOICES))}, got {fmt!r}")
+        if self.state.recording:
+            self._report(ValueError("already recording; wait for it"), "the animation", "record")
+            return b""
+        recording = self.editor.recording(frames=RECORD_FRAMES, fps=RECORD_FPS, orbit=bool(orbit))
+        target = self._scratch_file(f"animation.{fmt}")
+        with self.state:
+            self.state.recording, self.state.record_progress = True, 0
+        try:
+            for done in recording.write(target):
+                with self.state:
+                    self.state.record_progress = round(100 * done / len(recording))
+                await asyncio.sleep(0)  # the page gets the progress, the loop its other work
+            content = target.read_bytes()
+        except (OSError, ValueError) as exc:
+            self._report(exc, "the animation", "record")
+            return b""
+        finally:
+            recording.close()
+            target.unlink(missing_ok=True)
+            with self.state:
+                self.state.recording = False
+        self.session.messages.append(f"recorded the deformation ({RECORD_FRAMES} frames): deformation.{fmt}")
+        self.sync()
+        return content
 
     def cleanup(self) -> None:
         """Remove the folder of uploads and downloads (at exit)."""

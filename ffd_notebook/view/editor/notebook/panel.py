@@ -18,7 +18,7 @@ import ipywidgets as widgets
 
 from ..session import controls as panel_controls
 from ..session.changes import Change, DragSync
-from ..session.controls import Control, run, session_state
+from ..session.controls import RECORD_FPS, RECORD_FRAMES, SECTION_HINTS, Control, run, session_state
 
 if TYPE_CHECKING:
     from ..editor import Editor
@@ -26,13 +26,11 @@ if TYPE_CHECKING:
 __all__ = ["ControlPanel"]
 
 PANEL_WIDTH = "410px"
-SECTION_TITLES = {
-    "toolbar": "",
-    "Lattice": "<b>Lattice</b>",
-    "Control point": "<b>Control point</b> <small>(drag a sphere, or pick one and type)</small>",
-    "Files": "<b>Files</b>",
-    "Display": "<b>Display</b>",
-}
+#: the box of code lines (the running log, the whole code): monospace, scrolled by the user (class ffd-scroll)
+CODE_STYLE = "margin: 0; max-height: {height}; overflow: auto; font-size: 11px; line-height: 1.3; white-space: pre;"
+#: what the notebook panel says under the code it shows (a widget's click cannot add a cell: see ``Editor.code_cell``)
+CODE_HINT = ("Copy it into a cell (select it, Ctrl+C), or run <code>editor.code_cell()</code> in a cell: "
+             "a new cell below it holds this code.")  # fmt: skip
 ICONS = {"undo": "undo", "redo": "repeat"}
 WIDTHS = {"ints": "58px", "floats": "84px", "choice": "170px", "choices": "110px"}
 
@@ -42,9 +40,11 @@ def _stretch() -> widgets.Layout:
     return widgets.Layout(flex="1 1 auto", width="auto", min_width="90px")
 
 
-def _label(text: str) -> widgets.Label:
-    # at least the common width, so rows line up; a longer label ("interpolation x, y, z") grows, never cut off
-    return widgets.Label(text, layout=widgets.Layout(width="auto", min_width="104px", flex="0 0 auto"))
+def _label(text: str, own_line: bool = False) -> widgets.Label:
+    # at least the common width, so rows line up; a longer label grows, never cut off. Above three choices
+    # ("interpolation x, y, z"), on a line of its own: they fit together below it, not beside it
+    flex = "0 0 calc(100% - 4px)" if own_line else "0 0 auto"  # (its margins: 2 px each side)
+    return widgets.Label(text, layout=widgets.Layout(width="auto", min_width="104px", flex=flex))
 
 
 class ControlPanel(widgets.VBox):
@@ -87,8 +87,9 @@ class ControlPanel(widgets.VBox):
             rows.setdefault((control.section, control.row), []).extend(self._build(control))
         children: list[widgets.Widget] = []
         for section in dict.fromkeys(section for section, _ in rows):
-            if SECTION_TITLES.get(section, section):
-                children.append(widgets.HTML(SECTION_TITLES.get(section, f"<b>{section}</b>")))
+            if section != "toolbar":
+                hint = f" <small>({SECTION_HINTS[section]})</small>" if section in SECTION_HINTS else ""
+                children.append(widgets.HTML(f"<b>{html.escape(section)}</b>{hint}"))
             wrapping = widgets.Layout(flex_flow="row wrap")  # a row wider than the panel continues below
             children += [widgets.HBox(row, layout=wrapping) for (s, _), row in rows.items() if s == section]
         super().__init__(children, layout=widgets.Layout(padding="0 0 0 12px", width=PANEL_WIDTH, flex="0 0 auto"))
@@ -109,6 +110,8 @@ class ControlPanel(widgets.VBox):
     def _build(self, control: Control) -> list[widgets.Widget]:
         """The widgets of one control (a row label first for inputs), stored under its key."""
         kind, css = control.kind, f"ffd-{control.key.replace('_', '-')}"
+        if kind in ("code", "record"):
+            return self._build_teaching(control, css)
         if kind == "button":
             button = widgets.Button(
                 description=control.label,
@@ -161,11 +164,13 @@ class ControlPanel(widgets.VBox):
                 readout_format=".0%" if control.bounds is None else ".2f",
                 layout=_stretch(),
             )
-        else:  # "label", "messages"
+        else:  # "label", "messages", "log"
             made = widgets.HTML(value="")
+            if kind == "log":
+                made.layout = widgets.Layout(width="100%")
         if not isinstance(made, list):
             self._fields[control.state[0] if control.state else control.key] = made
-            if kind in ("text", "choice", "upload"):
+            if kind in ("text", "choice", "upload", "log"):
                 made.add_class(css)
         setattr(self, control.key, made)
         self._widgets[control.key] = made
@@ -173,7 +178,97 @@ class ControlPanel(widgets.VBox):
             for widget in made if isinstance(made, list) else [made]:
                 widget.observe(lambda _change, c=control: self._on_input(c), names="value")
         shown = made if isinstance(made, list) else [made]
-        return ([_label(control.label)] if kind in ("ints", "floats", "choice", "choices", "slider") else []) + shown
+        labelled = kind in ("ints", "floats", "choice", "choices", "slider")
+        return ([_label(control.label, own_line=kind == "choices")] if labelled else []) + shown
+
+    def _build_teaching(self, control: Control, css: str) -> list[widgets.Widget]:
+        """ "Code" (a button and the code to copy, shown when clicked) or "Record" (a button and its progress)."""
+        button = widgets.Button(description=control.label, tooltip=control.tooltip or control.label,
+                                layout=widgets.Layout(width="auto", flex="0 0 auto"))  # fmt: skip
+        button.add_class(css)
+        setattr(self, f"{control.key}_button", button)
+        self._widgets[control.key] = button
+        if control.kind == "code":
+            self.code_text = widgets.Textarea(value="", layout=widgets.Layout(width="100%", height="220px",
+                                                                              display="none"))  # fmt: skip
+            self.code_text.add_class("ffd-scroll")
+            self.code_text.add_class("ffd-code-text")
+            self.code_hint = widgets.HTML(f"<small>{CODE_HINT}</small>", layout=widgets.Layout(display="none"))
+            button.on_click(lambda _b: self.show_code())
+            return [button, self.code_text, self.code_hint]
+        hidden = widgets.Layout(width="120px", visibility="hidden")  # (shown while it records)
+        self.record_progress = widgets.IntProgress(value=0, min=0, max=RECORD_FRAMES, layout=hidden)
+        self.record_progress.add_class("ffd-record-progress")
+        button.on_click(lambda _b: self.record(*(self._fields[k].value for k in control.args)))
+        return [button, self.record_progress]
+
+    def show_code(self) -> None:
+        """Show the editor's code (:meth:`~ffd_notebook.view.editor.editor.Editor.to_code`) in the panel, to copy.
+
+        A click in a widget cannot add a cell to the notebook (IPython's ``set_next_input`` answers the request
+        that ran a cell, and a click runs none; JupyterLab shows it only after the next cell runs): the panel
+        shows the code, and ``editor.code_cell()`` run in a cell puts it in a new cell below.
+
+        Examples
+        --------
+        >>> import pyvista as pv
+        >>> from ffd_notebook.view import Editor, ControlPanel
+        >>> editor = Editor(pv.Sphere(theta_resolution=8, phi_resolution=8), shape=(4, 4, 4), window_size=(64, 48))
+        >>> panel = ControlPanel(editor)
+        >>> editor.session.move_control_point((1, 2, 1), (0.0, 0.0, 0.25))
+        >>> panel.show_code()
+        >>> "lattice.offsets[1, 2, 1] = (0.0, 0.0, 0.25)" in panel.code_text.value
+        True
+        >>> editor.close()
+        """
+        self.code_text.value = self.editor.to_code()
+        self.code_text.layout.display = "block"
+        self.code_hint.layout.display = "block"
+
+    def record(self, path: Any, orbit: Any = False) -> None:
+        """Record the deformation into ``path`` (a ``.gif`` or a movie, in the kernel's folder) with a progress bar.
+
+        A failure (a bad name, a folder that cannot be written) becomes the editor's message.
+
+        Parameters
+        ----------
+        path : str
+            The file to write (the panel's "animation file" field).
+        orbit : bool, default False
+            Turn the camera by a whole turn over the animation.
+
+        Examples
+        --------
+        >>> import os, tempfile
+        >>> import pyvista as pv
+        >>> from ffd_notebook.view import Editor, ControlPanel
+        >>> editor = Editor(pv.Sphere(theta_resolution=8, phi_resolution=8), shape=(4, 4, 4), window_size=(64, 48))
+        >>> panel = ControlPanel(editor)
+        >>> panel.record(os.path.join(tempfile.mkdtemp(), "rest.gif"))
+        >>> editor.messages[-1]  # doctest: +ELLIPSIS
+        'recorded .../rest.gif: 36 frames'
+        >>> editor.close()
+        """
+        editor = self.editor
+        session = editor.session
+        bar = self.record_progress
+        self.record_button.disabled = True
+        bar.value, bar.layout.visibility = 0, "visible"
+
+        def progress(done: int, total: int) -> None:
+            bar.max, bar.value = total, done
+
+        try:
+            target = str(path).strip() or "deformation.gif"
+            recording = editor.recording(frames=RECORD_FRAMES, fps=RECORD_FPS, orbit=bool(orbit))
+            recording.run(target, progress)
+            session.info(f"recorded {target}: {RECORD_FRAMES} frames")
+        except (OSError, ValueError) as exc:
+            session.error(f"could not record {path!r}: {exc}")
+        finally:
+            self.record_button.disabled = False
+            bar.layout.visibility = "hidden"
+            self.sync()
 
     # ------------------------------------------------------------------ actions (one editor call each)
     def act(self, control: Control, values: Sequence[Any]) -> None:
@@ -254,6 +349,17 @@ class ControlPanel(widgets.VBox):
             widget.disabled = control.enabled is not None and not state.get(control.enabled, True)
         elif control.kind == "label":
             widget.value = html.escape(control.label.format(**state))
+        elif control.kind == "log":
+            lines, style = html.escape(state[control.state[0]]), CODE_STYLE.format(height="7.5em")
+            widget.value = (
+                f'<small>{html.escape(control.label)}</small><pre class="ffd-scroll" style="{style}">{lines}</pre>'
+            )
+
+        elif control.kind == "code":
+            if self.code_text.layout.display != "none":  # shown: it follows the edits
+                self.code_text.value = self.editor.to_code()
+        elif control.kind == "record":
+            pass
         elif control.kind == "messages":
             if state["messages"]:
                 text = state["messages"][0]["text"]

@@ -197,6 +197,8 @@ class LatticeActor:
         self.handle_index = 0 if selected is None else int(selected)
         self.handle = self._make_handle()
         self._dragging = False
+        #: whether a press grabs a sphere (not while the editor shows part of the deformation: its blend)
+        self.grabbable = True
         self._tags: list[int] = []
         self._size_tag = plotter.renderer.AddObserver("StartEvent", lambda *_: self._before_render())
         iren = self._interactor()
@@ -234,6 +236,8 @@ class LatticeActor:
     def _grab(self, iren: Any, _event: str) -> None:
         """Left-button press: the handle onto the control point under the cursor (or stay parked); with
         :data:`BEHIND_KEY` held, onto one behind the mesh (:meth:`index_at`)."""
+        if not self.grabbable:
+            return
         index = self.index_at(*iren.GetEventPosition(), behind=bool(iren.GetAltKey()))
         if index is not None:
             self.place_handle(index)
@@ -421,6 +425,11 @@ class LatticeActor:
         else:
             self._selected = index
             self._color_glyphs()
+
+    def set_visible(self, visible: bool) -> None:
+        """Draw the lattice (lines and spheres), or not (an animation without it)."""
+        for actor in (self.line_actor, self.glyph_actor, self.xray[1]):
+            actor.SetVisibility(bool(visible))
 
     # ------------------------------------------------------------------ moving
     def set_line_points(self, positions: ArrayLike) -> None:

@@ -106,6 +106,8 @@ class EditorScene:
         interactive_cells: int | None = INTERACTIVE_CELLS,
     ) -> None:
         self.session = session
+        #: whether the scene renders after each change (a recording renders each frame once, itself)
+        self.auto_render = True
         self.interactive_cells = interactive_cells
         self._callbacks = (on_move, on_start, on_end)
         self.plotter = new_plotter(off_screen=off_screen, window_size=window_size)
@@ -152,6 +154,10 @@ class EditorScene:
         elif kind == "select":
             assert self.lattice_actor is not None  # built with the scene
             self.lattice_actor.highlight(self._selected_index())
+        elif kind == "display" and change.label == "blend":  # the mesh and the spheres where t puts them
+            assert self.lattice_actor is not None  # built with the scene
+            self._move_points(None, widgets=True)
+            self.lattice_actor.grabbable = self.session.blend == 1.0
         elif kind == "display" and change.label == "points":
             assert self.lattice_actor is not None  # built with the scene
             self.lattice_actor.show_points(self.session.points_shown, self._selected_index())
@@ -176,7 +182,7 @@ class EditorScene:
     def _move_points(self, points: NDArray[np.intp] | None, widgets: bool, only_if_changed: bool = False) -> None:
         """Session -> view: deformed mesh points, lattice lines, (the handle), field colors."""
         self._write_mesh_points(only_if_changed)
-        positions = self.session.control_points()
+        positions = self.session.shown_control_points()
         assert self.lattice_actor is not None  # built with the scene
         self.lattice_actor.set_line_points(positions)
         if widgets:
@@ -194,7 +200,7 @@ class EditorScene:
         """Show the session's mesh (a copy whose points are written in place); replaces any previous actor."""
         prepared, self._offered = self._offered, None
         if prepared is None or prepared.source is not self.session.mesh or prepared.cells != self.interactive_cells:
-            prepared = prepare_display(self.session.mesh, self.session.deformed_points, self.interactive_cells)
+            prepared = prepare_display(self.session.mesh, self.session.shown_points(), self.interactive_cells)
         if self.proxy is not None:
             self.proxy.remove()
             self.proxy = None
@@ -245,6 +251,7 @@ class EditorScene:
             selected=self._selected_index(),
             surface=self.ray_to_surface,
         )
+        self.lattice_actor.grabbable = self.session.blend == 1.0
         self._move_points(None, widgets=True, only_if_changed=True)
 
     def ray_to_surface(self, x: float, y: float) -> tuple[NDArray[np.float64], NDArray[np.float64], float]:
@@ -275,7 +282,7 @@ class EditorScene:
 
     def _write_mesh_points(self, only_if_changed: bool = False) -> None:
         """The session's deformed points into the plotted mesh (and its normals, at the next render)."""
-        deformed = self.session.deformed_points
+        deformed = self.session.shown_points()
         if only_if_changed and np.array_equal(self.display_points, deformed.astype(self.display_points.dtype)):
             return  # e.g. a new lattice, or a mesh prepared in a worker: the normals stay valid (0.1 s on 500k)
         self.display_points[:] = deformed
@@ -332,8 +339,9 @@ class EditorScene:
     def render(self) -> None:
         """Show the change: the browser views render it and send a new image (each view's scheduler renders
         once for any number of changes); with no browser view, render now
-        (:meth:`~ffd_notebook.view.serving.jupyter.BrowserViews.show_changes`)."""
-        self.views.show_changes(self.plotter.render_window.Render)
+        (:meth:`~ffd_notebook.view.serving.jupyter.BrowserViews.show_changes`); nothing if not :attr:`auto_render`."""
+        if self.auto_render:
+            self.views.show_changes(self.plotter.render_window.Render)
 
     def shown_points(self) -> NDArray[np.float64]:
         """Points of the plotted mesh (what the renderer draws), float64."""

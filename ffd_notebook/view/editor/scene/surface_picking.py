@@ -180,6 +180,8 @@ class SurfacePicking:
         self._iren.GetCommand(self._tags[event]).SetAbortFlag(1)
 
     def _on_press(self, iren: Any, event: str) -> None:
+        if self.session.blend != 1.0:  # part of the deformation shown (the blend slider): the press turns the camera
+            return
         mode = self.session.surface.mode
         if mode == "paint weights":
             self._take(event)

@@ -35,8 +35,13 @@ __all__ = [
     "FIELD_CHOICES",
     "INTERPOLATION_CHOICES",
     "MODE_CHOICES",
+    "MOVIE_CHOICES",
+    "N_LOG_STEPS",
     "N_MESSAGES",
     "POINTS_CHOICES",
+    "RECORD_FPS",
+    "RECORD_FRAMES",
+    "SECTION_HINTS",
     "Control",
     "by_key",
     "number",
@@ -46,6 +51,14 @@ __all__ = [
 ]
 
 N_MESSAGES = 5  # messages the panels list (newest first)
+#: steps of the undo history the panels' running log shows as code (newest last)
+N_LOG_STEPS = 3
+#: what the panels say beside a section's name (the section of :attr:`Control.section`)
+SECTION_HINTS = {"Control point": "drag a sphere, or pick one and type", "Teaching": "the edits as code, a movie"}
+#: what an animation recorded from a panel has (frames in all; a second at 12 frames a second is 12)
+RECORD_FRAMES, RECORD_FPS = 36, 12.0
+#: the animation formats the app's "Record" offers (its file downloads to the browser)
+MOVIE_CHOICES = (("gif", "GIF"), ("mp4", "MP4"))
 BOTH = frozenset({"notebook", "app"})
 
 
@@ -101,11 +114,14 @@ class Control:
         ``"ints"``/``"floats"`` (three fields), ``"choice"``, ``"choices"`` (three choices, one per
         state key, from the same ``choices``), ``"switch"``, ``"text"``, ``"slider"``, ``"button"``,
         ``"upload"`` (a file from the browser, notebook only: the app has its own uploads),
-        ``"label"`` (text from the state) or ``"messages"``.
+        ``"label"`` (text from the state), ``"messages"``, ``"log"`` (lines of code from the state, in a box
+        the user scrolls), ``"code"`` (a button that shows the session's code: to copy in the notebook, in a
+        dialog that downloads it as a ``.py`` file in the app) or ``"record"`` (a button that records the
+        deformation as an animation with a progress bar: into a file in the notebook, downloaded by the app).
     label : str
         What the panels show (a button's text; a label's template with ``{state_key}`` fields).
     section : str
-        ``"Lattice"``, ``"Control point"``, ``"Files"``, ``"Display"`` or ``"toolbar"``.
+        ``"Lattice"``, ``"Control point"``, ``"Files"``, ``"Display"``, ``"Image"``, ``"Teaching"`` or ``"toolbar"``.
     state : tuple of str
         Keys of :func:`session_state` (or panel values) the control shows or edits.
     command : str, optional
@@ -377,7 +393,8 @@ CONTROLS: tuple[Control, ...] = (
         args=("ffd_path",),
         element_id="ffd-load",
         app_trigger="ffd_load_ffd",
-        tooltip="Load a lattice file: .ffd, ITK .tfm/.txt/.h5/.hdf5, PyGeM .prm (by extension)",
+        tooltip="Load a deformation file: .ffd, ITK and ANTs .tfm/.txt/.h5/.mat, elastix, PyGeM .prm, NiftyReg "
+        "grids and fields (.nii.gz); a field or chain becomes a fitted lattice",
     ),
     Control(
         "save_ffd",
@@ -487,6 +504,63 @@ CONTROLS: tuple[Control, ...] = (
         tooltip="Remove this fraction of the faces, keeping colours (0 restores the mesh)",
     ),
     Control("mesh_info", "label", "{mesh_info}", "Display", state=("mesh_info",), row=3),
+    Control(
+        "blend",
+        "slider",
+        "show",
+        "Teaching",
+        state=("blend",),
+        command="set_blend",
+        parse=lambda v: (number(v[0], "the blend"),),
+        bounds=(0.0, 1.0, 0.05),
+        default=1.0,
+        tooltip="Show this much of the deformation (rest + t x offsets; the folding colours follow t): slide from 0 "
+        "to 1 to show it growing. Below 1 nothing can be dragged; an edit applies to the whole deformation and "
+        "brings the slider back to 1",
+    ),
+    Control("blend_help", "label", "{blend_help}", "Teaching", state=("blend_help",), row=1),
+    Control(
+        "code",
+        "code",
+        "Code",
+        "Teaching",
+        row=2,
+        tooltip="Your edits as Python: the lattice made, one statement per step of the undo history, the "
+        "deformed mesh (editor.to_code())",
+    ),
+    Control("code_log", "log", "Last steps as code", "Teaching", state=("code_log",), row=3),
+    Control(
+        "movie_path",
+        "text",
+        "animation file (.gif, .mp4)",
+        "Teaching",
+        default="deformation.gif",
+        row=4,
+        panels=frozenset({"notebook"}),
+    ),
+    Control(
+        "movie_format",
+        "choice",
+        "animation",
+        "Teaching",
+        state=("movie_format",),
+        choices=MOVIE_CHOICES,
+        default="gif",
+        row=4,
+        panels=frozenset({"app"}),
+    ),
+    Control("orbit", "switch", "orbit the camera", "Teaching", state=("orbit",), default=False, row=5),
+    Control(
+        "record",
+        "record",
+        "Record",
+        "Teaching",
+        args=("movie_path", "orbit"),
+        row=5,
+        app_trigger="ffd_record",
+        tooltip=f"The mesh going from rest to the deformation, {RECORD_FRAMES} frames at {RECORD_FPS:.0f} a "
+        "second, as the view shows it (editor.animate)",
+    ),
     Control("image_path", "text", "image to show", "Image", default="", placeholder="image.nii.gz / .nrrd / .png"),
     Control(
         "load_image",
@@ -586,6 +660,11 @@ def session_state(session: EditingSession) -> dict[str, Any]:
         "mode": session.surface.mode,
         "has_pins": len(session.surface.pins) > 0,
         "moved_points": int(np.any(lattice.offsets != 0, axis=-1).sum()),
+        "blend": session.blend,
+        "blend_help": "t = 1: the whole deformation; edit it"
+        if session.blend == 1.0
+        else f"t = {session.blend:.2f}: showing, nothing to drag; an edit goes back to 1",
+        "code_log": "\n\n".join(session.script.recent(N_LOG_STEPS)) or "# (no edits yet)",
         "messages": [{"text": t, "error": t.startswith("Error")} for t in list(session.messages)[-N_MESSAGES:][::-1]],
     }
     state.update(_image_state(session))

@@ -1,11 +1,15 @@
 """File commands of an :class:`~.session.EditingSession` (``session.files``): lattice files and meshes.
 
 Lattice files are any deformation file :func:`ffd_notebook.io.load_deformation` reads, by
-extension: ``.ffd``, ITK transforms (``.tfm``, ``.txt``, ``.h5``, ``.hdf5``), elastix transform
-parameter files (``.txt``, by content: the whole chain, as one FFD), PyGeM ``.prm``, and
-displacement fields (``.nii``, ``.nii.gz``, ``.nrrd``, ``.mha``), which become a lattice of the
-session's shape fitted to the field over its voxels (:func:`ffd_notebook.io.fit_lattice`; the
-message tells the residual).
+extension: ``.ffd``, ITK and ANTs transforms (``.tfm``, ``.txt``, ``.h5``, ``.hdf5``, ``.mat``), elastix
+transform parameter files (``.txt``, by content: the whole chain, as one FFD), PyGeM ``.prm``, NiftyReg
+control-point grids (an editable lattice as they are), and displacement fields (``.nii``, ``.nii.gz``,
+``.nrrd``, ``.mha``), which become a lattice of the session's shape fitted to the field over its voxels
+(:func:`ffd_notebook.io.fit_lattice`; the message tells the residual). An affine transform (ANTs'
+``GenericAffine.mat``) becomes the FFD's affine part on the session's lattice at rest; a chain of transforms
+(ANTs' composite ``.h5``) a lattice fitted to it over the mesh's points. FSL FNIRT files need their reference
+and source images: load them with :func:`ffd_notebook.io.load_deformation` and hand the editor the result
+(``fn.edit(mesh, deformation=...)``).
 A loaded file brings its whole FFD (basis, border, affine part, ``only_inside``); saving writes the
 session's FFD, or refuses (a message, no file) where the format cannot hold it exactly.
 
@@ -23,8 +27,9 @@ What happens to the lattice when a mesh is loaded
     A lattice placed by a file (a .ffd quaternion, ITK, PyGeM), passed to the editor or assigned
     with ``editor.lattice = ...`` stays where it is; a .ffd lattice without placement is placed
     again at the new mesh's minimum corner (offsets kept); a lattice fitted by the editor is fitted
-    again around the new mesh (same size, offsets zero). Undo brings back a lattice together with
-    this rule.
+    again around the new mesh (same size, interpolation and strength, offsets zero). Undo brings back a
+    lattice together with this rule. Painted vertex weights belong to the old mesh's vertices: they
+    go, and a message says so.
 """
 
 from __future__ import annotations
@@ -38,10 +43,11 @@ from ...._util.paths import StrPath
 from ....ffd.deform import FFD
 from ....ffd.deformer import Deformer
 from ....ffd.lattice import Lattice
-from ....io import DisplacementField, fit_lattice, place_at_mesh_minimum
+from ....io import AffineTransform, DisplacementField, fit_lattice, place_at_mesh_minimum
 from ....io import load_deformation as _load_deformation
 from ....io import save_deformation as _save_deformation
-from .lattices import copy_ffd, fitted_lattice
+from .lattices import copy_ffd, refitted
+from .script import LoadedFile, MeshOrigin
 
 if TYPE_CHECKING:
     from .session import EditingSession
@@ -74,6 +80,12 @@ def photo_name(photo: Any) -> str:
     return f"the photo (a {shape[1]}x{shape[0]} array)"
 
 
+def _fitted(ffd: FFD, what: str) -> FFD:
+    """``ffd`` with what it was fitted to in its fit report (for the message that tells the residual)."""
+    ffd.lattice.metadata["fit"]["of"] = what
+    return ffd
+
+
 class SessionFiles:
     """Lattice files and meshes of one :class:`~.session.EditingSession` (``session.files``; see the module
     docstring).
@@ -90,45 +102,66 @@ class SessionFiles:
     def __init__(self, session: EditingSession) -> None:
         self.session = session
 
-    def read_deformation(self, path: StrPath) -> tuple[FFD, str]:
+    def read_deformation(self, path: StrPath | Any, *, within: StrPath | None = None) -> tuple[FFD, str]:
         """Read and check a deformation file for ``session`` without changing anything: ``(ffd, source)``.
 
-        ``source`` is how the lattice is placed: ``"ffd-placed"`` (a .ffd with its own placement),
-        ``"ffd-min"`` (a .ffd without one, put at the current mesh's minimum corner) or ``"file"``
-        (ITK, PyGeM: by the file's own numbers). Safe to run in a worker thread.
+        ``path`` may also be a deformation already loaded (an FFD, a field, an affine, a chain: what
+        :func:`ffd_notebook.io.load_deformation` returns). ``source`` is how the lattice is placed: ``"ffd-placed"``
+        (a .ffd with its own placement), ``"ffd-min"`` (a .ffd without one, put at the current mesh's minimum
+        corner) or ``"file"`` (every other format: by its own numbers). Safe to run in a worker thread.
+        ``within``: the folder the files it names must be in (:func:`ffd_notebook.io.load_deformation`; the app's).
         """
-        loaded = _load_deformation(path)
+        if isinstance(path, str | os.PathLike):
+            loaded = _load_deformation(path, within=within)
+        else:
+            loaded = path
+        shape = cast("tuple[int, int, int]", tuple(max(4, n) for n in self.session.lattice.shape))
         if isinstance(loaded, DisplacementField):  # a lattice of the session's shape, fitted over the field's voxels
-            shape = cast("tuple[int, int, int]", tuple(max(4, n) for n in self.session.lattice.shape))
-            return fit_lattice(loaded, shape), "file"
+            return _fitted(fit_lattice(loaded, shape), "the displacement field"), "file"
+        if isinstance(loaded, AffineTransform):  # exactly the FFD's affine part, on the session's lattice at rest
+            lattice = self.session.lattice
+            rest = Lattice(lattice.shape, lattice.spacing, lattice.origin, lattice.rotation, border=lattice.border)
+            rest.metadata["read_as"] = "affine"  # (for the session's code: not an FFD the file holds)
+            return FFD(rest, self.session.basis, affine=loaded.matrix), "file"
+        if not isinstance(loaded, FFD):  # a chain of transforms: a lattice fitted to it over the mesh's points
+            if not callable(getattr(loaded, "deform", None)):
+                raise TypeError(f"expected a deformation file or a deformation, got {type(loaded).__name__}")
+            fitted = fit_lattice(loaded, shape, region=self.session.mesh.points, affine=True)
+            return _fitted(fitted, "the transforms of"), "file"
         ffd = loaded
-        if _PathType(path).suffix.lower() != ".ffd":
+        if not isinstance(path, str | os.PathLike) or _PathType(path).suffix.lower() != ".ffd":
             return ffd, "file"
         if isinstance(ffd.lattice.metadata.get("placement"), dict):
             return ffd, "ffd-placed"
         return copy_ffd(ffd, place_at_mesh_minimum(ffd.lattice, self.session.mesh)), "ffd-min"
 
-    def use_deformation(self, ffd: FFD, source: str, name: str) -> None:
-        """Install an FFD from :meth:`read_deformation` (one undo step); ``name`` is what messages call the file."""
-        self.session.swap_ffd(ffd, label="load lattice", source=source)
-        shape = "x".join(map(str, ffd.lattice.shape))
+    def use_deformation(self, ffd: FFD, source: str, name: str, *, path: str | None = None) -> None:
+        """Install an FFD from :meth:`read_deformation` (one undo step); ``name`` is what messages call the file,
+        ``path`` what the session's script reads again (``name`` by default)."""
         fit = ffd.lattice.metadata.get("fit")
+        field = isinstance(fit, dict) and fit.get("of") == "the displacement field"
+        kind = "field" if field else "other" if fit or ffd.lattice.metadata.get("read_as") or path == "" else "ffd"
+        how = LoadedFile(name if path is None else path, source, kind, ffd.lattice.shape if field else None)
+        self.session.swap_ffd(ffd, label="load lattice", source=source, how=how)
+        shape = "x".join(map(str, ffd.lattice.shape))
         if isinstance(fit, dict):
-            self.session.info(f"loaded a {shape} lattice fitted to the displacement field {name} (residual RMS "
-                              f"{fit['rms']:.3g}, max {fit['max']:.3g})")  # fmt: skip
+            self.session.info(f"loaded a {shape} lattice fitted to {fit.get('of', '')} {name} (residual RMS "
+                              f"{fit['rms']:.3g}, max {fit['max']:.3g}, over {fit['samples']} points)")  # fmt: skip
             return
         self.session.info(f"loaded a {shape} lattice from {name} ({ffd.basis}, at {_PLACES[source]})")
 
-    def load_deformation(self, path: StrPath) -> FFD:
-        """Load a deformation file (.ffd, ITK, PyGeM .prm; undoable) and return the FFD now in use.
+    def load_deformation(self, path: StrPath | Any) -> FFD:
+        """Load a deformation file (see the module docstring; undoable), or a deformation already loaded, and
+        return the FFD now in use.
 
         A bad file raises and changes nothing."""
+        name = os.fspath(path) if isinstance(path, str | os.PathLike) else type(path).__name__
         try:
             ffd, source = self.read_deformation(path)
-        except (OSError, ValueError) as exc:
-            self.session.error(f"could not load the lattice {os.fspath(path)!r}: {exc}")
+        except (OSError, ValueError, TypeError) as exc:
+            self.session.error(f"could not load the lattice {name!r}: {exc}")
             raise
-        self.use_deformation(ffd, source, os.fspath(path))
+        self.use_deformation(ffd, source, name, path=None if isinstance(path, str | os.PathLike) else "")
         return self.session.ffd
 
     def save_deformation(self, path: StrPath) -> None:
@@ -144,6 +177,7 @@ class SessionFiles:
             self.session.error(f"could not save the lattice to {os.fspath(path)!r}: {exc}")
             raise
         self.session.info(f"saved the lattice to {os.fspath(path)}")
+        self.session.script.saved("lattice", path)
         image = self.session.image
         if image.loaded:  # the image warped by that lattice, beside it: lattice.warped.nii.gz
             target = image.beside(path)
@@ -177,13 +211,15 @@ class SessionFiles:
             ffd = copy_ffd(self.session.ffd, weights=None)
         elif self.session.lattice_source == "ffd-min":
             ffd = copy_ffd(self.session.ffd, place_at_mesh_minimum(self.session.lattice, mesh), weights=None)
-        else:
-            ffd = FFD(fitted_lattice(mesh, self.session.lattice.shape, self.session.basis), self.session.basis)
+        else:  # the interpolation and strength stay, as for a new lattice size
+            ffd = refitted(self.session.ffd, mesh, self.session.lattice.shape, weights=None)
         return mesh, ffd.bind(mesh.points)
 
-    def use_mesh(self, mesh: Any, deformer: Deformer, name: str) -> None:
-        """Use a mesh from :meth:`read_mesh` (a new undo history); ``name`` is what messages call the file."""
+    def use_mesh(self, mesh: Any, deformer: Deformer, name: str, *, path: str | None = None) -> None:
+        """Use a mesh from :meth:`read_mesh` (a new undo history); ``name`` is what messages call the file, ``path``
+        what the session's script reads again (``name`` by default)."""
         self.session.replace_mesh(mesh, deformer, label="load mesh", new_document=True)
+        self.session.script.origin = MeshOrigin("file", name if path is None else path)
         self.session.info(f"loaded {name}: {mesh.n_points} vertices, {mesh.n_cells} faces")
 
     def load_mesh(self, path: StrPath) -> Any:
@@ -199,9 +235,11 @@ class SessionFiles:
         self.use_mesh(mesh, deformer, os.fspath(path))
         return mesh
 
-    def use_face(self, mesh: Any, deformer: Deformer, name: str) -> None:
-        """Use a face from :meth:`read_face` as the mesh (a new undo history, as a loaded mesh)."""
+    def use_face(self, mesh: Any, deformer: Deformer, name: str, *, path: str | None = None) -> None:
+        """Use a face from :meth:`read_face` as the mesh (a new undo history, as a loaded mesh); ``path`` is the
+        photo file the session's script reads again (none: the script's variable ``photo``)."""
         self.session.replace_mesh(mesh, deformer, label="face from photo", new_document=True)
+        self.session.script.origin = MeshOrigin("photo", path or "")
         self.session.info(f"made the face in {name}: {mesh.n_points} vertices, {mesh.n_cells} faces")
 
     def load_face(self, photo: Any) -> Any:
@@ -217,7 +255,7 @@ class SessionFiles:
             detail = getattr(exc, "problem", None) or str(exc)  # NoFaceError, FileFormatError name the photo
             self.session.error(f"could not make a face from {name}: {detail}")
             raise
-        self.use_face(mesh, deformer, name)
+        self.use_face(mesh, deformer, name, path=os.fspath(photo) if isinstance(photo, (str, os.PathLike)) else None)
         return mesh
 
     def load_face_upload(self, name: str, content: bytes) -> Any:
@@ -239,6 +277,7 @@ class SessionFiles:
             self.session.error(f"could not save the mesh to {os.fspath(path)!r}: {exc}")
             raise
         self.session.info(f"saved the deformed mesh to {os.fspath(path)}")
+        self.session.script.saved("mesh", path)
 
     # the names of 0.1 (a lattice file is a deformation file of any format), kept until 0.3
     read_lattice = renamed(read_deformation, "read_lattice")

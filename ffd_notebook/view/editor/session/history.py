@@ -18,6 +18,7 @@ is one undo step.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -35,6 +36,8 @@ class OffsetEdit:
     before: NDArray[np.float64]
     after: NDArray[np.float64]
     label: str = "edit"
+    #: how the command made it, for code that does the same (:mod:`.script`): e.g. a surface drag's point and target
+    how: Any = None
 
 
 @dataclass
@@ -47,6 +50,8 @@ class LatticeSwap:
     before: tuple[Any, ...]
     after: tuple[Any, ...]
     label: str = "lattice"
+    #: how the command made it, for code that does the same (:mod:`.script`): e.g. the file it loaded
+    how: Any = None
 
 
 #: one undo step (not to be confused with :class:`~.changes.Change`, what a command tells the views)
@@ -60,6 +65,8 @@ class History:
     ----------
     limit : int
         Most steps kept; the oldest are dropped first.
+    on_drop : callable, optional
+        Called with each step dropped off the oldest end (what the session's script folds into its start).
 
     Examples
     --------
@@ -73,16 +80,22 @@ class History:
     [[2.0, 0.0, 0.0]]
     """
 
-    def __init__(self, limit: int = 500) -> None:
+    def __init__(self, limit: int = 500, on_drop: Callable[[HistoryStep], None] | None = None) -> None:
         if limit < 1:
             raise ValueError(f"limit must be at least 1, got {limit}")
         self.limit = int(limit)
+        self.on_drop = on_drop
         self._done: list[HistoryStep] = []
         self._undone: list[HistoryStep] = []
         self._open_key: Any = None
 
     def __len__(self) -> int:
         return len(self._done)
+
+    @property
+    def steps(self) -> tuple[HistoryStep, ...]:
+        """The steps done, oldest first (undone steps are not among them)."""
+        return tuple(self._done)
 
     @property
     def can_undo(self) -> bool:
@@ -94,12 +107,12 @@ class History:
         """Whether there is an undone step to redo."""
         return bool(self._undone)
 
-    def record(self, ijk: Any, before: Any, after: Any, key: Any = None, label: str = "edit") -> None:
-        """Record that the offsets of ``ijk`` went from ``before`` to ``after``.
+    def record(self, ijk: Any, before: Any, after: Any, key: Any = None, label: str = "edit", how: Any = None) -> None:
+        """Record that the offsets of ``ijk`` went from ``before`` to ``after`` (``how``: see :class:`OffsetEdit`).
 
         With a ``key`` equal to the open step's key, the change merges into that step (the
-        step keeps its first ``before`` and takes the new ``after``); otherwise a new step starts
-        and stays open for that key. ``key=None`` always makes a closed step of its own.
+        step keeps its first ``before`` and takes the new ``after`` and ``how``); otherwise a new step
+        starts and stays open for that key. ``key=None`` always makes a closed step of its own.
         """
         ijk_arr = np.array(ijk, dtype=np.int64).reshape(-1, 3)
         before_arr = np.array(before, dtype=np.float64).reshape(-1, 3)
@@ -114,15 +127,17 @@ class History:
             and isinstance(last, OffsetEdit)
             and np.array_equal(last.ijk, ijk_arr)
         ):
-            last.after = after_arr
+            last.after, last.how = after_arr, how
             return
-        self._push(OffsetEdit(ijk_arr, before_arr, after_arr, label))
+        self._push(OffsetEdit(ijk_arr, before_arr, after_arr, label, how))
         self._open_key = key
 
-    def record_lattice(self, before: tuple[Any, ...], after: tuple[Any, ...], label: str = "lattice") -> None:
-        """Record a whole-lattice replacement (``(ffd, ...)`` tuples; pass copies)."""
+    def record_lattice(
+        self, before: tuple[Any, ...], after: tuple[Any, ...], label: str = "lattice", how: Any = None
+    ) -> None:
+        """Record a whole-lattice replacement (``(ffd, ...)`` tuples, copies; ``how``: see :class:`LatticeSwap`)."""
         self._undone.clear()
-        self._push(LatticeSwap(before, after, label))
+        self._push(LatticeSwap(before, after, label, how))
         self._open_key = None
 
     def close(self) -> None:
@@ -161,7 +176,11 @@ class History:
     def _push(self, step: HistoryStep) -> None:
         self._done.append(step)
         if len(self._done) > self.limit:
-            del self._done[: len(self._done) - self.limit]
+            dropped = self._done[: len(self._done) - self.limit]
+            del self._done[: len(dropped)]
+            if self.on_drop is not None:
+                for old in dropped:
+                    self.on_drop(old)
 
     def __repr__(self) -> str:
         return f"History(undo={len(self._done)}, redo={len(self._undone)}, limit={self.limit})"

@@ -9,7 +9,9 @@ re-reading only the pixels whose ``T(x)`` the moved control points changed
 (:meth:`SessionImage.take_unshown`). The convention is ITK's and :func:`~ffd_notebook.warp_image`'s: the pixel
 at ``x`` shows the image at ``T(x)`` (a control point moved by ``+d`` pulls the content near it by
 about ``-d``), which is what the saved lattice file does to the image in SimpleITK; saving writes
-that warped image. No VTK here.
+that warped image. The image follows the session's lattice with its options but not the mesh's
+vertex weights (one per vertex: they say nothing of the image's voxels), so slices and saved image
+show the lattice's whole deformation. No VTK here.
 """
 
 from __future__ import annotations
@@ -21,9 +23,11 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
+from ....ffd.deform import FFD
 from ....images import WarpedSlices, warp_image, write_image
 from ....images.slices import intensity_window
 from .changes import Change
+from .lattices import copy_ffd
 
 if TYPE_CHECKING:
     from .session import EditingSession
@@ -100,6 +104,35 @@ class SessionImage:
         self._last = {axis: np.ones(v.shape[:2], dtype=bool) for axis, v in self._slices.values.items()}
         self._remember(self._last)
 
+    def deformation(self, ffd: FFD | None = None) -> FFD:
+        """``ffd`` (the session's by default) as the image follows it: its lattice (shared: drags move it), its
+        options, no vertex weights.
+
+        Examples
+        --------
+        >>> import numpy as np, pyvista as pv
+        >>> from ffd_notebook.view.editor.session import EditingSession
+        >>> from ffd_notebook.view.editor.editor import PYVISTA_MESH_IO
+        >>> session = EditingSession(pv.Sphere(), mesh_io=PYVISTA_MESH_IO, shape=(4, 4, 4))
+        >>> session.ffd.weights = np.ones(session.mesh.n_points)       # the mesh's vertex weights
+        >>> ffd = session.image.deformation()
+        >>> ffd.lattice is session.lattice, ffd.weights is None
+        (True, True)
+        """
+        ffd = self.session.ffd if ffd is None else ffd
+        return copy_ffd(ffd, ffd.lattice, weights=None)
+
+    def _follows(self, ffd: FFD) -> bool:
+        """Whether ``ffd`` is the session's FFD as the image follows it (see :meth:`deformation`)."""
+        current = self.session.ffd
+        options = ("basis", "border", "only_inside", "outside", "strength")
+        return (
+            ffd.lattice is current.lattice
+            and ffd.weights is None
+            and all(getattr(ffd, name) == getattr(current, name) for name in options)
+            and np.array_equal(ffd.affine, current.affine)
+        )
+
     def read(self, image: Any, *, interpolation: str = "linear") -> WarpedSlices:
         """Read and check ``image`` (a path, a SimpleITK image, an array with geometry) into slices; changes nothing.
 
@@ -107,23 +140,30 @@ class SessionImage:
         """
         if isinstance(image, tuple):  # (array, {"spacing": ..., ...}) from code
             array, geometry = image
-            return WarpedSlices(array, self.session.ffd, interpolation=interpolation, **geometry)
-        return WarpedSlices(image, self.session.ffd, interpolation=interpolation)
+            return WarpedSlices(array, self.deformation(), interpolation=interpolation, **geometry)
+        return WarpedSlices(image, self.deformation(), interpolation=interpolation)
 
     def use(self, slices: WarpedSlices, source: Any, name: str = "image", interpolation: str = "linear") -> None:
         """Show ``slices`` (from :meth:`read`): one ``"image"`` change labelled ``"load image"``."""
         grey = slices.values[slices.axes[0]].ndim == 2
         self._slices, self._source, self.name, self._interpolation = slices, source, name, interpolation
         self.window = intensity_window(slices.pixels) if grey else None
-        if slices.ffd is not self.session.ffd:
-            slices.set_ffd(self.session.ffd)
-        self._pending = set()
+        if not self._follows(slices.ffd):  # another lattice (or options) since it was read: bound again
+            slices.set_ffd(self.deformation())
+            self._pending = set()
+        else:  # read (in a worker thread, say) while control points moved: those catch up at the next look
+            self._pending = {(int(i), int(j), int(k)) for i, j, k in np.ndindex(*self.session.lattice.shape)}
         self._unshown = {}
         self._everything()
         self.session.notify("image", None, "load image")
 
     def load(self, image: Any, *, interpolation: str = "linear") -> None:
-        """Read and show an image; a bad file leaves the session as it was (a message says why, and it raises)."""
+        """Read and show an image; a bad file leaves the session as it was (a message says why, and it raises).
+
+        A path is read by :func:`~ffd_notebook.images.read_image`: whole or refused, and a MetaImage or NRRD
+        header reads the data files it names wherever they are, as ITK does (the standalone app reads only
+        those inside its folder).
+        """
         slices = self.read(image, interpolation=interpolation)
         name = os.path.basename(os.fspath(image)) if isinstance(image, str | os.PathLike) else "image"
         self.use(slices, image, name, interpolation)
@@ -140,7 +180,7 @@ class SessionImage:
                 ijk = np.column_stack(np.unravel_index(change.points, self.session.lattice.shape))
                 self._pending.update((int(i), int(j), int(k)) for i, j, k in ijk)
         elif change.kind == "lattice":
-            self._slices.set_ffd(self.session.ffd)
+            self._slices.set_ffd(self.deformation())
             self._pending = set()
             self._everything()
 
@@ -184,20 +224,28 @@ class SessionImage:
         target = Path(lattice_path)
         return target.with_name(f"{target.stem}.warped{suffix}")
 
-    def warped(self) -> Any:
-        """The whole image warped through the session's FFD (what :meth:`save` writes)."""
-        self.require()
-        return warp_image(self._source, self.session.ffd, interpolation=self._interpolation)
+    def _loaded_slices(self) -> WarpedSlices:
+        """The slices as they are, not brought up to date (a worker thread may ask); a ValueError if none."""
+        if self._slices is None:
+            raise ValueError("no image is loaded")
+        return self._slices
 
-    def save(self, path: str | os.PathLike[str], *, announce: bool = True) -> None:
-        """Write the warped image (SimpleITK's formats, by extension), atomically (a worker thread may call it
-        with ``announce=False``: then it only writes)."""
-        slices = self.require()
-        warped = self.warped()
+    def warped(self, ffd: FFD | None = None) -> Any:
+        """The whole image warped through ``ffd`` (the session's by default), as the image follows it
+        (:meth:`deformation`: no vertex weights): what :meth:`save` writes."""
+        self._loaded_slices()
+        return warp_image(self._source, self.deformation(ffd), interpolation=self._interpolation)
+
+    def save(self, path: str | os.PathLike[str], *, announce: bool = True, ffd: FFD | None = None) -> None:
+        """Write the image warped through ``ffd`` (the session's by default; SimpleITK's formats, by extension),
+        atomically. A worker thread may call it with ``announce=False`` (then it only writes) and a copy of the
+        session's FFD taken when saving was asked for (then edits made meanwhile are not half in the file)."""
+        grid = self._loaded_slices().grid
+        warped = self.warped(ffd)
         if not hasattr(warped, "GetSize"):  # an array image: give it its geometry
             import SimpleITK as sitk
 
-            warped = slices.grid.to_sitk(sitk.GetImageFromArray(warped, isVector=warped.ndim > slices.grid.dim))
+            warped = grid.to_sitk(sitk.GetImageFromArray(warped, isVector=warped.ndim > grid.dim))
         write_image(path, warped)
         if announce:
             self.session.info(f"Saved the warped image to {os.path.basename(os.fspath(path))}")

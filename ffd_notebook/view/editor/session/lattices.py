@@ -4,14 +4,12 @@ from __future__ import annotations
 
 from typing import Any
 
-import numpy as np
-
 from ....ffd.basis import BasisName
 from ....ffd.deform import FFD
 from ....ffd.interpolation import check_basis
 from ....ffd.lattice import Lattice
 
-__all__ = ["copy_ffd", "fitted_lattice"]
+__all__ = ["copy_ffd", "fitted_lattice", "refitted"]
 
 
 def fitted_lattice(mesh: Any, shape: tuple[int, ...], basis: BasisName | tuple[str, str, str]) -> Lattice:
@@ -29,12 +27,27 @@ def fitted_lattice(mesh: Any, shape: tuple[int, ...], basis: BasisName | tuple[s
 def copy_ffd(ffd: FFD, lattice: Lattice | None = None, **changes: Any) -> FFD:
     """A new FFD with ``ffd``'s basis, border, affine part, ``only_inside``, ``outside``, strength and
     weights on a copy of its lattice (or on ``lattice``); ``changes`` replace some of them
-    (``basis=...``, ``strength=...``, ``weights=...``)."""
-    lattice = ffd.lattice.copy() if lattice is None else lattice
-    weights = ffd.weights.copy() if isinstance(ffd.weights, np.ndarray) else ffd.weights
-    options: dict[str, Any] = {"basis": ffd.basis, "border": ffd.border, "affine": ffd.affine.copy(),
-                               "only_inside": ffd.only_inside, "outside": ffd.outside, "strength": ffd.strength,
-                               "weights": weights}  # fmt: skip
-    options.update(changes)
-    basis = options.pop("basis")
-    return FFD(lattice, basis, **options)
+    (``basis=...``, ``strength=...``, ``weights=...``): :meth:`FFD.copy <ffd_notebook.FFD.copy>`."""
+    return ffd.copy(lattice, **changes)
+
+
+def refitted(ffd: FFD, mesh: Any, shape: tuple[int, ...], basis: Any = None, **changes: Any) -> FFD:
+    """``ffd`` on a new lattice of ``shape`` fitted around ``mesh`` (a new size, basis or mesh), offsets at zero.
+
+    What belongs to the deformation rather than to the lattice stays: the interpolation (or ``basis``), the
+    strength, Blender's "outside" rule and the vertex weights (``changes`` replace some, e.g. ``weights=None``
+    for a mesh with other vertices). What belonged to the old lattice's placement goes: the border is the fitted
+    lattice's, no affine part, no ``only_inside``.
+
+    Examples
+    --------
+    >>> import numpy as np, pyvista as pv
+    >>> sphere = pv.Sphere(theta_resolution=8, phi_resolution=8)
+    >>> ffd = FFD(fitted_lattice(sphere, (4, 4, 4), "bspline"), strength=0.5, weights=np.ones(sphere.n_points))
+    >>> new = refitted(ffd, sphere, (5, 4, 4), "bernstein")
+    >>> new.lattice.shape, new.basis, new.strength, new.weights.shape
+    ((5, 4, 4), 'bernstein', 0.5, (50,))
+    """
+    basis = ffd.basis if basis is None else basis
+    lattice = fitted_lattice(mesh, shape, basis)
+    return copy_ffd(ffd, lattice, basis=basis, border=None, affine=None, only_inside=False, **changes)

@@ -37,12 +37,25 @@ from .changes import Change, Subscribers
 from .files import SessionFiles
 from .history import History, LatticeSwap
 from .image import SessionImage
-from .lattices import copy_ffd, fitted_lattice
+from .lattices import copy_ffd, fitted_lattice, refitted
 from .message_log import MessageLog
+from .script import SessionScript
 from .surface_drag import SurfaceDrag
 from .weights import WeightPaint
 
-__all__ = ["FIELDS", "POINTS_SHOWN", "Decimation", "EditingSession", "Field", "MeshIO", "PointsShown", "PreparedStep"]
+__all__ = [
+    "EDITS",
+    "FIELDS",
+    "POINTS_SHOWN",
+    "WEIGHTS_CLEARED",
+    "ChangedMeanwhile",
+    "Decimation",
+    "EditingSession",
+    "Field",
+    "MeshIO",
+    "PointsShown",
+    "PreparedStep",
+]
 
 #: what the mesh can be colored by: nothing (its own colors), |displacement|, folding (det J <= 0), the
 #: vertices' weights (how much of the deformation each follows, see :mod:`.weights`)
@@ -53,6 +66,17 @@ Field = Literal["displacement", "jacobian", "weights"]
 POINTS_SHOWN = ("auto", "all", "near", "hull")
 #: The type of a choice of control points shown: one of :data:`POINTS_SHOWN`.
 PointsShown = Literal["auto", "all", "near", "hull"]
+#: the changes that edit the deformation: the blend (:meth:`EditingSession.set_blend`) goes back to 1 before them
+EDITS = ("drag", "offsets", "lattice", "mesh")
+#: what the editor says when painted weights go with the vertices they were painted on (a decimation, a new mesh)
+WEIGHTS_CLEARED = "the vertex weights were cleared: the mesh has other vertices now"
+
+
+class ChangedMeanwhile(ValueError):
+    """Work prepared from the session (in a worker thread, say) no longer fits it: the session changed meanwhile.
+
+    The app then does the work again from the session as it is now, or says so.
+    """
 
 
 @dataclass(frozen=True)
@@ -119,6 +143,19 @@ class Decimation:
     deformer: Deformer | None  # None: bound when used (the lattice had vertex weights)
 
 
+def _inside(ijk: NDArray[Any], shape: tuple[int, ...]) -> bool:
+    """Whether every row of ``ijk`` (whole numbers) indexes a control point of a lattice of ``shape``."""
+    return bool(np.all(np.isfinite(ijk)) and np.all(ijk == np.round(ijk)) and np.all(ijk >= 0)
+                and np.all(ijk < shape))  # fmt: skip
+
+
+def _same_weights(a: Any, b: Any) -> bool:
+    """Whether two FFDs' vertex weights (arrays or None) are the same."""
+    if a is None or b is None:
+        return a is None and b is None
+    return bool(np.array_equal(a, b))
+
+
 class EditingSession:
     """The editor's state and commands, without rendering (see the module docstring).
 
@@ -163,10 +200,12 @@ class EditingSession:
     ) -> None:
         self.mesh_io = mesh_io
         self.messages = MessageLog()  # bounded: the newest MAX_MESSAGES, newest last
-        self.history = History()
+        self.history = History(on_drop=self._dropped)
         self.field: str | None = None
         self.colors_shown = True
         self.points_shown = "auto"
+        #: how much of the deformation is shown: 1 all of it, 0 the rest mesh (:meth:`set_blend`)
+        self.blend = 1.0
         self.selected: tuple[int, ...] | None = None
         self._subscribers = Subscribers(self.messages.append)
         self._dragged: int | None = None
@@ -181,6 +220,7 @@ class EditingSession:
             self.lattice_source = "given"
         self._bind_mesh(mesh, FFD(lattice, basis).bind(mesh.points))
         self.paint = WeightPaint(self)  # the vertices' weights and the brush that paints them
+        self.script = SessionScript(self)  # the undo history as code (editor.to_code())
 
     # ------------------------------------------------------------------ state
     @property
@@ -251,6 +291,90 @@ class EditingSession:
         """
         return self._rest_control + self.lattice.offsets.reshape(-1, 3)
 
+    def shown_points(self) -> NDArray[np.float64]:
+        """The mesh as shown: the deformed points, or with a :attr:`blend` below 1 ``rest + blend * (deformed -
+        rest)`` (a new array then).
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(N, 3)``: :attr:`deformed_points` itself at blend 1 (exactly the deformation).
+
+        Examples
+        --------
+        >>> import pyvista as pv
+        >>> from ffd_notebook.view.editor.editor import PYVISTA_MESH_IO
+        >>> sphere = pv.Sphere(theta_resolution=8, phi_resolution=8)
+        >>> session = EditingSession(sphere, mesh_io=PYVISTA_MESH_IO, shape=(4, 4, 4))
+        >>> session.move_control_point((3, 3, 3), (0.0, 0.0, 0.4))
+        >>> session.set_blend(0.5)
+        >>> half = session.shown_points() - session.rest_points
+        >>> bool(np.allclose(half, (session.deformed_points - session.rest_points) / 2))
+        True
+        """
+        if self.blend == 1.0:
+            return self.deformed_points
+        rest = self.rest_points
+        return rest + self.blend * (np.asarray(self.deformed_points, dtype=np.float64) - rest)
+
+    def shown_control_points(self) -> NDArray[np.float64]:
+        """Control points as shown: :meth:`control_points`, or with a :attr:`blend` below 1 ``rest + blend *
+        offsets``.
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(M, 3)`` positions, flat C order.
+
+        Examples
+        --------
+        >>> import pyvista as pv
+        >>> from ffd_notebook.view.editor.editor import PYVISTA_MESH_IO
+        >>> sphere = pv.Sphere(theta_resolution=8, phi_resolution=8)
+        >>> session = EditingSession(sphere, mesh_io=PYVISTA_MESH_IO, shape=(4, 4, 4))
+        >>> session.move_control_point((0, 0, 0), (0.0, 0.0, 0.4))
+        >>> session.set_blend(0.5)
+        >>> (session.shown_control_points() - session.lattice.control_points().reshape(-1, 3))[0].tolist()
+        [0.0, 0.0, 0.2]
+        """
+        if self.blend == 1.0:
+            return self.control_points()
+        return self._rest_control + self.blend * self.lattice.offsets.reshape(-1, 3)
+
+    def set_blend(self, t: float) -> None:
+        """Show ``t`` of the deformation: ``rest + t * (deformed - rest)`` (0 the rest mesh, 1 all of it); no undo step.
+
+        A teacher shows a deformation growing, and where it folds first: the folding colours follow ``t`` (the
+        Jacobian of ``x + t (T(x) - x)``). Nothing is edited: below 1 the mouse grabs nothing in the view (the
+        spheres are where ``t`` puts them), and any edit (a typed displacement, undo, code...) applies to the
+        whole deformation and brings the blend back to 1.
+
+        Parameters
+        ----------
+        t : float
+            In [0, 1].
+
+        Examples
+        --------
+        >>> import pyvista as pv
+        >>> from ffd_notebook.view.editor.editor import PYVISTA_MESH_IO
+        >>> sphere = pv.Sphere(theta_resolution=8, phi_resolution=8)
+        >>> session = EditingSession(sphere, mesh_io=PYVISTA_MESH_IO, shape=(4, 4, 4))
+        >>> session.move_control_point((3, 3, 3), (0.0, 0.0, 0.4))
+        >>> session.set_blend(0.0)
+        >>> bool(np.array_equal(session.shown_points(), session.rest_points)), len(session.history)
+        (True, 1)
+        >>> session.move_control_point((0, 0, 0), (0.1, 0.0, 0.0))
+        >>> session.blend
+        1.0
+        """
+        value = float(t)
+        if not 0.0 <= value <= 1.0:  # (NaN too)
+            raise ValueError(f"the blend must be in [0, 1], got {t!r}")
+        if value != self.blend:
+            self.blend = value
+            self.notify("display", None, "blend")
+
     def field_values(self) -> NDArray[np.float32] | None:
         """The shown field per vertex: ``|displacement|``, folding (1 where det J <= 0), or None.
 
@@ -275,11 +399,13 @@ class EditingSession:
         ((50,), 'float32', True)
         """
         if self.field == "displacement":
-            diff = np.asarray(self.deformed_points, dtype=np.float64) - self.rest_points
+            diff = np.asarray(self.shown_points(), dtype=np.float64) - self.rest_points
             return np.sqrt(np.einsum("ij,ij->i", diff, diff)).astype(np.float32)
         if self.field == "jacobian":
-            # the deformer reuses its cached grouping of points by cell (~20 ms on 53k points)
-            return (self.deformer.jacobian_determinant() <= 0.0).astype(np.float32)
+            # the deformer reuses its cached grouping of points by cell (~20 ms on 53k points); with a blend t the
+            # map is x + t s (T(x) - x): the strength s times t
+            strength = None if self.blend == 1.0 else self.deformer.strength * self.blend
+            return (self.deformer.jacobian_determinant(strength=strength) <= 0.0).astype(np.float32)
         if self.field == "weights":
             weights = self.deformer.weights  # during a brush stroke: the stroke's, not yet the FFD's
             return np.ones(len(self.rest_points), np.float32) if weights is None else weights.astype(np.float32)
@@ -337,9 +463,48 @@ class EditingSession:
         """
         arr = np.asarray(ijk)
         shape = self.lattice.shape
-        if arr.shape != (3,) or not np.all(arr == np.round(arr)) or np.any(arr < 0) or np.any(arr >= shape):
+        if arr.shape != (3,) or not _inside(arr, shape):
             raise ValueError(f"control point index must be (i, j, k) within the lattice {shape}, got {ijk!r}")
         return tuple(int(v) for v in arr)  # type: ignore[return-value]
+
+    def check_points(self, points: ArrayLike) -> NDArray[np.int64]:
+        """``points`` (a list of ``(i, j, k)``) as an ``(n, 3)`` int array inside the lattice; a ValueError otherwise.
+
+        Commands check their control points with it before they change anything.
+
+        Parameters
+        ----------
+        points : array_like
+            Rows of three whole numbers, each within the lattice's shape on its axis (may be empty).
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(n, 3)`` int64.
+
+        Examples
+        --------
+        >>> import pyvista as pv
+        >>> from ffd_notebook.view.editor.editor import PYVISTA_MESH_IO
+        >>> sphere = pv.Sphere(theta_resolution=8, phi_resolution=8)
+        >>> session = EditingSession(sphere, mesh_io=PYVISTA_MESH_IO, shape=(4, 4, 4))
+        >>> session.check_points([(1, 2, 3), (0, 0, 0)]).tolist()
+        [[1, 2, 3], [0, 0, 0]]
+        >>> session.check_points([(-1, 0, 0)])
+        Traceback (most recent call last):
+        ...
+        ValueError: control points must be (i, j, k) rows within the lattice (4, 4, 4), got [(-1, 0, 0)]
+        """
+        shape = self.lattice.shape
+        try:
+            arr = np.asarray(points if points is not None else [], dtype=np.float64)
+        except (TypeError, ValueError):  # ragged rows, or not numbers
+            arr = np.empty((0, 0))
+        if arr.size == 0 and arr.ndim <= 2 and arr.shape[-1:] in ((0,), (3,)):
+            return np.empty((0, 3), dtype=np.int64)
+        if arr.ndim != 2 or arr.shape[1] != 3 or not _inside(arr, shape):
+            raise ValueError(f"control points must be (i, j, k) rows within the lattice {shape}, got {points!r}")
+        return arr.astype(np.int64)
 
     # ------------------------------------------------------------------ notification and messages
     def subscribe(self, callback: Callable[[Change], None]) -> Callable[[], None]:
@@ -415,6 +580,9 @@ class EditingSession:
         >>> changes[0].kind, changes[0].points.tolist(), changes[0].label
         ('offsets', [3, 7], 'code')
         """
+        if kind in EDITS and self.blend != 1.0:  # an edit applies to the whole deformation: show all of it first
+            self.blend = 1.0
+            self.notify("display", None, "blend")
         change = Change(kind, points, label) if started is None else Change(kind, points, label, started)
         self.image.follow(change)  # the warped slices first: every view then sees them up to date
         self._subscribers.emit(change)
@@ -609,17 +777,17 @@ class EditingSession:
         >>> len(session.history), float(abs(session.deformed_points - session.rest_points).max()) > 0
         (1, True)
         """
-        self.history.close()
         lat = self.lattice
         if lat.shape != self._committed.shape[:3]:
             raise ValueError("the lattice's shape changed: assign a new lattice with set_lattice(...)")
+        hint = self.check_points(changed)  # before anything changes
+        self.history.close()
         self._rest_control = lat.control_points().reshape(-1, 3)
         moved = np.argwhere(np.any(lat.offsets != self._committed, axis=-1))  # the one comparison of copies
         if len(moved):
             idx = tuple(moved.T)
             self.history.record(moved, self._committed[idx], lat.offsets[idx], label="code")
             self._committed[idx] = lat.offsets[idx]
-        hint = np.asarray(changed if changed is not None else np.empty((0, 3)), dtype=np.int64).reshape(-1, 3)
         todo = np.unique(np.vstack([moved, hint]), axis=0)
         if changed is None and not len(todo):
             self.deformed_points = self.deformer.update(None)
@@ -678,8 +846,9 @@ class EditingSession:
         >>> float(abs(session.lattice.offsets).sum()), len(session.history)
         (0.0, 4)
         """
-        if ijk is None:
-            points = [tuple(v) for v in np.argwhere(np.any(self.lattice.offsets != 0, axis=-1))]
+        if ijk is None:  # (an offset of -0.0 too: afterwards every offset is the same +0.0 double)
+            offsets = self.lattice.offsets
+            points = [tuple(v) for v in np.argwhere(np.any((offsets != 0) | np.signbit(offsets), axis=-1))]
         else:
             point = self.check_ijk(ijk)
             points = [point] if np.any(self.lattice.offsets[point] != 0) else []  # an unmoved point: no undo step
@@ -708,11 +877,19 @@ class EditingSession:
         >>> session.lattice.offsets[0, 0, 1:3].tolist(), session.undo()
         ([[0.0, 0.0, 0.1], [0.0, 0.0, 0.2]], True)
         """
+        ijk = self.check_points(points)  # everything is checked before anything is written
+        try:
+            rows = np.broadcast_to(np.asarray(values, dtype=np.float64), (len(ijk), 3))
+        except (TypeError, ValueError):
+            raise ValueError(f"offsets must be one row of three numbers or one per control point ({len(ijk)}), "
+                             f"got {values!r}") from None  # fmt: skip
+        if not np.all(np.isfinite(rows)):
+            raise ValueError(f"offsets must be finite numbers, got {values!r}")
         self.history.close()
-        idx = tuple(np.array(points).reshape(-1, 3).T)
+        idx = tuple(ijk.T)
         before = self.lattice.offsets[idx].copy()
-        self.lattice.offsets[idx] = values
-        self.history.record(points, before, self.lattice.offsets[idx], label=label)
+        self.lattice.offsets[idx] = rows
+        self.history.record(ijk, before, self.lattice.offsets[idx], label=label)
         self.commit_rows(idx, label)
 
     def commit_rows(
@@ -874,8 +1051,9 @@ class EditingSession:
         return ffd
 
     def _apply(self, pop: Callable[[], Any], prepared: PreparedStep | None, forward: bool) -> bool:
+        self.paint.end()  # a brush stroke under way is a step: the one undone next
         if prepared is not None and (self.history.peek(forward) is not prepared.step or prepared.mesh is not self.mesh):
-            raise ValueError("the history or the mesh changed meanwhile; try again")
+            raise ChangedMeanwhile("the history or the mesh changed meanwhile; try again")
         step = pop()
         if step is None:
             return False
@@ -952,7 +1130,7 @@ class EditingSession:
         # validates (e.g. a B-spline lattice needs 4 points per axis) before any change
         self.swap_ffd(FFD(lattice, self.basis if basis is None else basis), label=label, source=source)
 
-    def swap_ffd(self, ffd: FFD, *, label: str, source: str, deformer: Deformer | None = None) -> None:
+    def swap_ffd(self, ffd: FFD, *, label: str, source: str, deformer: Deformer | None = None, how: Any = None) -> None:
         """Install ``ffd`` (its lattice, basis, border, affine part, ``only_inside``) as one undo step.
 
         Parameters
@@ -965,6 +1143,8 @@ class EditingSession:
             How the lattice was made: decides what loading a mesh does with it, and is undone with it.
         deformer : Deformer, optional
             ``ffd`` already bound to the mesh's points (e.g. in a worker thread); bound here if omitted.
+        how : object, optional
+            How it was made, for :attr:`script` (e.g. a :class:`~.script.LoadedFile`).
 
         Examples
         --------
@@ -981,10 +1161,11 @@ class EditingSession:
         """
         if not isinstance(ffd, FFD):
             raise TypeError(f"ffd must be an FFD, got {type(ffd).__name__}")
+        self.paint.end()  # a brush stroke under way is a step of the lattice it was painted on
         self.history.close()
         before = (copy_ffd(self.ffd), self.lattice_source)
         self.lattice_source = source
-        self.history.record_lattice(before, (copy_ffd(ffd), source), label=label)
+        self.history.record_lattice(before, (copy_ffd(ffd), source), label=label, how=how)
         self._bind_lattice(ffd.bind(self.mesh.points) if deformer is None else deformer, label)
 
     def fitted_ffd(self, shape: ArrayLike) -> FFD:
@@ -1015,9 +1196,7 @@ class EditingSession:
         ((5, 4, 4), (4, 4, 4))
         """
         try:
-            lattice = fitted_lattice(self.mesh, tuple(int(s) for s in np.ravel(shape)), self.basis)
-            # the per-axis interpolation, strength and vertex weights stay; the offsets start at zero
-            return copy_ffd(self.ffd, lattice, border=None, affine=None, only_inside=False)
+            return refitted(self.ffd, self.mesh, tuple(int(s) for s in np.ravel(shape)))
         except (ValueError, TypeError) as exc:
             self.error(f"cannot build a {shape!r} lattice: {exc}")
             raise
@@ -1042,10 +1221,13 @@ class EditingSession:
         >>> session.lattice.shape, list(session.messages)[-1]
         ((5, 4, 4), 'new 5x4x4 lattice around the mesh')
         """
+        self.paint.end()  # a brush stroke under way is a step of the lattice it was painted on
         if deformer is None:
             deformer = self.fitted_ffd(shape).bind(self.mesh.points)
         elif deformer.ffd.lattice.shape != tuple(np.ravel(shape)) or len(deformer.points) != len(self.rest_points):
             raise ValueError(f"the deformer is not a {shape!r} lattice bound to this mesh")
+        else:
+            self._adopt(deformer, "fitting the lattice", basis=True)
         self.swap_ffd(deformer.ffd, label="shape", source="fit", deformer=deformer)
         self.info(f"new {'x'.join(map(str, deformer.ffd.lattice.shape))} lattice around the mesh")
 
@@ -1063,7 +1245,8 @@ class EditingSession:
         Returns
         -------
         FFD
-            A lattice of the current shape fitted around the mesh for ``basis``, offsets at zero.
+            A lattice of the current shape fitted around the mesh for ``basis``, offsets at zero; the strength,
+            the "outside" rule and the vertex weights stay (as for a new size: :func:`.lattices.refitted`).
 
         Examples
         --------
@@ -1076,7 +1259,7 @@ class EditingSession:
         ('bernstein', (4, 4, 4), 'bspline')
         """
         try:
-            return FFD(fitted_lattice(self.mesh, self.lattice.shape, basis), basis)
+            return refitted(self.ffd, self.mesh, self.lattice.shape, basis)
         except ValueError as exc:
             self.error(f"cannot switch to the {basis!r} basis: {exc}")
             raise
@@ -1103,12 +1286,33 @@ class EditingSession:
         """
         if basis == self.basis:
             return
+        self.paint.end()  # a brush stroke under way is a step of the lattice it was painted on
         if deformer is None:
             deformer = self.basis_ffd(basis).bind(self.mesh.points)
         elif deformer.ffd.basis != basis or len(deformer.points) != len(self.rest_points):
             raise ValueError(f"the deformer is not a {basis!r} lattice bound to this mesh")
+        else:
+            self._adopt(deformer, f"switching to the {basis} basis", basis=False)
         self.swap_ffd(deformer.ffd, label="basis", source="fit", deformer=deformer)
         self.info(f"basis: {basis}")
+
+    def _adopt(self, deformer: Deformer, what: str, *, basis: bool) -> None:
+        """Bring ``deformer`` (made by :meth:`fitted_ffd` or :meth:`basis_ffd` from this session's FFD, bound in
+        a worker thread) up to the options changed while it was bound, so installing it overwrites none of them.
+
+        Weights painted or set meanwhile are weighed in (milliseconds); another strength, "outside" rule or
+        (``basis``) interpolation needs the binding done again: a :class:`ChangedMeanwhile` naming them.
+        """
+        ffd, current = deformer.ffd, self.ffd
+        changed = [name for name, differs in (("interpolation", basis and ffd.basis != current.basis),
+                                              ("strength", ffd.strength != current.strength),
+                                              ("outside rule", ffd.outside != current.outside)) if differs]  # fmt: skip
+        if changed:
+            raise ChangedMeanwhile(f"the {' and '.join(changed)} changed while {what}")
+        weights = self.paint.weights  # a copy
+        if not _same_weights(ffd.weights, weights):
+            ffd.weights = weights
+            deformer.weights = weights
 
     def set_interpolation(self, interpolation: Any) -> None:
         """Blender's interpolation per axis (``("bspline", "catmull-rom", "linear")``; one name: every axis).
@@ -1202,12 +1406,18 @@ class EditingSession:
         >>> session.decimate(0.5).n_cells, session.decimate(0.5).n_cells, session.decimate(0).n_cells
         (48, 48, 96)
         """
-        return self.use_decimated(self.decimation(reduction))
+        try:
+            done = self.decimation(reduction)
+        except (TypeError, ValueError) as exc:
+            self.error(f"could not decimate: {exc}")
+            raise
+        return self.use_decimated(done)
 
     def decimation(self, reduction: float) -> Decimation:
-        """The work of :meth:`decimate`, changing nothing (a worker thread may do it).
+        """The work of :meth:`decimate`, changing nothing and telling nobody (a worker thread may do it).
 
-        A message and a ValueError if it cannot be done.
+        A ValueError if it cannot be done (the caller says so: :meth:`decimate` in the messages, the app on
+        its page, each once and from its own thread).
 
         Parameters
         ----------
@@ -1229,15 +1439,11 @@ class EditingSession:
         >>> done.mesh.n_cells, session.mesh.n_cells
         (48, 96)
         """
-        try:
-            reduction = float(reduction)
-            source = self.source_mesh
-            mesh = source.copy(deep=True) if reduction == 0.0 else self.mesh_io.decimate(source, reduction)
-            if mesh.n_points == 0:
-                raise ValueError("nothing left after decimation")
-        except (TypeError, ValueError) as exc:
-            self.error(f"could not decimate: {exc}")
-            raise
+        reduction = float(reduction)
+        source = self.source_mesh
+        mesh = source.copy(deep=True) if reduction == 0.0 else self.mesh_io.decimate(source, reduction)
+        if mesh.n_points == 0:
+            raise ValueError("nothing left after decimation")
         ffd = self.ffd
         # vertex weights belong to the mesh as it was: they are cleared when the result is used, and the lattice
         # is bound then (the weights would not fit the new vertices)
@@ -1268,14 +1474,17 @@ class EditingSession:
         (48, 'decimated by 50%: 26 vertices, 48 faces')
         """
         if done.source is not self.source_mesh or done.ffd is not self.ffd:
-            raise ValueError("the mesh or the lattice changed meanwhile; decimate again")
-        if self.ffd.weights is not None:  # one per vertex of the mesh as it was
+            raise ChangedMeanwhile("the mesh or the lattice changed meanwhile; decimate again")
+        self.paint.end()  # a brush stroke under way is a step of the mesh it was painted on
+        dropped = self.ffd.weights is not None
+        if dropped:  # one per vertex of the mesh as it was
             self.ffd.weights = None
-            self.info("the vertex weights were cleared: the mesh has other vertices now")
+            self.info(WEIGHTS_CLEARED)
         deformer = done.deformer
         if deformer is None or not np.array_equal(done.offsets, self.ffd.lattice.offsets):  # (edited meanwhile)
             deformer = self.ffd.bind(done.mesh.points)
         self.replace_mesh(done.mesh, deformer, label="decimate", new_document=False)
+        self.script.decimated(done.reduction, dropped_weights=dropped)
         self.info(f"decimated by {done.reduction:.0%}: {done.mesh.n_points} vertices, {done.mesh.n_cells} faces")
         return done.mesh
 
@@ -1396,16 +1605,26 @@ class EditingSession:
         >>> [change.kind for change in changes], session.mesh.n_points
         (['mesh'], 8)
         """
+        self.paint.end()  # a brush stroke under way is a step of the mesh it was painted on
         new_lattice, selected = deformer.ffd is not self.ffd, self.selected
+        weights_cleared = new_lattice and self.ffd.weights is not None and deformer.ffd.weights is None
         if new_document:
             self.history.clear()
             self.surface.drop_pins()  # pins are points of the old mesh
         self._bind_mesh(mesh, deformer, source=None if new_document else self.source_mesh)
+        if new_document:
+            self.script.new_document()  # (the caller says where the mesh came from: script.origin)
         if not new_lattice:
             self.selected = selected
         self.notify("mesh", None, label)
         if new_lattice:
             self.notify("lattice", None, label)
+        if weights_cleared:
+            self.info(WEIGHTS_CLEARED)
+
+    def _dropped(self, step: Any) -> None:
+        """A step fell off the history's oldest end: the script starts after it."""
+        self.script.fold(step)
 
     def _bind_mesh(self, mesh: Any, deformer: Deformer, source: Any = None) -> None:
         """Use ``mesh`` (rest shape) with ``deformer`` (its FFD bound to ``mesh.points``)."""

@@ -25,12 +25,16 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ....ffd.fit import control_weights
+from .script import SurfaceFit
 
 if TYPE_CHECKING:
     from .session import EditingSession
 
 __all__ = ["MODES", "SurfaceDrag", "ray_hit"]
 
+#: a drag of the mesh is refused where it would need offsets this many times the lattice's size (a strength near 0:
+#: the least-norm fit divides by it), far past what the editor's float32 copy of the mesh holds
+FAR_OFFSETS = 1e6
 #: what a left-button drag on the view does: move the lattice's spheres, the mesh itself, or paint the
 #: vertices' weights (:class:`~.weights.WeightPaint`)
 MODES = ("control points", "surface", "paint weights")
@@ -176,11 +180,18 @@ class SurfaceDrag:
         if goal.shape != (3,) or not np.isfinite(goal).all():
             raise ValueError(f"the drag target must be three finite numbers, got {target!r}")
         offsets = session.lattice.offsets
+        previous = offsets[drag.idx].copy()
         offsets[drag.idx] = drag.start  # every event solves from the drag's start
-        session.ffd.fit_points(drag.point, goal[None, :], pinned=self._pins if len(self._pins) else None)
+        with np.errstate(all="ignore"):  # (judged just below)
+            session.ffd.fit_points(drag.point, goal[None, :], pinned=self._pins if len(self._pins) else None)
         after = offsets[drag.idx]
+        reach = FAR_OFFSETS * float(np.linalg.norm(session.lattice.spacing * session.lattice.shape))
+        if not (np.all(np.isfinite(after)) and np.abs(after).max() <= reach):
+            offsets[drag.idx] = previous  # as before this event
+            raise ValueError("the mesh cannot be pulled there: the lattice hardly moves it (a strength near 0?)")
         ijk = np.column_stack(drag.idx)
-        session.history.record(ijk, drag.start, after, key=drag.key, label="surface drag")
+        how = SurfaceFit(drag.point[0].copy(), goal.copy(), self._pins.copy())  # what the script does likewise
+        session.history.record(ijk, drag.start, after, key=drag.key, label="surface drag", how=how)
         session.commit_rows(drag.idx, "surface drag", kind="drag", started=started)
 
     def end(self) -> None:

@@ -19,6 +19,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ....ffd.influence import point_weights
 from .lattices import copy_ffd
+from .script import BrushStroke
 
 if TYPE_CHECKING:
     from .session import EditingSession
@@ -96,7 +97,6 @@ class WeightPaint:
         except ValueError as exc:
             session.error(f"cannot set the weights: {exc}")
             raise
-        self._stroke = None
         session.swap_ffd(copy_ffd(session.ffd, weights=checked), label=label, source=session.lattice_source)
 
     def clear(self) -> None:
@@ -110,7 +110,7 @@ class WeightPaint:
         session.history.close()
         current = self.weights
         start = np.zeros(len(session.rest_points)) if current is None else current
-        self._stroke = {"before": copy_ffd(session.ffd), "weights": start}
+        self._stroke = {"before": copy_ffd(session.ffd), "weights": start, "dabs": []}
 
     def stroke(self, point: ArrayLike, *, amount: float | None = None, radius: float | None = None,
                started: float | None = None) -> None:  # fmt: skip
@@ -129,6 +129,7 @@ class WeightPaint:
         assert stroke is not None  # begin() above started one
         w = stroke["weights"]
         np.clip(w + a * brush_falloff(distance, r), 0.0, 1.0, out=w)
+        stroke["dabs"].append((centre.copy(), a, r))  # for the script (session.script): the stroke as a loop
         session.deformer.weights = w  # rebinds with the new factors and evaluates
         session.deformed_points = session.deformer.current()
         session.notify("drag", None, "paint weights", started)
@@ -141,6 +142,6 @@ class WeightPaint:
         session = self.session
         after = copy_ffd(session.ffd, weights=stroke["weights"].copy())
         session.history.record_lattice((stroke["before"], session.lattice_source), (after, session.lattice_source),
-                                       label="paint weights")  # fmt: skip
+                                       label="paint weights", how=BrushStroke(tuple(stroke["dabs"])))  # fmt: skip
         session.ffd.weights = stroke["weights"].copy()
         session.notify("offsets", None, "paint weights")
