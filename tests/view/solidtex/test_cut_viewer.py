@@ -84,6 +84,28 @@ def test_dense_colours_are_the_texture_at_rest_positions(grid, texture):
     assert organ_module.auto_subdivisions(outer, texture) >= 1
 
 
+def test_a_cut_face_is_sampled_every_two_voxels_along_every_edge(grid):
+    # a texture finer than the tetrahedra: uniform subdivisions chosen by the mean edge left a
+    # section's long thin triangles sampled too sparsely (their corners' colours fanned out as
+    # streaks); "auto" subdivides adaptively until no edge is longer than two voxels
+    fine = SolidTexture.fit(np.zeros((256, 256, 256, 3), np.uint8), grid.bounds)
+    organ = TexturedOrgan(grid, fine, subdivisions=0)
+    origin, normal = np.array(grid.center), np.array([0.3, 1.0, 0.0])
+    section = grid.slice(normal=normal, origin=origin, generate_triangles=True)
+    face = organ.cut_face(origin, normal)
+
+    def lengths(mesh):
+        return mesh.extract_all_edges().compute_cell_sizes(length=True, area=False, volume=False)["Length"]
+
+    assert lengths(section).max() > 8 * fine.spacing  # the section itself has long edges
+    assert lengths(face).max() <= 2 * fine.spacing * (1 + 1e-6)
+    np.testing.assert_allclose(face.point_data["rest"], face.points, atol=1e-3)  # rest interpolated on the plane
+    assert face.area == pytest.approx(section.area, rel=1e-9)
+    # and only where needed: fewer samples than uniform subdivisions to the same longest edge
+    uniform = int(np.ceil(np.log2(lengths(section).max() / (2 * fine.spacing))))
+    assert face.n_points < 4**uniform * section.n_points / 4
+
+
 def test_cut_faces_sample_the_interior_and_follow_a_deformation(grid, texture):
     organ = TexturedOrgan(grid, texture, subdivisions=1)
     origin, normal = np.array(grid.center), np.array([0.6, 0.8, 0.0])
