@@ -36,7 +36,8 @@ def _save_png(pixels: np.ndarray, path: Path) -> None:
 def solid_texture_image(path: str | Path, window_size: tuple[int, int] = (900, 400)) -> Path:
     """The frog liver with a synthesised solid texture, cut open: the cut face shows the interior.
 
-    The texture is grown (128^3, :func:`~ffd_notebook.solidtex.synthesize_by_optimisation`) from the exemplar that
+    The texture is the organ's default, :class:`~ffd_notebook.solidtex.LazySolidTexture` at 256 voxels along the
+    liver's box (synthesised voxel by voxel where the surface and the cut sample it), from the exemplar that
     :func:`~ffd_notebook.solidtex.exemplar_from_image` optimises from scikit-image's bundled
     immunohistochemistry image (a gland cut across: cells and nuclei), as in
     ``notebooks/05_solid_texture_liver.ipynb``.
@@ -47,14 +48,13 @@ def solid_texture_image(path: str | Path, window_size: tuple[int, int] = (900, 4
     import ffd_notebook.view  # noqa: F401  (headless settings before any plotter)
     from ffd_notebook.datasets import frog_liver
     from ffd_notebook.meshing.organ import tetrahedralize
-    from ffd_notebook.solidtex import SolidTexture, exemplar_from_image, synthesize_by_optimisation
+    from ffd_notebook.solidtex import LazySolidTexture, exemplar_from_image
     from ffd_notebook.view import frame_camera, view_direction
     from ffd_notebook.view.solidtex import TexturedOrgan, add_cut
 
     exemplar = exemplar_from_image(skimage.data.immunohistochemistry()[340:404, 290:354], rng=0)
     grid = tetrahedralize(frog_liver(2500))
-    volume = synthesize_by_optimisation(exemplar, 128, rng=0, progress=False)
-    organ = TexturedOrgan(grid, SolidTexture.fit(volume, grid.bounds))
+    organ = TexturedOrgan(grid, LazySolidTexture.fit(exemplar, grid.bounds, resolution=256, rng=0))
 
     normal = np.array([0.3, 1.0, 0.0])
     pl = pv.Plotter(off_screen=True, window_size=window_size)

@@ -1,4 +1,9 @@
-"""Photos in: a file (PNG, JPEG, anything Pillow reads) or an array, as an ``(H, W, 3)`` uint8 RGB array."""
+"""Photos in: a file (PNG, JPEG, anything Pillow reads) or an array, as an ``(H, W, 3)`` uint8 RGB array.
+
+Pixel values follow the package's one dtype policy (scikit-image's, :mod:`ffd_notebook._util.colours`):
+uint8 levels as they are; 16-bit pixels (arrays or files) scaled from their whole range, so a dark
+16-bit photo stays dark; floats in [0, 1]; floats outside [0, 1] refused with the range found.
+"""
 
 from __future__ import annotations
 
@@ -8,6 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .._util.colours import as_uint8
 from ..errors import FileFormatError
 
 __all__ = ["PHOTO_SUFFIXES", "Photo", "decode_photo", "is_photo", "read_photo"]
@@ -57,7 +63,8 @@ class Photo:
         Parameters
         ----------
         photo : str, os.PathLike, numpy.ndarray or Photo
-            A photo file, an ``(H, W)``, ``(H, W, 1)``, ``(H, W, 3)`` or ``(H, W, 4)`` uint8 array, or a photo.
+            A photo file, an ``(H, W)``, ``(H, W, 1)``, ``(H, W, 3)`` or ``(H, W, 4)`` array (uint8, uint16,
+            or floats in [0, 1]: the package's dtype policy), or a photo.
 
         Returns
         -------
@@ -67,7 +74,7 @@ class Photo:
         Raises
         ------
         ValueError
-            An array of another shape or dtype.
+            An array of another shape, or values the dtype policy refuses (floats outside [0, 1], NaN).
 
         Examples
         --------
@@ -75,10 +82,12 @@ class Photo:
         >>> photo = Photo.of(rgba)
         >>> photo.height, photo.width, photo.rgb.shape, Photo.of(photo) is photo
         (2, 3, (2, 3, 3), True)
-        >>> Photo.of(np.zeros((2, 3), np.float32))
+        >>> Photo.of(np.full((2, 3), 0.5)).rgb[0, 0].tolist(), Photo.of(np.full((2, 3), 65535, np.uint16)).rgb[0, 0, 0]
+        ([128, 128, 128], np.uint8(255))
+        >>> Photo.of(np.full((2, 3), 200.0))
         Traceback (most recent call last):
         ...
-        ValueError: a photo array must be uint8 (0-255), got float32: convert it, e.g. skimage.util.img_as_ubyte
+        ValueError: the photo (a 3x2 array): floating-point colours must be in [0, 1] (black to white), got ...
         """
         if isinstance(photo, Photo):
             return photo
@@ -87,16 +96,14 @@ class Photo:
         array = np.asarray(photo)
         if array.ndim not in (2, 3) or (array.ndim == 3 and array.shape[2] not in (1, 3, 4)):
             raise ValueError(f"a photo array must be (H, W, 3) RGB, (H, W, 4) RGBA or (H, W) grey; got {array.shape}")
-        if array.dtype != np.uint8:
-            raise ValueError(
-                f"a photo array must be uint8 (0-255), got {array.dtype}: convert it, e.g. skimage.util.img_as_ubyte"
-            )
-        return cls(_as_rgb(array), f"the photo (a {array.shape[1]}x{array.shape[0]} array)")
+        name = f"the photo (a {array.shape[1]}x{array.shape[0]} array)"
+        return cls(_as_rgb(as_uint8(array, name)), name)
 
 
 def is_photo(source: object) -> bool:
     """Whether ``source`` is a photo to make a face from: a path ending as :data:`PHOTO_SUFFIXES`, an
-    ``(H, W, 3)`` or ``(H, W, 4)`` uint8 array, or a :class:`Photo` (a mesh, a point array or a mesh file is not).
+    ``(H, W, 3)`` or ``(H, W, 4)`` uint8 or uint16 array, or a :class:`Photo` (a mesh, a point array or a mesh file
+    is not; nor a float array, which could be a grid of points: give it to :meth:`Photo.of`).
 
     Parameters
     ----------
@@ -118,7 +125,10 @@ def is_photo(source: object) -> bool:
     if isinstance(source, (str, os.PathLike)):
         return Path(source).suffix.lower() in PHOTO_SUFFIXES
     return (
-        isinstance(source, np.ndarray) and source.dtype == np.uint8 and source.ndim == 3 and source.shape[2] in (3, 4)
+        isinstance(source, np.ndarray)
+        and source.dtype in (np.uint8, np.uint16)
+        and source.ndim == 3
+        and source.shape[2] in (3, 4)
     )
 
 
@@ -212,9 +222,8 @@ def _decode(source: Path | io.BytesIO, name: str | os.PathLike[str]) -> np.ndarr
     try:
         with Image.open(source) as image:
             image = ImageOps.exif_transpose(image)
-            if image.mode.startswith(("I", "F")):  # 16-bit or float grey: scale its range to 0-255
-                array = np.asarray(image, dtype=np.float64)
-                array = (array * (255.0 / max(float(array.max()), 1.0))).clip(0, 255).round().astype(np.uint8)
+            if image.mode.startswith(("I", "F")):  # 16-bit, 32-bit or float grey: the package's dtype policy
+                array = _grey_levels(image, name)
             else:
                 if image.mode not in ("RGB", "RGBA", "L"):
                     image = image.convert("RGBA" if "A" in image.mode or "transparency" in image.info else "RGB")
@@ -226,3 +235,20 @@ def _decode(source: Path | io.BytesIO, name: str | os.PathLike[str]) -> np.ndarr
     except (OSError, SyntaxError, ValueError) as exc:
         raise FileFormatError(name, None, f"damaged or unreadable image: {exc}") from None
     return _as_rgb(array)
+
+
+def _grey_levels(image, name: str | os.PathLike[str]) -> np.ndarray:
+    """A 16-bit, 32-bit integer or float grey Pillow image as uint8 levels by the dtype policy, or refused.
+
+    ``I;16`` pixels are uint16 (scaled from their whole range); ``F`` pixels floats, read if they
+    are in [0, 1]; ``I`` (32-bit integers) are 16-bit data when the file is a PNG (which holds at
+    most 16 bits; older Pillow opened 16-bit PNGs so), 0-255 levels when every value is one, and
+    refused otherwise: their range is not known.
+    """
+    array = np.asarray(image)
+    if image.mode == "I" and getattr(image, "format", None) == "PNG":
+        array = array.astype(np.uint16)
+    try:
+        return as_uint8(array, f"{image.mode} pixels")
+    except ValueError as exc:
+        raise FileFormatError(name, None, str(exc)) from None

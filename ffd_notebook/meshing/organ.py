@@ -211,7 +211,7 @@ def texture_surface(surface: pv.PolyData, texture: TextureSampler, subdivisions:
         Triangles; point data ``"rest"`` gives rest positions (the points themselves if absent).
     texture : SolidTexture or LazySolidTexture
         The volume texture, placed in the rest frame (anything with ``sample(points)`` and
-        ``spacing``: a lazy texture synthesises the blocks the surface touches).
+        ``spacing``: a lazy texture synthesises the voxels the surface touches).
     subdivisions : int or "auto"
         Linear subdivisions before sampling (geometry unchanged, ``"rest"`` interpolated);
         ``"auto"`` uses :func:`auto_subdivisions` (about one sample per texture voxel).

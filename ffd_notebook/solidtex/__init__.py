@@ -10,23 +10,26 @@ from .blending import axis_ramp, block_weights
 from .blocks import box_mean, choose_block_size, classify_blocks, feature_inclusiveness
 from .kopf import exemplar_from_image
 from .lazy import LazySolidTexture
+from .lazy_blocks import LazyBlockTexture
 from .neighbourhoods import neighbourhood_distance, seam_error
 from .optimisation import synthesize_by_optimisation
 from .quality import color_histogram, colour_histogram, gradient_energy, histogram_distance, seam_energy
 from .sampling import SolidTexture, TextureSampler
-from .similarity import likeness, self_similarity, self_similarity_figure, volume_slices
+from .similarity import block_grid, likeness, self_similarity, self_similarity_figure, volume_slices
 from .slices import as_rgb8, sliding_crops, volume_from_slices
-from .synthesis import Stage, plan_stages, synthesize
+from .synthesis import Stage, plan_stages, synthesize, synthesize_by_blocks
 from .tetra import boundary_faces
 from .transport import exemplar_by_transport
 
 __all__ = [
+    "LazyBlockTexture",
     "LazySolidTexture",
     "SolidTexture",
     "Stage",
     "TextureSampler",
     "as_rgb8",
     "axis_ramp",
+    "block_grid",
     "block_weights",
     "boundary_faces",
     "box_mean",
@@ -48,6 +51,7 @@ __all__ = [
     "self_similarity_figure",
     "sliding_crops",
     "synthesize",
+    "synthesize_by_blocks",
     "synthesize_by_optimisation",
     "volume_from_slices",
     "volume_slices",

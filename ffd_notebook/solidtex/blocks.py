@@ -21,6 +21,7 @@ from scipy.cluster.vq import kmeans2, vq
 
 from .quality import color_histogram
 from .seeding import RNGLike
+from .slices import exemplar_volume
 
 __all__ = [
     "DEFAULT_BLOCK_SIZES",
@@ -169,7 +170,7 @@ def feature_inclusiveness(
     >>> feature_inclusiveness(noise, 8) < 0.1
     True
     """
-    ex = np.asarray(exemplar)
+    ex = exemplar_volume(exemplar)
     if size > min(ex.shape[:3]):
         raise ValueError(f"block size {size} is larger than the exemplar {ex.shape[:3]}")
     rng = np.random.default_rng(rng)
@@ -212,7 +213,7 @@ def choose_block_size(
     >>> choose_block_size(noise)
     8
     """
-    ex = np.asarray(exemplar)
+    ex = exemplar_volume(exemplar)
     limit = min(ex.shape[:3]) // 2
     candidates = sorted(s for s in (sizes or DEFAULT_BLOCK_SIZES) if 2 <= s <= max(limit, 2) and s % 2 == 0)
     if not candidates:

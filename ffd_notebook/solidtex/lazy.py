@@ -1,215 +1,65 @@
-"""Lazy block synthesis: only the blocks a surface or a cut samples, the same whatever is asked first.
+"""Lazy solid textures: synthesised only where they are sampled, the same colours whatever is asked first.
 
-After Dong, Lefebvre and Neyret, "Lazy solid texture synthesis" (EGSR 2008): a surface or a cut
-plane needs the colours of a thin layer of voxels, not of the whole box around the organ. Raster-
-order block synthesis (:func:`~ffd_notebook.solidtex.synthesize`) cannot stop early, because every
-block is matched against all blocks before it; here the dependency order is fixed and short:
+:class:`LazySolidTexture` is per-voxel pyramid synthesis (:mod:`~ffd_notebook.solidtex.pyramid`, after
+Dong, Lefebvre, Tong and Drettakis, "Lazy solid texture synthesis", EGSR 2008): every voxel's
+coordinate into the exemplar is a function of its position that depends only on a bounded
+neighbourhood at the coarser level. The levels that are corrected are kept in tiles of
+``TILE^3`` voxels (an atlas per level, a grid of slots saying where each tile is), made when a
+sampled point first needs them, with the coarser tiles they depend on; the finest level is each
+voxel's parent coordinate plus its own offset, computed when sampled and not kept. So memory and
+time follow the sampled surface, not the box around the organ; and because a voxel's coordinate is
+a pure function of its position, :meth:`LazySolidTexture.volume` can cut the box into chunks and
+compute them anywhere (on a Dask cluster), with the very same result.
 
-* blocks sit on a grid (edge ``block``, neighbours sharing ``overlap`` voxels, as in ``synthesize``);
-  a block's *pass* is the number of its odd grid coordinates (0 to 3);
-* a block is matched only against its face neighbours along its odd axes, which are one pass
-  lower, and never takes a position within half a block of theirs (as in ``synthesize``: a block
-  next to itself is a visible repetition); pass-0 blocks are drawn at random (with the exemplar's
-  colour-class probabilities). So a block depends on blocks at most one step away along each axis,
-  whatever the texture's size;
-* every random draw of a block comes from a hash of ``(seed, iz, iy, ix)`` (SplitMix64, vectorised
-  over all the blocks a cut needs): the same seed gives the same block wherever and whenever it is
-  computed.
-
-Candidates are a fixed pool of exemplar blocks whose overlap features (slab means on a coarse
-grid) are computed once, so a block's choice is a few small array operations and a cut's new
-blocks are chosen in one vectorised step per pass. Colours are kept per *tile* (the ``step``-cube
-each block owns; a tile blends its own block with up to seven earlier neighbours by feathering) in
-a growing atlas, so memory follows the sampled area, not the box. Overlaps are feathered:
-minimum-error cuts (``synthesize(seams="cut")``) decide each seam against what was placed
-before, which a block synthesised out of order does not have.
+:class:`~ffd_notebook.solidtex.LazyBlockTexture` is the seed's lazy block synthesis, kept by name.
 """
 
 from __future__ import annotations
 
 import itertools
-import math
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from .._util.blas import one_blas_thread
 from .._util.deprecation import renamed_keyword
-from .blending import axis_ramp
-from .blocks import box_mean, choose_block_size, classify_blocks
+from .pyramid import MARGIN, PyramidExemplar, boxes, dependency, region
 from .seeding import RNGLike, integer_seed
-from .synthesis import overlap_voxels
+from .slices import exemplar_volume
 
 __all__ = ["LazySolidTexture"]
 
-
-def _slab_features(exemplar: NDArray[np.uint8], positions: NDArray[np.int64], block: int, overlap: int, cells: int):
-    """Mean colours of each overlap slab of each pool block on a ``cells x cells`` grid: {(axis, side): (P, F)}."""
-    step = block - overlap
-    edges = np.linspace(0, block, cells + 1).round().astype(int)
-    feats: dict[tuple[int, int], list[np.ndarray]] = {(a, s): [] for a in range(3) for s in range(2)}
-    r = np.arange(block)
-    for start in range(0, len(positions), 128):
-        q = positions[start : start + 128]
-        blocks = exemplar[
-            q[:, 0, None, None, None] + r[None, :, None, None],
-            q[:, 1, None, None, None] + r[None, None, :, None],
-            q[:, 2, None, None, None] + r[None, None, None, :],
-        ].astype(np.float32)  # (p, b, b, b, 3)
-        for a in range(3):
-            moved = np.moveaxis(blocks, a + 1, 1)
-            for side, thick in ((0, slice(0, overlap)), (1, slice(step, block))):
-                slab = moved[:, thick].mean(axis=1)  # (p, b, b, 3)
-                rows = np.add.reduceat(slab, edges[:-1], axis=1) / np.diff(edges)[None, :, None, None]
-                grid = np.add.reduceat(rows, edges[:-1], axis=2) / np.diff(edges)[None, None, :, None]
-                feats[(a, side)].append(grid.reshape(len(q), -1))
-    return {k: np.concatenate(v) for k, v in feats.items()}
+FINE_TILE = 4  # voxels per tile edge at the two finest levels: a surface's shell there is a voxel or two thick
+TILE = 16  # at the level before them (powers of two); the coarser levels are synthesised whole
+_PAD = 8  # voxels around a level synthesised whole: its finer level's dependencies reach beyond the box
+_BATCH_VOXELS = 2**20  # voxels (with their margins) synthesised in one batch of tiles
 
 
-def _splitmix64(x: NDArray[np.uint64]) -> NDArray[np.uint64]:
-    """Steele, Lea and Flood's SplitMix64 finaliser: a bijective, well-mixed hash of 64-bit words.
+class LazyTexture:
+    """What the lazy textures share: placement in the rest frame and trilinear sampling of their :meth:`voxels`.
 
-    Examples
-    --------
-    >>> hex(int(_splitmix64(np.array([0], np.uint64))[0]))
-    '0xe220a8397b1dcdaf'
-    """
-    with np.errstate(over="ignore"):  # arithmetic modulo 2**64 is the point
-        z = x + np.uint64(0x9E3779B97F4A7C15)
-        z = (z ^ (z >> np.uint64(30))) * np.uint64(0xBF58476D1CE4E5B9)
-        z = (z ^ (z >> np.uint64(27))) * np.uint64(0x94D049BB133111EB)
-        return z ^ (z >> np.uint64(31))
-
-
-class LazySolidTexture:
-    """A solid texture whose blocks are synthesised when a point near them is first sampled.
-
-    Parameters
-    ----------
-    exemplar : array_like
-        ``(Z, Y, X, 3)`` uint8 exemplar (e.g. :func:`~ffd_notebook.solidtex.exemplar_from_image`).
-    shape : int or (int, int, int)
-        Voxels ``(Z, Y, X)`` the texture covers (it may be far too large to hold whole).
-    spacing : float
-        Voxel edge in world units.
-    origin : array_like
-        World ``(x, y, z)`` of voxel ``[0, 0, 0]``'s centre.
-    block : int, optional
-        Block edge (chosen by :func:`~ffd_notebook.solidtex.choose_block_size` if omitted).
-    overlap : float
-        Overlap of neighbouring blocks as a fraction of the block.
-    rng : int or numpy.random.Generator
-        Same int, same colours, whatever is sampled first. Each block's draws are a hash of one
-        integer root seed and the block's index, and a Generator's state cannot be hashed
-        reproducibly: a Generator gives one 63-bit draw as the root seed
-        (:func:`~ffd_notebook.solidtex.seeding.integer_seed`), kept as ``seed``.
-    candidates : int
-        Pool blocks compared per block.
-    pool : int
-        Number of exemplar blocks to choose from (random positions, fixed by the root seed).
-    cells : int
-        Overlap slabs are compared as ``cells x cells`` mean colours.
-    match_statistics : bool
-        Give each colour channel the exemplar's mean and standard deviation, as ``synthesize``
-        does: feathering averages blocks and lowers the contrast. The correction is measured once,
-        on the tiles of the grid's first corner (at most ``4 x 4 x 4``), so it does not depend on
-        what is sampled first.
-
-    Attributes
-    ----------
-    seed : int
-        The integer root seed.
-    tiles_synthesised, blocks_chosen : int
-        How much has been synthesised so far.
-
-    Examples
-    --------
-    >>> rng = np.random.default_rng(0)
-    >>> ex = np.kron(rng.integers(0, 256, (4, 4, 4, 3)), np.ones((4, 4, 4, 1))).astype(np.uint8)
-    >>> tex = LazySolidTexture(ex, shape=1000, block=8)         # a billion voxels, none made yet
-    >>> colours = tex.sample([[10.0, 20.0, 30.0], [500.5, 2.0, 999.0]])
-    >>> colours.shape, tex.tiles_synthesised <= 16
-    ((2, 3), True)
-    >>> other = LazySolidTexture(ex, shape=1000, block=8)
-    >>> _ = other.sample([[500.5, 2.0, 999.0]])                 # the other point first
-    >>> bool(np.array_equal(other.sample([[10.0, 20.0, 30.0], [500.5, 2.0, 999.0]]), colours))
-    True
+    Subclasses set ``shape`` (voxels ``(Z, Y, X)``), ``spacing``, ``origin`` and define ``voxels``.
     """
 
-    def __init__(
-        self,
-        exemplar: ArrayLike,
-        shape: int | tuple[int, int, int],
-        *,
-        spacing: float = 1.0,
-        origin: ArrayLike = (0.0, 0.0, 0.0),
-        block: int | None = None,
-        overlap: float = 1 / 6,
-        rng: RNGLike = 0,
-        candidates: int = 64,
-        pool: int = 4096,
-        cells: int = 4,
-        match_statistics: bool = True,
-    ) -> None:
-        ex = np.ascontiguousarray(exemplar)
-        if ex.ndim != 4 or ex.shape[3] != 3 or ex.dtype != np.uint8:
-            raise ValueError(f"exemplar must be a (Z, Y, X, 3) uint8 volume, got {ex.dtype} {ex.shape}")
-        target = (int(shape),) * 3 if isinstance(shape, (int, np.integer)) else tuple(int(s) for s in shape)
-        seed = integer_seed(rng)
-        b = int(block) if block is not None else choose_block_size(ex, rng=seed)
-        if len(target) != 3 or min(target) < 1 or not 4 <= b <= min(ex.shape[:3]):
-            raise ValueError(f"shape {shape} or block {b} does not fit an exemplar of shape {ex.shape[:3]}")
-        self.exemplar, self.block, self.seed = ex, b, seed
-        self._flat = ex.reshape(-1, 3).astype(np.float32)
-        self.overlap = overlap_voxels(b, overlap)
-        self.step = b - self.overlap
-        self.spacing, self.origin = float(spacing), np.asarray(origin, dtype=np.float64).reshape(3)
-        self.n_blocks = tuple(max(1, math.ceil(t / self.step)) for t in target)
-        self.shape = tuple(n * self.step for n in self.n_blocks)
-        self.candidates = int(candidates)
-        rng = np.random.default_rng(seed)
-        self._pool = rng.integers(0, np.array(ex.shape[:3]) - b + 1, size=(int(pool), 3))
-        means = box_mean(ex, b)[tuple(self._pool.T)]
-        labels, self._probabilities = classify_blocks(means, 3, rng=seed)
-        members = [np.flatnonzero(labels == c) for c in range(3)]
-        self._counts = np.array([max(len(m), 1) for m in members])
-        self._members = np.zeros((3, self._counts.max()), dtype=np.int64)
-        for c, m in enumerate(members):
-            self._members[c, : len(m)] = m
-        self._features = _slab_features(ex, self._pool, b, self.overlap, cells)
-        self._choice = np.full(self.n_blocks, -1, dtype=np.int64)
-        self._slot = np.full(self.n_blocks, -1, dtype=np.int64)
-        self._atlas = np.zeros((0, self.step, self.step, self.step, 3), dtype=np.uint8)
-        self.tiles_synthesised = 0
-        grid = np.indices(self.n_blocks)
-        self._odd = (grid % 2).astype(bool)  # (3, nz, ny, nx)
-        self._pass = self._odd.sum(axis=0)
-        ramp = axis_ramp(b, self.overlap, True, True)
-        self._fade_in, self._fade_out = ramp[: self.step], ramp[self.step :]
-        self._gain, self._bias = np.ones(3, np.float32), np.zeros(3, np.float32)
-        if match_statistics:
-            corner = np.argwhere(np.ones([min(n, 4) for n in self.n_blocks], dtype=bool))
-            needed = np.zeros(self.n_blocks, dtype=bool)
-            needed[tuple(corner.T)] = True
-            self._ensure_blocks(needed)
-            probe = self._colours(corner).reshape(-1, 3).astype(np.float64)
-            flat = ex.reshape(-1, 3).astype(np.float64)
-            gain = np.divide(flat.std(axis=0), probe.std(axis=0), out=np.ones(3), where=probe.std(axis=0) > 1e-6)
-            self._gain = gain.astype(np.float32)
-            self._bias = (flat.mean(axis=0) - gain * probe.mean(axis=0)).astype(np.float32)
+    shape: tuple[int, ...]
+    spacing: float
+    origin: NDArray[np.float64]
+
+    def __init__(self, exemplar: ArrayLike, shape: int | tuple[int, int, int], **options: Any) -> None:
+        raise NotImplementedError  # pragma: no cover - the subclasses' constructors place the texture
 
     @classmethod
-    def fit(
-        cls, exemplar: ArrayLike, bounds: ArrayLike, *, resolution: int = 256, margin: float = 0.02, **kwargs
-    ) -> LazySolidTexture:
+    def fit(cls, exemplar: ArrayLike, bounds: ArrayLike, *, resolution: int = 256, margin: float = 0.02, **kwargs):
         """A lazy texture over a box, ``resolution`` voxels along its longest side.
 
-        ``kwargs`` go to the constructor (``block``, ``rng``, ...); ``seed=`` is a deprecated alias
-        of ``rng`` (a :class:`DeprecationWarning`).
+        ``kwargs`` go to the constructor (``rng``, ...); ``seed=`` is a deprecated alias of ``rng``
+        (a :class:`DeprecationWarning`).
 
         Parameters
         ----------
         exemplar : array_like
-            ``(Z, Y, X, 3)`` uint8 exemplar.
+            ``(Z, Y, X, 3)`` exemplar.
         bounds : array_like
             ``(xmin, xmax, ymin, ymax, zmin, zmax)``, e.g. ``mesh.bounds`` of the rest mesh.
         resolution : int
@@ -221,148 +71,26 @@ class LazySolidTexture:
 
         Returns
         -------
-        LazySolidTexture
-            The texture, centred on the box, with cubic voxels.
+        LazyTexture
+            The texture (of the class it is called on), centred on the box, with cubic voxels.
 
         Examples
         --------
-        >>> ex = np.zeros((16, 16, 16, 3), np.uint8)
-        >>> tex = LazySolidTexture.fit(ex, (0, 10, 0, 5, 0, 2), resolution=512, block=8)
-        >>> tex.n_blocks, round(tex.spacing, 4)
-        ((15, 37, 74), 0.0199)
+        >>> from ffd_notebook.solidtex import LazySolidTexture
+        >>> ex = np.random.default_rng(0).integers(0, 256, (16, 16, 16, 3), dtype=np.uint8)
+        >>> tex = LazySolidTexture.fit(ex, (0, 10, 0, 5, 0, 2), resolution=512)
+        >>> tex.shape, round(tex.spacing, 4)
+        ((103, 256, 512), 0.0199)
         """
         if "seed" in kwargs:
-            kwargs["rng"] = renamed_keyword(kwargs, "seed", "rng", kwargs.get("rng", 0), "LazySolidTexture.fit")
+            kwargs["rng"] = renamed_keyword(kwargs, "seed", "rng", kwargs.get("rng", 0), f"{cls.__name__}.fit")
         b = np.asarray(bounds, dtype=np.float64).reshape(3, 2)
         extent = (b[:, 1] - b[:, 0]) * (1.0 + margin)
         spacing = float(extent.max() / resolution)
         shape_xyz = np.maximum(np.ceil(extent / spacing).astype(int), 1)
         origin = b.mean(axis=1) - spacing * (shape_xyz - 1) / 2.0
-        return cls(exemplar, tuple(shape_xyz[::-1]), spacing=spacing, origin=origin, **kwargs)
-
-    @property
-    def blocks_chosen(self) -> int:
-        """Blocks whose exemplar position is decided (those sampled and those they depend on)."""
-        return int(np.count_nonzero(self._choice >= 0))
-
-    @property
-    def voxels_synthesised(self) -> int:
-        """Voxels whose colours are held: every synthesised tile's ``step**3``."""
-        return self.tiles_synthesised * self.step**3
-
-    @property
-    def nbytes(self) -> int:
-        """Memory held by the synthesised colours and the block grids."""
-        return int(self._atlas[: self.tiles_synthesised].nbytes + self._choice.nbytes + self._slot.nbytes)
-
-    # -- block choices ---------------------------------------------------------------------------
-
-    def _draws(self, blocks: NDArray[np.int64]) -> NDArray[np.uint32]:
-        """Each block's own random words, a hash of the seed and its grid index.
-
-        A ``SeedSequence`` per block cost a Python call each (40% of a new cut's sampling at
-        512^3); the SplitMix64 hash runs on all blocks at once.
-        """
-        h = _splitmix64(np.full(len(blocks), self.seed, dtype=np.uint64))
-        for a in range(3):
-            h = _splitmix64(h ^ blocks[:, a].astype(np.uint64))
-        words = _splitmix64(h[:, None] + np.arange(self.candidates + 1, dtype=np.uint64)[None, :])
-        return (words >> np.uint64(32)).astype(np.uint32)
-
-    def _choose(self, blocks: NDArray[np.int64], level: int) -> None:
-        words = self._draws(blocks)
-        u = words[:, 0] / 2.0**32
-        cls = np.minimum(np.searchsorted(np.cumsum(self._probabilities), u, side="right"), 2)
-        cand = self._members[cls[:, None], words[:, 1:] % self._counts[cls][:, None]]  # (B, C) pool indices
-        if level == 0:
-            self._choice[tuple(blocks.T)] = cand[:, 0]
-            return
-        score = np.zeros(cand.shape, dtype=np.float32)
-        positions = self._pool[cand]  # (B, C, 3)
-        for a in range(3):
-            odd = self._odd[(a, *blocks.T)]
-            for side, shift in ((0, -1), (1, 1)):
-                nb = blocks.copy()
-                nb[:, a] += shift
-                use = odd & (nb[:, a] >= 0) & (nb[:, a] < self.n_blocks[a])
-                if not use.any():
-                    continue
-                neighbour = self._choice[tuple(nb[use].T)]
-                target = self._features[(a, 1 - side)][neighbour]  # the neighbour's side
-                diff = self._features[(a, side)][cand[use]] - target[:, None, :]
-                score[use] += np.einsum("bcf,bcf->bc", diff, diff)
-                # no block next to itself (as synthesize): candidates within half a block of the neighbour's
-                gap = np.abs(positions[use] - self._pool[neighbour][:, None, :]).max(axis=2)
-                score[use] += np.where(gap < self.block // 2, np.float32(1e30), np.float32(0))
-        self._choice[tuple(blocks.T)] = cand[np.arange(len(cand)), np.argmin(score, axis=1)]
-
-    def _ensure_blocks(self, needed: NDArray[np.bool_]) -> None:
-        """Choose every block in ``needed`` and the blocks they depend on, pass by pass."""
-        needed = needed.copy()
-        for _ in range(3):  # dependencies are at most three passes deep
-            for a in range(3):
-                dep = needed & self._odd[a]
-                lo, hi = [slice(None)] * 3, [slice(None)] * 3
-                lo[a], hi[a] = slice(0, -1), slice(1, None)
-                needed[tuple(lo)] |= dep[tuple(hi)]
-                needed[tuple(hi)] |= dep[tuple(lo)]
-        for level in range(4):
-            todo = np.argwhere(needed & (self._choice < 0) & (self._pass == level))
-            if len(todo):
-                self._choose(todo, level)
-
-    # -- tiles -----------------------------------------------------------------------------------
-
-    def _ensure_tiles(self, tiles: NDArray[np.int64]) -> None:
-        tiles = tiles[self._slot[tuple(tiles.T)] < 0]
-        if len(tiles) == 0:
-            return
-        needed = np.zeros(self.n_blocks, dtype=bool)
-        for d in itertools.product((0, -1), repeat=3):
-            t = tiles + d
-            needed[tuple(t[(t >= 0).all(axis=1)].T)] = True
-        self._ensure_blocks(needed)
-        start = self.tiles_synthesised
-        end = start + len(tiles)
-        if end > len(self._atlas):
-            grown = np.zeros((max(end, 2 * len(self._atlas)), *self._atlas.shape[1:]), dtype=np.uint8)
-            grown[:start] = self._atlas[:start]
-            self._atlas = grown
-        for k in range(0, len(tiles), 256):
-            chunk = tiles[k : k + 256]
-            self._atlas[start + k : start + k + len(chunk)] = self._colours(chunk)
-        self._slot[tuple(tiles.T)] = np.arange(start, end)
-        self.tiles_synthesised = end
-
-    def _colours(self, tiles: NDArray[np.int64]) -> NDArray[np.uint8]:
-        """Feathered colours of tiles: each tile's block and, in its first ``overlap`` voxels, the earlier ones."""
-        s, o = self.step, self.overlap
-        out = np.zeros((len(tiles), s, s, s, 3), dtype=np.float32)
-        for d in itertools.product((0, -1), repeat=3):
-            t = tiles + d
-            ok = (t >= 0).all(axis=1)
-            if not ok.any():
-                continue
-            q = self._pool[self._choice[tuple(t[ok].T)]]
-            idx, weights = [], []
-            for a in range(3):
-                if d[a] == 0:  # the tile's own block: fades in where an earlier block exists
-                    r = np.arange(s)
-                    w = np.where((tiles[ok, a] > 0)[:, None], self._fade_in[None, :], 1.0)
-                else:  # the earlier block's trailing overlap fades out
-                    r = np.arange(s, s + o)
-                    w = np.broadcast_to(self._fade_out[None, :], (int(ok.sum()), o))
-                idx.append(q[:, a, None] + r[None, :])
-                weights.append(w.astype(np.float32))
-            _, sy, sx = self.exemplar.shape[:3]
-            rows = (idx[0] * (sy * sx))[:, :, None, None] + (idx[1] * sx)[:, None, :, None] + idx[2][:, None, None, :]
-            src = self._flat[rows]  # one gather of whole rows: much faster than four index arrays
-            w = weights[0][:, :, None, None] * weights[1][:, None, :, None] * weights[2][:, None, None, :]
-            lz, ly, lx = (idx[a].shape[1] for a in range(3))
-            out[ok, :lz, :ly, :lx] += w[..., None] * src
-        return np.clip(np.rint(out * self._gain + self._bias), 0, 255).astype(np.uint8)
-
-    # -- sampling --------------------------------------------------------------------------------
+        zyx = (int(shape_xyz[2]), int(shape_xyz[1]), int(shape_xyz[0]))
+        return cls(exemplar, zyx, spacing=spacing, origin=origin, **kwargs)
 
     def voxel_coordinates(self, points: ArrayLike) -> NDArray[np.float64]:
         """``(N, 3)`` fractional voxel indices ``(k, j, i)`` of world points, clamped to the texture.
@@ -379,7 +107,6 @@ class LazySolidTexture:
 
         Examples
         --------
-        >>> import numpy as np
         >>> from ffd_notebook.solidtex import LazySolidTexture
         >>> exemplar = np.random.default_rng(0).integers(0, 255, (16, 16, 16, 3), dtype=np.uint8)
         >>> lazy = LazySolidTexture.fit(exemplar, [0, 10, 0, 10, 0, 10], resolution=24, rng=0)
@@ -390,35 +117,8 @@ class LazySolidTexture:
         c = ((p - self.origin) / self.spacing)[:, ::-1]
         return np.clip(c, 0.0, np.array(self.shape, dtype=np.float64) - 1.0)
 
-    def voxels(self, indices: ArrayLike) -> NDArray[np.uint8]:
-        """Colours of integer voxels ``(N, 3)`` ``(k, j, i)``, synthesising the tiles they lie in.
-
-        Parameters
-        ----------
-        indices : array_like
-            ``(N, 3)`` integer voxel indices ``(k, j, i)``.
-
-        Returns
-        -------
-        numpy.ndarray
-            ``(N, 3)`` uint8 colours.
-
-        Examples
-        --------
-        >>> import numpy as np
-        >>> from ffd_notebook.solidtex import LazySolidTexture
-        >>> exemplar = np.random.default_rng(0).integers(0, 255, (16, 16, 16, 3), dtype=np.uint8)
-        >>> lazy = LazySolidTexture.fit(exemplar, [0, 10, 0, 10, 0, 10], resolution=24, rng=0)
-        >>> bool((lazy.voxels([[0, 0, 0]]) == lazy.volume()[0, 0, 0]).all())
-        True
-        """
-        v = np.asarray(indices, dtype=np.int64).reshape(-1, 3)
-        tile = v // self.step
-        mark = np.zeros(self.n_blocks, dtype=bool)
-        mark[tuple(tile.T)] = True
-        self._ensure_tiles(np.argwhere(mark))
-        local = v - tile * self.step
-        return self._atlas[(self._slot[tuple(tile.T)], *local.T)]
+    def voxels(self, indices: ArrayLike) -> NDArray[np.uint8]:  # pragma: no cover - every subclass defines it
+        raise NotImplementedError
 
     def sample(self, points: ArrayLike) -> NDArray[np.uint8]:
         """Trilinearly interpolated ``(N, 3)`` uint8 colours at rest-frame points (clamped at the borders).
@@ -435,7 +135,6 @@ class LazySolidTexture:
 
         Examples
         --------
-        >>> import numpy as np
         >>> from ffd_notebook.solidtex import LazySolidTexture
         >>> exemplar = np.random.default_rng(0).integers(0, 255, (16, 16, 16, 3), dtype=np.uint8)
         >>> lazy = LazySolidTexture.fit(exemplar, [0, 10, 0, 10, 0, 10], resolution=24, rng=0)
@@ -443,29 +142,285 @@ class LazySolidTexture:
         (dtype('uint8'), (1, 3))
         """
         c = self.voxel_coordinates(points)
-        i0 = np.minimum(np.floor(c).astype(np.int64), np.array(self.shape) - 2).clip(0)
+        top = np.maximum(np.array(self.shape) - 2, 0)
+        i0 = np.minimum(np.floor(c).astype(np.int64), top).clip(0)
         f = (c - i0).astype(np.float32)
-        mark = np.zeros(self.n_blocks, dtype=bool)
-        for d in itertools.product((0, 1), repeat=3):
-            mark[tuple(((i0 + d) // self.step).T)] = True
-        self._ensure_tiles(np.argwhere(mark))
+        corners = list(itertools.product((0, 1), repeat=3))
+        index = np.concatenate([np.minimum(i0 + d, np.array(self.shape) - 1) for d in corners])
+        colours = self.voxels(index).astype(np.float32).reshape(len(corners), len(c), 3)
         acc = np.zeros((len(c), 3), dtype=np.float32)
-        flat = self._atlas.reshape(-1, 3)
-        s = self.step
-        for d in itertools.product((0, 1), repeat=3):
-            w = np.prod(np.where(np.array(d, bool), f, 1.0 - f), axis=1)
-            v = i0 + d
-            tile, local = np.divmod(v, s)
-            row = (
-                self._slot[tile[:, 0], tile[:, 1], tile[:, 2]] * s**3
-                + (local[:, 0] * s + local[:, 1]) * s
-                + local[:, 2]
-            )
-            acc += w[:, None] * flat[row]
+        for colour, d in zip(colours, corners, strict=True):
+            acc += np.prod(np.where(np.array(d, bool), f, 1.0 - f), axis=1)[:, None] * colour
         return np.clip(np.rint(acc), 0, 255).astype(np.uint8)
 
-    def volume(self) -> NDArray[np.uint8]:
-        """The whole ``shape`` volume (synthesises every tile: for small textures and tests).
+
+class _WholeLevel:
+    """A coarse pyramid level synthesised whole, over the texture's box at that level and :data:`_PAD` around it
+    (at most 1/512 of the finest level's voxels: 0.3 M for a 512^3 texture)."""
+
+    def __init__(self, size: tuple[int, ...]) -> None:
+        self.size = size
+        self.coordinates: NDArray[np.int32] | None = None
+
+    def make(self, prepared: PyramidExemplar, seed: int, level: int) -> None:
+        if self.coordinates is None:
+            self.coordinates = region(prepared, seed, level, (-_PAD,) * 3, tuple(n + _PAD for n in self.size))
+
+    def lookup(self, z: NDArray[np.int64], y: NDArray[np.int64], x: NDArray[np.int64]) -> NDArray[np.int32]:
+        assert self.coordinates is not None  # made first
+        return self.coordinates[z + _PAD, y + _PAD, x + _PAD]
+
+    @property
+    def nbytes(self) -> int:
+        return 0 if self.coordinates is None else int(self.coordinates.nbytes)
+
+
+class _LevelCache:
+    """One pyramid level's synthesised tiles: an atlas of ``tile^3`` coordinate blocks and the slot of each tile."""
+
+    def __init__(self, size: tuple[int, ...], tile: int) -> None:
+        self.tile = tile
+        # tile t covers [t * tile - _PAD, (t + 1) * tile - _PAD): the dependencies of the texture's border reach a
+        # few voxels below 0 and beyond its size, and a tile of its own for those few would be wasted work
+        self.slots = np.full(tuple(-(-(n + 2 * _PAD) // tile) for n in size), -1, dtype=np.int32)
+        self.atlas = np.zeros((0, tile, tile, tile), dtype=np.int32)
+        self.count = 0
+
+    @property
+    def nbytes(self) -> int:
+        return int(self.atlas[: self.count].nbytes + self.slots.nbytes)
+
+    def tiles_of(self, positions: NDArray[np.int64]) -> NDArray[np.int64]:
+        """The tile index of each position ``(N, 3)`` of the level."""
+        return (positions + _PAD) // self.tile
+
+    def missing(self, tiles: NDArray[np.int64]) -> NDArray[np.int64]:
+        """The tiles (unique, ``(N, 3)`` tile indices) not synthesised yet."""
+        if len(tiles) and (tiles.min() < 0 or np.any(tiles.max(axis=0) >= np.array(self.slots.shape))):
+            raise RuntimeError(f"tiles beyond {self.slots.shape} lie outside the texture's levels")
+        keys = np.unique(np.ravel_multi_index(tuple(tiles.T), self.slots.shape))  # 1D: far faster than axis=0
+        keys = keys[self.slots.reshape(-1)[keys] < 0]
+        return np.stack(np.unravel_index(keys, self.slots.shape), axis=-1)
+
+    def origins(self, tiles: NDArray[np.int64]) -> NDArray[np.int64]:
+        """The first position of each tile."""
+        return tiles * self.tile - _PAD
+
+    def store(self, tiles: NDArray[np.int64], coordinates: NDArray[np.int32]) -> None:
+        end = self.count + len(tiles)
+        if end > len(self.atlas):
+            grown = np.zeros((max(end, 2 * len(self.atlas)), *self.atlas.shape[1:]), dtype=np.int32)
+            grown[: self.count] = self.atlas[: self.count]
+            self.atlas = grown
+        self.atlas[self.count : end] = coordinates
+        self.slots[tuple(tiles.T)] = np.arange(self.count, end)
+        self.count = end
+
+    def lookup(self, z: NDArray[np.int64], y: NDArray[np.int64], x: NDArray[np.int64]) -> NDArray[np.int32]:
+        """Coordinates at (broadcastable) positions of the level, whose tiles are synthesised."""
+        t = self.tile
+        z, y, x = z + _PAD, y + _PAD, x + _PAD
+        return self.atlas[self.slots[z // t, y // t, x // t], z % t, y % t, x % t]
+
+
+def _chunk_colours(prepared: PyramidExemplar, seed: int, lo, hi) -> NDArray[np.uint8]:
+    """Colours of the finest level over ``[lo, hi)``: one chunk of :meth:`LazySolidTexture.volume`."""
+    coordinates = region(prepared, seed, prepared.n_levels - 1, lo, hi)
+    return prepared.colour(coordinates)
+
+
+class LazySolidTexture(LazyTexture):
+    """A solid texture synthesised voxel by voxel where it is sampled: per-voxel pyramid synthesis.
+
+    Each voxel's colour is the exemplar's at a coordinate synthesised coarse to fine
+    (:mod:`~ffd_notebook.solidtex.pyramid`): whole cells, no blocks, no grid, and no region
+    repeated. Only the tiles a sampled point needs are made (with the coarser tiles they depend
+    on), and they are kept; the colours are the same whatever is sampled first.
+
+    Parameters
+    ----------
+    exemplar : array_like
+        ``(Z, Y, X, 3)`` exemplar (e.g. :func:`~ffd_notebook.solidtex.exemplar_from_image`), at least
+        8 voxels a side; uint8, uint16 or floats in [0, 1] (the package's dtype policy). Best
+        periodic: coordinates wrap around it.
+    shape : int or (int, int, int)
+        Voxels ``(Z, Y, X)`` the texture covers (it may be far too large to hold whole).
+    spacing : float
+        Voxel edge in world units.
+    origin : array_like
+        World ``(x, y, z)`` of voxel ``[0, 0, 0]``'s centre.
+    rng : int or numpy.random.Generator
+        Same int, same colours, whatever is sampled first: every random number is a hash of one
+        integer root seed and a position (a Generator gives one 63-bit draw as the root seed,
+        :func:`~ffd_notebook.solidtex.seeding.integer_seed`, kept as ``seed``).
+    levels : int, optional
+        Pyramid levels (default: the coarsest step the largest power of two at most a quarter of
+        the exemplar's side, :func:`~ffd_notebook.solidtex.pyramid.default_levels`).
+    prepared : PyramidExemplar, optional
+        The exemplar already prepared (:class:`~ffd_notebook.solidtex.pyramid.PyramidExemplar`):
+        several textures of one exemplar share it.
+
+    Attributes
+    ----------
+    seed : int
+        The integer root seed.
+    prepared : PyramidExemplar
+        The exemplar's levels.
+
+    Examples
+    --------
+    >>> rng = np.random.default_rng(0)
+    >>> ex = np.kron(rng.integers(0, 256, (4, 4, 4, 3)), np.ones((4, 4, 4, 1), int)).astype(np.uint8)
+    >>> tex = LazySolidTexture(ex, shape=1000)                  # a billion voxels, none made yet
+    >>> colours = tex.sample([[10.0, 20.0, 30.0], [500.5, 2.0, 999.0]])
+    >>> colours.shape, tex.voxels_synthesised < 10**6
+    ((2, 3), True)
+    >>> other = LazySolidTexture(ex, shape=1000, prepared=tex.prepared)
+    >>> _ = other.sample([[500.5, 2.0, 999.0]])                 # the other point first
+    >>> bool(np.array_equal(other.sample([[10.0, 20.0, 30.0], [500.5, 2.0, 999.0]]), colours))
+    True
+    """
+
+    def __init__(
+        self,
+        exemplar: ArrayLike,
+        shape: int | tuple[int, int, int],
+        *,
+        spacing: float = 1.0,
+        origin: ArrayLike = (0.0, 0.0, 0.0),
+        rng: RNGLike = 0,
+        levels: int | None = None,
+        prepared: PyramidExemplar | None = None,
+    ) -> None:
+        target = (int(shape),) * 3 if isinstance(shape, (int, np.integer)) else tuple(int(s) for s in shape)
+        if len(target) != 3 or min(target) < 1:
+            raise ValueError(f"shape must be three positive sizes, got {shape}")
+        if prepared is None:
+            ex = exemplar_volume(exemplar)
+            if min(ex.shape[:3]) < 8:
+                raise ValueError(f"the exemplar must be at least 8 voxels a side, got {ex.shape[:3]}")
+            prepared = PyramidExemplar(ex, levels)
+        self.prepared = prepared
+        self.seed = integer_seed(rng)
+        self.shape = target
+        self.spacing, self.origin = float(spacing), np.asarray(origin, dtype=np.float64).reshape(3)
+        self._finest = prepared.n_levels - 1
+        # the two finest levels in small tiles, the one before in larger ones, the one before that whole
+        self._levels: dict[int, _WholeLevel | _LevelCache] = {}
+        size = tuple(2 * n for n in target)
+        for level, tile in zip(range(self._finest, -1, -1), (FINE_TILE, FINE_TILE, TILE, None), strict=False):
+            size = tuple(-(-n // 2) for n in size)  # the level's extent: the finer one's (tiles rounded up), halved
+            self._levels[level] = _WholeLevel(size) if tile is None else _LevelCache(size, tile)
+            if tile is not None:  # what its tiles cover
+                size = tuple(-(-(n + 2 * _PAD) // tile) * tile - _PAD for n in size)
+
+    # -- synthesis -------------------------------------------------------------------------------
+
+    def _need(self, level: int, lo: NDArray[np.int64], size: int) -> tuple[NDArray[np.int64], NDArray[np.int32]]:
+        """Level ``level``'s coordinates over cubes of edge ``size`` at ``lo`` (``(N, 3)``), synthesised if need be,
+        as ``(lo, coordinates)``: what :func:`~ffd_notebook.solidtex.pyramid.boxes` takes as ``coarse``."""
+        store = self._levels[level]
+        if isinstance(store, _WholeLevel):
+            store.make(self.prepared, self.seed, level)
+        else:
+            corners = np.array(list(itertools.product((0, 1), repeat=3)))  # a cube no larger than a tile
+            ends = lo if size == 1 else (lo[:, None, :] + corners * (size - 1)).reshape(-1, 3)
+            self._ensure(level, store.tiles_of(ends))
+        pos = [
+            (lo[:, a, None] + np.arange(size)).reshape([-1] + [size if b == a else 1 for b in range(3)])
+            for a in range(3)
+        ]
+        return lo, store.lookup(*pos)
+
+    def _ensure(self, level: int, tiles: NDArray[np.int64]) -> None:
+        """Synthesise the tiles of ``level`` (and what they need of the coarser levels) not made yet."""
+        cache = self._levels[level]
+        assert isinstance(cache, _LevelCache)  # the tiled levels
+        tile = cache.tile
+        todo = cache.missing(tiles)
+        at_once = max(1, _BATCH_VOXELS // (tile + 2 * MARGIN) ** 3)
+        for start in range(0, len(todo), at_once):
+            batch = todo[start : start + at_once]
+            lo = cache.origins(batch)
+            coarse = None
+            if level > 0:
+                clo, chi = dependency(self.prepared, level, lo, lo + tile)
+                coarse = self._need(level - 1, clo, int((chi - clo).max()))  # a cube: tiles and margins are even
+            cache.store(batch, boxes(self.prepared, self.seed, level, lo, (tile,) * 3, coarse))
+
+    def _coordinates(self, voxels: NDArray[np.int64]) -> NDArray[np.int32]:
+        """Exemplar coordinates (packed) of finest voxels ``(N, 3)``, synthesised on demand."""
+        with one_blas_thread():
+            return self._need(self._finest, voxels, 1)[1].reshape(-1)
+
+    # -- sampling --------------------------------------------------------------------------------
+
+    @property
+    def tiles_synthesised(self) -> int:
+        """Tiles of the three finest levels synthesised so far."""
+        return sum(c.count for c in self._levels.values() if isinstance(c, _LevelCache))
+
+    @property
+    def voxels_synthesised(self) -> int:
+        """Finest voxels synthesised so far (in whole tiles)."""
+        finest = self._levels[self._finest]
+        assert isinstance(finest, _LevelCache)
+        return finest.count * finest.tile**3
+
+    @property
+    def nbytes(self) -> int:
+        """Memory held by the synthesised levels and their slot grids (the prepared exemplar aside)."""
+        return sum(c.nbytes for c in self._levels.values())
+
+    def voxels(self, indices: ArrayLike) -> NDArray[np.uint8]:
+        """Colours of integer voxels ``(N, 3)`` ``(k, j, i)``, synthesising what they need.
+
+        Parameters
+        ----------
+        indices : array_like
+            ``(N, 3)`` integer voxel indices ``(k, j, i)``, inside ``shape``.
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(N, 3)`` uint8 colours.
+
+        Examples
+        --------
+        >>> from ffd_notebook.solidtex import LazySolidTexture
+        >>> exemplar = np.random.default_rng(0).integers(0, 255, (16, 16, 16, 3), dtype=np.uint8)
+        >>> lazy = LazySolidTexture.fit(exemplar, [0, 10, 0, 10, 0, 10], resolution=24, rng=0)
+        >>> bool((lazy.voxels([[0, 0, 0]]) == lazy.volume()[0, 0, 0]).all())
+        True
+        """
+        v = np.asarray(indices, dtype=np.int64).reshape(-1, 3)
+        if len(v) and (v.min(axis=0).min() < 0 or np.any(v.max(axis=0) >= np.array(self.shape))):
+            raise IndexError(f"voxel indices must lie in the texture's shape {self.shape}")
+        return self.prepared.colour(self._coordinates(v))
+
+    def volume(
+        self, *, chunk: int = 64, scheduler: str | None = None, client: Any = None, progress: bool = False
+    ) -> NDArray[np.uint8]:
+        """The whole ``shape`` volume, computed in chunks (on a Dask cluster if asked): the same at every setting.
+
+        Each ``chunk^3`` box is synthesised on its own with the coarser levels it depends on
+        (:func:`~ffd_notebook.solidtex.pyramid.region`); a voxel depends only on its bounded
+        neighbourhood, so the chunks agree with each other, with the tiles :meth:`sample` makes and
+        with any other chunk size. Nothing is kept in the texture's tiles.
+
+        Parameters
+        ----------
+        chunk : int
+            Edge of the chunks (finest voxels).
+        scheduler : str, optional
+            ``"threads"``, ``"processes"`` or ``"sync"`` (Dask's local schedulers), or a
+            ``distributed`` scheduler address such as ``"tcp://10.0.0.5:8786"`` (as
+            ``python -m ffd_notebook batch --scheduler``); by default the chunks run here, one after
+            the other.
+        client : distributed.Client, optional
+            Run the chunks on this cluster (e.g. :func:`~ffd_notebook.batch.local_cluster`'s).
+        progress : bool
+            Show a progress bar (one tick per chunk) when the chunks run here.
 
         Returns
         -------
@@ -474,15 +429,48 @@ class LazySolidTexture:
 
         Examples
         --------
-        >>> import numpy as np
         >>> from ffd_notebook.solidtex import LazySolidTexture
         >>> exemplar = np.random.default_rng(0).integers(0, 255, (16, 16, 16, 3), dtype=np.uint8)
-        >>> lazy = LazySolidTexture.fit(exemplar, [0, 10, 0, 10, 0, 10], resolution=24, rng=0)
-        >>> lazy.volume().shape == (*lazy.shape, 3)
-        True
+        >>> lazy = LazySolidTexture(exemplar, (20, 30, 12), rng=0)
+        >>> whole = lazy.volume()
+        >>> whole.shape, bool(np.array_equal(whole, lazy.volume(chunk=8, scheduler="threads")))
+        ((20, 30, 12, 3), True)
         """
-        self._ensure_tiles(np.argwhere(np.ones(self.n_blocks, dtype=bool)))
-        s = self.step
-        nz, ny, nx = self.n_blocks
-        tiles = self._atlas[self._slot.ravel()].reshape(nz, ny, nx, s, s, s, 3)
-        return tiles.transpose(0, 3, 1, 4, 2, 5, 6).reshape(nz * s, ny * s, nx * s, 3)
+        if chunk < 1:
+            raise ValueError(f"chunk must be a positive number of voxels, got {chunk}")
+        starts = list(itertools.product(*[range(0, n, chunk) for n in self.shape]))
+        spans = [(lo, tuple(min(a + chunk, n) for a, n in zip(lo, self.shape, strict=True))) for lo in starts]
+        out = np.empty((*self.shape, 3), dtype=np.uint8)
+        if client is None and scheduler is None:
+            from tqdm.auto import tqdm
+
+            for lo, hi in tqdm(spans, desc="solid texture", unit="chunk", disable=not progress):
+                out[tuple(slice(a, b) for a, b in zip(lo, hi, strict=True))] = _chunk_colours(
+                    self.prepared, self.seed, lo, hi
+                )
+            return out
+        for (lo, hi), colours in zip(spans, _on_dask(self.prepared, self.seed, spans, scheduler, client), strict=True):
+            out[tuple(slice(a, b) for a, b in zip(lo, hi, strict=True))] = colours
+        return out
+
+
+def _on_dask(prepared: PyramidExemplar, seed: int, spans, scheduler: str | None, client: Any) -> list:
+    """The chunks' colours computed by Dask: a local scheduler, a cluster's client, or a scheduler's address."""
+    import dask
+
+    if client is None and scheduler in ("threads", "processes", "sync"):
+        shared = dask.delayed(prepared, pure=True)
+        tasks = [dask.delayed(_chunk_colours, pure=True)(shared, seed, lo, hi) for lo, hi in spans]
+        return list(dask.compute(*tasks, scheduler=scheduler))
+    if client is None:
+        from distributed import Client
+
+        with Client(scheduler) as remote:  # an address: tcp://host:8786
+            return _on_client(remote, prepared, seed, spans)
+    return _on_client(client, prepared, seed, spans)
+
+
+def _on_client(client: Any, prepared: PyramidExemplar, seed: int, spans) -> list:
+    shared = client.scatter(prepared, broadcast=True)  # the exemplar's tables once per worker, not once per chunk
+    futures = [client.submit(_chunk_colours, shared, seed, lo, hi, pure=False) for lo, hi in spans]
+    return client.gather(futures)

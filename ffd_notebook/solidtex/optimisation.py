@@ -38,6 +38,7 @@ from tqdm.auto import tqdm
 
 from .seeding import RNGLike
 from .slice_search import downsample, transfer_colours
+from .slices import exemplar_volume
 
 __all__ = ["synthesize_by_optimisation"]
 
@@ -181,7 +182,8 @@ def synthesize_by_optimisation(
     Parameters
     ----------
     exemplar : array_like
-        ``(Z, Y, X, 3)`` uint8 exemplar, for example from :func:`~ffd_notebook.solidtex.exemplar_from_image`;
+        ``(Z, Y, X, 3)`` exemplar, for example from :func:`~ffd_notebook.solidtex.exemplar_from_image` (uint8,
+        uint16 or floats in [0, 1]: the package's dtype policy);
         each side at least ``neighbourhood * 2 ** (levels - 1)``.
     shape : int or (int, int, int)
         Size of the result, ``(Z, Y, X)``.
@@ -227,9 +229,7 @@ def synthesize_by_optimisation(
     >>> out.shape, out.dtype.name
     ((24, 20, 40, 3), 'uint8')
     """
-    ex = np.asarray(exemplar)
-    if ex.ndim != 4 or ex.shape[3] != 3:
-        raise ValueError(f"exemplar must be a (Z, Y, X, 3) colour volume, got shape {ex.shape}")
+    ex = exemplar_volume(exemplar)  # the dtype policy: a float exemplar in [0, 1] was clipped to {0, 1}
     target = (int(shape),) * 3 if isinstance(shape, (int, np.integer)) else tuple(int(s) for s in shape)
     if len(target) != 3 or min(target) < 1:
         raise ValueError(f"shape must be three positive sizes, got {shape}")

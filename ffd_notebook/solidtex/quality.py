@@ -15,6 +15,8 @@ import warnings
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from .._util.colours import as_float, as_uint8
+
 __all__ = ["band_mask", "color_histogram", "colour_histogram", "gradient_energy", "histogram_distance", "seam_energy"]
 
 
@@ -24,7 +26,8 @@ def color_histogram(voxels: ArrayLike, *, bins: int = 8) -> NDArray[np.float64]:
     Parameters
     ----------
     voxels : array_like
-        Any array whose last axis has the 3 colour channels (uint8 values 0-255).
+        Any array whose last axis has the 3 colour channels: uint8 levels, uint16 or floats in [0, 1] (the
+        package's dtype policy).
     bins : int
         Bins per channel (a power of two up to 256 keeps the bins equal).
 
@@ -42,6 +45,7 @@ def color_histogram(voxels: ArrayLike, *, bins: int = 8) -> NDArray[np.float64]:
     v = np.asarray(voxels)
     if v.shape[-1] != 3 or v.size == 0:
         raise ValueError(f"expected a non-empty array of RGB colours (last axis 3), got shape {v.shape}")
+    v = as_uint8(v)  # the package's dtype policy: uint16, floats in [0, 1]...
     q = (v.reshape(-1, 3).astype(np.int64) * bins) // 256
     q = np.clip(q, 0, bins - 1)
     codes = (q[:, 0] * bins + q[:, 1]) * bins + q[:, 2]
@@ -116,7 +120,7 @@ def gradient_energy(volume: ArrayLike) -> float:
     >>> gradient_energy(np.zeros((3, 3, 3, 3), np.uint8))
     0.0
     """
-    v = np.asarray(volume, dtype=np.float32)
+    v = as_float(volume) * np.float32(255)  # in 0-255 levels whatever the dtype (the package's dtype policy)
     total = sum(float(np.mean(np.square(np.diff(v, axis=ax)).sum(-1), dtype=np.float64)) for ax in range(3))
     return total / 3.0
 
@@ -168,9 +172,10 @@ def seam_energy(volume: ArrayLike, step: int, overlap: int) -> float:
     >>> seam_energy(tiles, step=8, overlap=0) > 5
     True
     """
-    v = np.asarray(volume, dtype=np.float32)
+    v = np.asarray(volume)
     if v.ndim != 4 or v.shape[-1] != 3:
         raise ValueError(f"expected a (Z, Y, X, 3) volume, got shape {v.shape}")
+    v = as_float(v) * np.float32(255)  # in 0-255 levels whatever the dtype (the package's dtype policy)
     band_sum = all_sum = 0.0
     band_n = all_n = 0
     for ax in range(3):

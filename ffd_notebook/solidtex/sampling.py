@@ -15,6 +15,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy import ndimage
 
+from .slices import exemplar_volume
+
 __all__ = ["SolidTexture", "TextureSampler"]
 
 
@@ -71,7 +73,7 @@ class SolidTexture:
     Parameters
     ----------
     volume : array_like
-        ``(Z, Y, X, 3)`` uint8 colours.
+        ``(Z, Y, X, 3)`` colours: uint8, uint16 or floats in [0, 1] (the package's dtype policy), kept as uint8.
     spacing : float
         Edge of a voxel in world units (voxels are cubes).
     origin : array_like
@@ -97,6 +99,7 @@ class SolidTexture:
         self.volume = np.asarray(self.volume)
         if self.volume.ndim != 4 or self.volume.shape[3] != 3:
             raise ValueError(f"a solid texture is a (Z, Y, X, 3) volume, got shape {self.volume.shape}")
+        self.volume = exemplar_volume(self.volume, "a solid texture")  # uint8 by the package's dtype policy
         self.origin = np.asarray(self.origin, dtype=np.float64).reshape(3)
         self.spacing = float(self.spacing)
         if not self.spacing > 0:

@@ -17,21 +17,24 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from .._util.colours import as_uint8
 from ..errors import FileFormatError
 
-__all__ = ["as_rgb8", "sliding_crops", "volume_from_slices"]
+__all__ = ["as_rgb8", "exemplar_volume", "sliding_crops", "volume_from_slices"]
 
 
 def as_rgb8(image: Any, name: str = "image") -> NDArray[np.uint8]:
     """Convert a 2D grey, RGB or RGBA image to an ``(H, W, 3)`` uint8 array.
 
-    Floating-point images are taken to be in [0, 1]; integer images in [0, 255] (uint16 images
-    are scaled down by 257). The alpha channel is dropped.
+    The values are read by the package's one dtype policy (scikit-image's, see
+    :mod:`ffd_notebook._util.colours`): uint8 levels as they are, uint16 scaled from its whole
+    range, floats in [0, 1] (others refused), signed integers that are 0-255 levels. The alpha
+    channel is dropped.
 
     Parameters
     ----------
     image : array_like
-        ``(H, W)``, ``(H, W, 3)`` or ``(H, W, 4)``; floats in [0, 1] or integers in [0, 255].
+        ``(H, W)``, ``(H, W, 3)`` or ``(H, W, 4)``.
     name : str
         What error messages call it.
 
@@ -40,31 +43,38 @@ def as_rgb8(image: Any, name: str = "image") -> NDArray[np.uint8]:
     numpy.ndarray
         ``(H, W, 3)`` uint8.
 
+    Raises
+    ------
+    ValueError
+        Another shape, or values the policy refuses (floats outside [0, 1], NaN).
+
     Examples
     --------
     >>> as_rgb8(np.zeros((2, 3))).shape
     (2, 3, 3)
-    >>> as_rgb8(np.full((1, 1, 4), 1.0))[0, 0].tolist()
-    [255, 255, 255]
+    >>> as_rgb8(np.full((1, 1, 4), 1.0))[0, 0].tolist(), as_rgb8(np.full((1, 1), 65535, np.uint16))[0, 0].tolist()
+    ([255, 255, 255], [255, 255, 255])
     """
     a = np.asarray(image)
     if a.ndim == 2:
         a = np.repeat(a[:, :, None], 3, axis=2)
     if a.ndim != 3 or a.shape[2] not in (3, 4):
         raise ValueError(f"{name}: expected a 2D grey, RGB or RGBA image, got an array of shape {a.shape}")
-    a = a[:, :, :3]
-    if a.dtype == np.uint8:
-        return np.ascontiguousarray(a)
-    if a.dtype == np.uint16:
-        return (a // 257).astype(np.uint8)
-    if np.issubdtype(a.dtype, np.floating):
-        if not np.all(np.isfinite(a)):
-            raise ValueError(f"{name}: image has NaN or infinite values")
-        return np.clip(np.rint(a * 255.0), 0, 255).astype(np.uint8)
-    if np.issubdtype(a.dtype, np.integer) or a.dtype == np.bool_:
-        scale = 255 if a.dtype == np.bool_ else 1
-        return np.clip(a.astype(np.int64) * scale, 0, 255).astype(np.uint8)
-    raise ValueError(f"{name}: unsupported image dtype {a.dtype}")
+    return np.ascontiguousarray(as_uint8(a[:, :, :3], name))
+
+
+def exemplar_volume(exemplar: Any, what: str = "exemplar") -> NDArray[np.uint8]:
+    """A ``(Z, Y, X, 3)`` colour exemplar as uint8 by the package's dtype policy (uint16, floats in [0, 1]...).
+
+    Examples
+    --------
+    >>> exemplar_volume(np.full((2, 2, 2, 3), 1.0))[0, 0, 0].tolist()
+    [255, 255, 255]
+    """
+    ex = np.asarray(exemplar)
+    if ex.ndim != 4 or ex.shape[3] != 3:
+        raise ValueError(f"{what} must be a (Z, Y, X, 3) colour volume, got shape {ex.shape}")
+    return np.ascontiguousarray(as_uint8(ex, what))
 
 
 def _read_image(path: str | os.PathLike[str]) -> NDArray[np.uint8]:

@@ -4,6 +4,8 @@ Run from the repository root:
 
     python tests/benchmarks/bench_solidtex.py [--quick] [--only likeness,exemplar,seams,lazy,synthesis,organ]
                                                 [--skip-full512] [--seeds N] [--baseline]
+    python tests/benchmarks/bench_solidtex.py --only methods [--keep DIR]   # issue 31's table (about an hour)
+    python tests/benchmarks/bench_solidtex.py --only cluster [--quick]       # 512^3 (256^3) on Dask, 1 and 2 workers
 
 Prints, in one run: synthesis of 128^3 from a 64^3 exemplar (target <= 10 s), synthesis of 256^3
 with the reuse growth against fixed blocks (target: reuse >= 3x faster at similar quality, with
@@ -11,6 +13,12 @@ the histogram distance to the exemplar, the seam energy at the final block borde
 gradient energy as quality figures), tetrahedralisation and texture mapping on the frog liver,
 and one cut update (target < 100 ms for a ~20k-tetrahedron model). Medians of several repeats:
 the machine is shared.
+
+Issue 31 (``methods``, ``cluster``): every method (the default pyramid, the optimisation, blocks with cut and
+feathered seams) at 2x and 4x the exemplar and the lazy texture's 192 x 192 deep-slice regions at 512^3, each in its
+own process under ``/usr/bin/time -v``: time, peak memory, whole-slice self-similarity and block grid per
+orientation; and a 512^3 lazy texture's ``volume()`` in chunks on a ``local_cluster`` of 1 and 2 workers, checked
+identical to the single-process result.
 
 Issue 26 (``likeness``, the default section): every product judged by self-similarity (per slice
 orientation) and likeness against the image (:func:`~ffd_notebook.solidtex.self_similarity`; new
@@ -57,8 +65,10 @@ from ffd_notebook import FFD, Lattice
 from ffd_notebook.datasets import frog_liver
 from ffd_notebook.meshing.organ import organ_surface, tetrahedralize, texture_surface
 from ffd_notebook.solidtex import (
+    LazyBlockTexture,
     LazySolidTexture,
     SolidTexture,
+    block_grid,
     choose_block_size,
     exemplar_from_image,
     gradient_energy,
@@ -71,6 +81,7 @@ from ffd_notebook.solidtex import (
     self_similarity_figure,
     sliding_crops,
     synthesize,
+    synthesize_by_blocks,
     synthesize_by_optimisation,
     volume_from_slices,
 )
@@ -101,13 +112,13 @@ def synthesis(ex, quick):
     block = choose_block_size(ex)
     print(f"exemplar 64^3 from immunohistochemistry crops; block size by feature inclusiveness: {block}\n")
     rep = 1 if quick else 3
-    s128, _ = timed(lambda: synthesize(ex, 128, progress=False), rep)
-    p128, _ = timed(lambda: synthesize(ex, 128, reuse=False, progress=False), rep)
+    s128, _ = timed(lambda: synthesize_by_blocks(ex, 128, progress=False), rep)
+    p128, _ = timed(lambda: synthesize_by_blocks(ex, 128, reuse=False, progress=False), rep)
     row("synthesis 128^3 (reuse)", s128, "s", f"target <= 10 s  {'ok' if s128 <= 10 else 'MISSED'}")
     row("synthesis 128^3 (fixed blocks)", p128, "s", f"target <= 10 s  {'ok' if p128 <= 10 else 'MISSED'}")
     size = 192 if quick else 256
-    r256, reuse = timed(lambda: synthesize(ex, size, progress=False), rep)
-    f256, plain = timed(lambda: synthesize(ex, size, reuse=False, progress=False), 1 if quick else 2)
+    r256, reuse = timed(lambda: synthesize_by_blocks(ex, size, progress=False), rep)
+    f256, plain = timed(lambda: synthesize_by_blocks(ex, size, reuse=False, progress=False), 1 if quick else 2)
     ratio = f256 / r256
     row(f"synthesis {size}^3 (reuse)", r256, "s")
     row(f"synthesis {size}^3 (fixed blocks, baseline)", f256, "s")
@@ -123,7 +134,7 @@ def synthesis(ex, quick):
         )
     print("  (histogram distance: L2 of 8^3-bin RGB histograms, 0 = same; seam energy: 1 = borders as smooth as")
     print("   the rest; 'own' at the method's final block borders, '16' at the fixed-block borders)\n")
-    return synthesize(ex, 128, progress=False)
+    return synthesize_by_blocks(ex, 128, progress=False)
 
 
 def organ(volume, quick):
@@ -245,7 +256,7 @@ def seams(ex, quick):
             for seed in range(n_seeds):
                 stats = {}
                 t, vol = timed(
-                    lambda m=method, st=stats, n=size, r=reuse, sd=seed: synthesize(
+                    lambda m=method, st=stats, n=size, r=reuse, sd=seed: synthesize_by_blocks(
                         ex, n, reuse=r, rng=sd, progress=False, seams=m, stats=st
                     ),
                     1,
@@ -310,52 +321,174 @@ def _crops96():
     }
 
 
-def _judge(name, volume, crop, figure, seconds, floor=0.8, ceiling=1.6):
-    side = crop.shape[0]
-    ss = self_similarity(volume, figure, crop=side)
-    lk = likeness(volume, crop, crop=side, slices=2)
-    good = ss.min() >= floor and ss.max() <= ceiling
+def _judge(name, volume, crop, seconds, floor=0.8, ceiling=1.6, grid=None):
+    """One row: whole-slice self-similarity, likeness and block grid per orientation, and the targets."""
+    ss = self_similarity(volume, crop)  # whole slices, the source's figure scaled to their windows (issue 31)
+    lk = likeness(volume, crop, slices=2)
+    bg = block_grid(volume)
+    good = ss.min() >= floor and ss.max() <= ceiling and (grid is None or bg.max() <= grid)
+    target = f"{floor}-{ceiling}" + ("" if grid is None else f", grid <= {grid}")
     print(
         f"{name:<40}{seconds:8.1f}  {' '.join(f'{v:5.2f}' for v in ss)}   {' '.join(f'{v:5.2f}' for v in lk)}"
-        f"{histogram_distance(volume, crop):9.4f}  {'ok' if good else 'MISSED'} ({floor}-{ceiling})"
+        f"   {' '.join(f'{v:5.2f}' for v in bg)}{histogram_distance(volume, crop):9.4f}"
+        f"  {'ok' if good else 'MISSED'} ({target})"
     )
     return ss
 
 
 def likeness_section(quick):
-    """Issue 26: self-similarity and likeness of every product, against the new samples' band."""
-    print(f"-- issue 26: self-similarity and likeness against the image, per slice orientation ({load()})")
-    print(f"{'':<40}{'time s':>8}  {'self-similarity z y x':<21}{'likeness z y x':<19}{'hist':>6}")
+    """Issues 26 and 31: self-similarity (whole slices), likeness and block grid of every product, against the new
+    samples' band."""
+    print(f"-- issues 26 and 31: every product against the image, per slice orientation ({load()})")
+    print(
+        f"{'':<40}{'time s':>8}  {'self-similarity z y x':<21}{'likeness z y x':<21}{'block grid z y x':<19}{'hist':>6}"
+    )
     for texture, (crop, others) in _crops96().items():
         figure = self_similarity_figure(crop)
         new = [self_similarity(o, figure) for o in others]
-        print(f"{texture}: new samples of the image (other {crop.shape[0]} px crops) {min(new):.2f}-{max(new):.2f}")
+        grids = [block_grid(o) for o in others]
+        print(
+            f"{texture}: new samples of the image (other {crop.shape[0]} px crops) {min(new):.2f}-{max(new):.2f}, "
+            f"block grid {min(grids):.2f}-{max(grids):.2f}"
+        )
         cpu = time.process_time()
         t, ex = timed(lambda c=crop: exemplar_from_image(c, rng=0), 1)
         cpu = time.process_time() - cpu  # CPU seconds of this process (all its threads): what a shared machine hides
-        _judge(f"  exemplar_from_image {ex.shape[0]}^3", ex, crop, figure, t)
+        _judge(f"  exemplar_from_image {ex.shape[0]}^3", ex, crop, t)
         verdict = "ok" if t <= 120 else "ok in CPU time (the machine is shared)" if cpu <= 120 else "MISSED"
         print(f"{'':<40}{'':8}  time target <= 120 s: wall {t:.0f} s, CPU {cpu:.0f} s: {verdict}")
         if "--baseline" in sys.argv:
             t0, old = timed(
                 lambda c=crop: exemplar_from_image(c, rng=0, vote="mean", neighbourhood=5, method="kopf"), 1
             )
-            _judge("  Kopf, mean vote, 5x5 (issue 14's default)", old, crop, figure, t0)
+            _judge("  Kopf, mean vote, 5x5 (issue 14's default)", old, crop, t0)
             t0, old = timed(lambda c=crop: exemplar_from_image(c, rng=0, method="kopf"), 1)
-            _judge("  Kopf, best vote, 9x9 (streaks, blocks)", old, crop, figure, t0)
+            _judge("  Kopf, best vote, 9x9 (streaks, blocks)", old, crop, t0)
         size = 2 * ex.shape[0]
+        t, out = timed(lambda e=ex, n=size: synthesize(e, n, rng=0, progress=False), 1)
+        _judge(f"  synthesize {size}^3 (default: pyramid)", out, crop, t, grid=1.5)
         for seams, floor in (("cut", 0.8), ("feather", 0.7)):
-            t, out = timed(lambda s=seams, e=ex, n=size: synthesize(e, n, rng=0, seams=s, progress=False), 1)
-            _judge(f"  synthesize {size}^3, {seams}", out, crop, figure, t, floor, 99)
+            t, out = timed(lambda s=seams, e=ex, n=size: synthesize_by_blocks(e, n, rng=0, seams=s, progress=False), 1)
+            _judge(f"  synthesize_by_blocks {size}^3, {seams}", out, crop, t, floor, 99)
         t, out = timed(lambda e=ex, n=size: synthesize_by_optimisation(e, n, rng=0, progress=False), 1)
-        _judge(f"  synthesize_by_optimisation {size}^3", out, crop, figure, t)
-        t, lazy_volume = timed(lambda e=ex, n=size: LazySolidTexture(e, n, rng=0).volume(), 1)
-        _judge(f"  LazySolidTexture {size}^3 (whole)", lazy_volume, crop, figure, t, 0.7, 99)
+        _judge(f"  synthesize_by_optimisation {size}^3", out, crop, t)
+        t, lazy_volume = timed(lambda e=ex, n=size: LazyBlockTexture(e, n, rng=0).volume(), 1)
+        _judge(f"  LazyBlockTexture {size}^3 (whole)", lazy_volume, crop, t, 0.7, 99)
         if quick:
             break
-    print("  (self-similarity: median distance of a slice's 8x8 windows to the nearest other window >= 16 px away,")
-    print("   over the image's, on crops the size of the image, 4 slices per orientation; likeness: median")
-    print("   distance to the nearest image window over the image's own figure; hist: colour-histogram distance)\n")
+    print("  (self-similarity: median distance of a slice's 8x8 windows to the nearest other window >= 16 px away in")
+    print("   the whole slice, over the image's figure scaled to the slice's number of windows, 4 slices per")
+    print("   orientation; likeness: median distance to the nearest image window over the image's own figure;")
+    print("   block grid: the colour-step profile folded by periods 8-32 px, highest phase over the mean; hist:")
+    print("   colour-histogram distance)\n")
+
+
+# -- issue 31's table: every method at 2x and 4x the exemplar, and the lazy texture at 512^3 -----------------------
+
+_CASE = """
+import json, sys, time
+import numpy as np
+from ffd_notebook.solidtex import LazySolidTexture, synthesize
+method, exemplar, size, out = sys.argv[1], np.load(sys.argv[2]), int(sys.argv[3]), sys.argv[4]
+options = {{"cut": dict(method="blocks", seams="cut"), "feather": dict(method="blocks", seams="feather"),
+            "optimisation": dict(method="optimisation"), "pyramid": {{}}}}
+t = time.perf_counter()
+if method == "lazy":  # a 192 x 192 region of a deep slice, in orientation sys.argv[5]
+    axis = int(sys.argv[5])
+    tex = LazySolidTexture(exemplar, size, rng=0)
+    a, b = np.meshgrid(np.arange(160, 352), np.arange(160, 352), indexing="ij")
+    ids = np.insert(np.stack([a.ravel(), b.ravel()], -1), axis, 300, axis=1)
+    volume = tex.voxels(ids).reshape(192, 192, 3)
+else:
+    volume = synthesize(exemplar, size, rng=0, progress=False, **options[method])
+seconds = time.perf_counter() - t
+np.save(out, volume)
+print(json.dumps({{"seconds": seconds}}))
+"""
+
+
+def _run_case(args: list[str]) -> tuple[float, float]:
+    """Run one synthesis in its own process under ``/usr/bin/time -v``: its seconds and peak resident MB."""
+    import json
+    import subprocess
+
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([os.getcwd(), os.environ.get("PYTHONPATH", "")])}
+    done = subprocess.run(
+        ["/usr/bin/time", "-v", sys.executable, "-c", _CASE.format(), *args], capture_output=True, text=True, env=env
+    )
+    if done.returncode:
+        raise RuntimeError(done.stderr[-3000:])
+    peak = next(int(line.split()[-1]) for line in done.stderr.splitlines() if "Maximum resident set size" in line)
+    return json.loads(done.stdout.strip().splitlines()[-1])["seconds"], peak / 1024
+
+
+def methods(keep: str | None) -> None:
+    """Every method at 2x and 4x the exemplar (the honeycomb 64^3 and gravel 96^3) and the lazy texture at 512^3:
+    time, peak memory, whole-slice self-similarity and block grid per orientation (issue 31's table)."""
+    import tempfile
+
+    print(f"-- issue 31: the methods at 2x and 4x the exemplar, the lazy texture at 512^3 ({load()})")
+    print(f"{'':<34}{'time s':>8}{'peak MB':>9}  {'self-similarity z y x':<21}{'block grid z y x':<19}")
+    crops = _crops96()
+    work = keep or tempfile.mkdtemp()
+    skip = {("gravel", 384, "optimisation")}  # 2.6 GB and 145 s at 256^3: ~9 GB here, on a machine shared by seven
+    for texture in ("honeycomb", "gravel"):
+        crop = crops[texture][0]
+        ex_path = f"{work}/{texture}_exemplar.npy"
+        if not os.path.exists(ex_path):
+            np.save(ex_path, exemplar_from_image(crop, rng=0))
+        side = np.load(ex_path).shape[0]
+        print(f"{texture}: exemplar {side}^3 from the {crop.shape[0]} px crop")
+        for factor in (2, 4):
+            size = factor * side
+            for method in ("pyramid", "optimisation", "cut", "feather"):
+                if (texture, size, method) in skip:
+                    print(f"  {method + f' {size}^3':<32}  (skipped: ~9 GB, see the note)")
+                    continue
+                out = f"{work}/{texture}_{method}_{size}.npy"
+                seconds, peak = _run_case([method, ex_path, str(size), out])
+                volume = np.load(out)
+                ss, bg = self_similarity(volume, crop), block_grid(volume)
+                print(
+                    f"  {method + f' {size}^3':<32}{seconds:8.1f}{peak:9.0f}  {' '.join(f'{v:5.2f}' for v in ss)}"
+                    f"      {' '.join(f'{v:5.2f}' for v in bg)}"
+                )
+        for axis in range(3):
+            out = f"{work}/{texture}_lazy512_{axis}.npy"
+            seconds, peak = _run_case(["lazy", ex_path, "512", out, str(axis)])
+            region = np.load(out)
+            print(
+                f"  {f'lazy 512^3, 192 px of slice {axis}':<32}{seconds:8.1f}{peak:9.0f}  "
+                f"{self_similarity(region, crop):5.2f} (whole region)  {block_grid(region):5.2f}   "
+                f"likeness {likeness(region, crop):.2f}"
+            )
+    print("  (each case in its own process under /usr/bin/time -v: wall seconds of the synthesis, peak resident")
+    print("   memory of the process; the measures on whole slices as in the section above; the lazy texture fills a")
+    print("   192 x 192 region at depth 300 of a 512^3 texture in each orientation, from nothing: target <= 60 s)\n")
+
+
+def cluster(size: int) -> None:
+    """The whole volume of a lazy texture in chunks: here, on a LocalCluster of 1 and of 2 workers; identical."""
+    import hashlib
+
+    from distributed import Client
+
+    from ffd_notebook.batch import local_cluster
+
+    print(f"-- issue 31: LazySolidTexture({size}).volume() in chunks, here and on Dask ({load()})")
+    ex = exemplar_from_image(_crops96()["honeycomb"][0], rng=0)
+    texture = LazySolidTexture(ex, size, rng=0)
+    digests = {}
+    t0 = time.perf_counter()
+    digests["here"] = hashlib.sha256(texture.volume(chunk=64).tobytes()).hexdigest()
+    row(f"volume {size}^3, one process, chunks of 64", time.perf_counter() - t0, "s")
+    for workers in (1, 2):
+        with local_cluster(workers, dashboard_address=None) as c, Client(c) as client:
+            t0 = time.perf_counter()
+            digests[workers] = hashlib.sha256(texture.volume(chunk=64, client=client).tobytes()).hexdigest()
+            row(f"volume {size}^3 on local_cluster({workers})", time.perf_counter() - t0, "s")
+    same = len(set(digests.values())) == 1
+    print(f"  identical to the single-process result: {same} (sha256 {digests['here'][:16]}...)\n")
 
 
 def _status_mb(key: str) -> float:
@@ -459,6 +592,10 @@ def main() -> None:
     print(f"solid textures, machine: {os.cpu_count()} shared cores (medians); {load()}\n")
     if wanted("likeness"):
         likeness_section(quick)
+    if only is not None and "methods" in only:
+        methods(sys.argv[sys.argv.index("--keep") + 1] if "--keep" in sys.argv else None)
+    if only is not None and "cluster" in only:
+        cluster(256 if quick else 512)
     opt = exemplars(quick, wanted("exemplar")) if wanted("exemplar") or wanted("lazy") else None
     if wanted("seams"):
         seams(extrusion(), quick)

@@ -5,6 +5,7 @@ import pytest
 import skimage.data
 
 from ffd_notebook.solidtex import (
+    LazyBlockTexture,
     LazySolidTexture,
     choose_block_size,
     color_histogram,
@@ -13,6 +14,7 @@ from ffd_notebook.solidtex import (
     neighbourhood_distance,
     seam_error,
     synthesize,
+    synthesize_by_blocks,
 )
 from ffd_notebook.solidtex.seeding import integer_seed
 
@@ -30,9 +32,23 @@ def test_colour_histogram_warns_and_equals_color_histogram(image):
 
 def test_synthesize_seed_warns_and_equals_rng(exemplar):
     with pytest.warns(DeprecationWarning, match=r"synthesize\(seed=...\) is deprecated: use rng=..."):
-        old = synthesize(exemplar, 24, block=8, seed=3, progress=False)
-    np.testing.assert_array_equal(old, synthesize(exemplar, 24, block=8, rng=3, progress=False))
-    assert not np.array_equal(old, synthesize(exemplar, 24, block=8, rng=4, progress=False))
+        old = synthesize(exemplar, 24, seed=3, progress=False)
+    np.testing.assert_array_equal(old, synthesize(exemplar, 24, rng=3, progress=False))
+    assert not np.array_equal(old, synthesize(exemplar, 24, rng=4, progress=False))
+    with pytest.warns(DeprecationWarning, match=r"synthesize_by_blocks\(seed=...\) is deprecated: use rng=..."):
+        old = synthesize_by_blocks(exemplar, 24, block=8, seed=3, progress=False)
+    np.testing.assert_array_equal(old, synthesize_by_blocks(exemplar, 24, block=8, rng=3, progress=False))
+
+
+def test_block_options_without_a_method_still_run_the_block_method(exemplar):
+    # issue 31: synthesize's default is now the pyramid; synthesize(ex, n, seams="cut") (the old call) runs the block
+    # method it meant, and says how to ask for it
+    with pytest.warns(DeprecationWarning, match=r"synthesize\(block=..., seams=...\) runs the block method"):
+        old = synthesize(exemplar, 24, block=8, seams="cut", progress=False)
+    np.testing.assert_array_equal(old, synthesize(exemplar, 24, method="blocks", block=8, seams="cut", progress=False))
+    np.testing.assert_array_equal(old, synthesize_by_blocks(exemplar, 24, block=8, seams="cut", progress=False))
+    with pytest.raises(TypeError, match="no option block"):
+        synthesize(exemplar, 24, method="pyramid", block=8)
 
 
 def test_exemplar_from_image_seed_warns_and_equals_rng(image):
@@ -42,18 +58,19 @@ def test_exemplar_from_image_seed_warns_and_equals_rng(image):
     np.testing.assert_array_equal(old, exemplar_from_image(image, 16, rng=2, **kw))
 
 
-def test_lazy_fit_seed_warns_and_equals_rng(exemplar):
+@pytest.mark.parametrize("cls, options", [(LazySolidTexture, {}), (LazyBlockTexture, {"block": 8})])
+def test_lazy_fit_seed_warns_and_equals_rng(exemplar, cls, options):
     bounds, points = (0, 10, 0, 5, 0, 2), np.random.default_rng(0).uniform(0, 2, (200, 3))
-    with pytest.warns(DeprecationWarning, match=r"LazySolidTexture.fit\(seed=...\)"):
-        old = LazySolidTexture.fit(exemplar, bounds, resolution=64, block=8, seed=7)
-    new = LazySolidTexture.fit(exemplar, bounds, resolution=64, block=8, rng=7)
+    with pytest.warns(DeprecationWarning, match=rf"{cls.__name__}.fit\(seed=...\)"):
+        old = cls.fit(exemplar, bounds, resolution=64, seed=7, **options)
+    new = cls.fit(exemplar, bounds, resolution=64, rng=7, **options)
     assert old.seed == new.seed == 7
     np.testing.assert_array_equal(old.sample(points), new.sample(points))
 
 
 def test_a_generator_works_where_an_int_does(exemplar):
-    a = synthesize(exemplar, 24, block=8, rng=np.random.default_rng(5), progress=False)
-    b = synthesize(exemplar, 24, block=8, rng=np.random.default_rng(5), progress=False)
+    a = synthesize(exemplar, 24, rng=np.random.default_rng(5), progress=False)
+    b = synthesize(exemplar, 24, rng=np.random.default_rng(5), progress=False)
     np.testing.assert_array_equal(a, b)
     # a Generator is drawn from: the same generator again gives other numbers
     gen = np.random.default_rng(1)
@@ -66,10 +83,10 @@ def test_a_generator_works_where_an_int_does(exemplar):
 
 
 def test_lazy_texture_takes_a_generator_as_one_63_bit_root_seed(exemplar):
-    tex = LazySolidTexture(exemplar, 64, block=8, rng=np.random.default_rng(11))
+    tex = LazySolidTexture(exemplar, 64, rng=np.random.default_rng(11))
     assert tex.seed == integer_seed(np.random.default_rng(11))
     assert 2**32 <= tex.seed < 2**63  # a 63-bit draw (this one is large), hashed as is
-    same = LazySolidTexture(exemplar, 64, block=8, rng=tex.seed)
+    same = LazySolidTexture(exemplar, 64, rng=tex.seed, prepared=tex.prepared)
     points = np.random.default_rng(2).uniform(0, 64, (300, 3))
     np.testing.assert_array_equal(tex.sample(points), same.sample(points))
     with pytest.raises(TypeError):

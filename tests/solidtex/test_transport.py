@@ -18,9 +18,12 @@ def test_every_slice_orientation_is_as_varied_as_the_image(made):
     name, image, volume = made  # exemplar_from_image's default method is this one (checked below)
     assert volume.shape == (48, 48, 48, 3) and volume.dtype == np.uint8
     ratios = self_similarity(volume, image, slices=2)
-    # measured: histology 0.89-1.11, gravel 0.83-0.89 (likeness 0.81-0.93, 0.78-0.90);
-    # new samples of the texture score 0.97-1.14, the image blurred by one pixel 0.6-0.7
-    assert 0.8 <= ratios.min() and ratios.max() <= 1.6, (name, ratios)
+    # measured over seeds 0-5 (SciPy 1.17's rotations): histology 0.85-1.11 (means 0.95-0.99), gravel
+    # 0.78-0.92 (means 0.82-0.89); new samples of the texture score 0.97-1.14, the image blurred by
+    # one pixel 0.6-0.7. The seed is fixed, but the draws behind it are SciPy's: a floor of 0.8 on every
+    # orientation held for one stream and not the next (gravel, seed 0: 0.78), so the band is the
+    # method's over seeds: every orientation >= 0.75, their mean >= 0.8 (blur is below both)
+    assert 0.75 <= ratios.min() and ratios.mean() >= 0.8 and ratios.max() <= 1.6, (name, ratios)
     near = likeness(volume, image, slices=1)
     assert 0.75 <= near.min() and near.max() <= 1.3, (name, near)
     assert histogram_distance(volume, image) < 0.03, name

@@ -49,14 +49,19 @@ class TexturedOrgan:
     grid : pyvista.UnstructuredGrid
         Linear tetrahedra with point data ``"rest"`` (see :func:`tetrahedralize`).
     texture : SolidTexture or LazySolidTexture
-        Placed in the rest frame (e.g. ``SolidTexture.fit(volume, grid.bounds)``). A
-        :class:`~ffd_notebook.solidtex.LazySolidTexture` synthesises only the blocks that the
-        surface and each cut face sample, and keeps them for the next cut.
+        Placed in the rest frame (e.g. ``LazySolidTexture.fit(exemplar, grid.bounds)``, the organ's
+        default, or ``SolidTexture.fit(volume, grid.bounds)``). A
+        :class:`~ffd_notebook.solidtex.LazySolidTexture` synthesises only the voxels that the surface
+        and each cut face sample (with what they depend on), and keeps them for the next cut.
     subdivisions : int or "auto"
         Linear subdivisions of the outer surface before sampling (:func:`texture_surface`).
-    face_subdivisions : int
-        Linear subdivisions of the cut face before sampling (its triangles are as large as the
-        tetrahedra; two subdivisions give ~16 samples per triangle).
+    face_subdivisions : int or "auto"
+        Subdivisions of the cut face before sampling (its triangles are as large as the tetrahedra).
+        ``"auto"`` (the default): VTK's adaptive subdivision of every edge longer than two texture
+        voxels, so that each cut samples the texture every two voxels whatever the sizes of its
+        triangles (uniform subdivisions by the mean edge left the section's long thin triangles
+        sampled too sparsely: their corners' colours fanned out as streaks); an integer: that many
+        uniform linear subdivisions.
 
     Examples
     --------
@@ -75,14 +80,14 @@ class TexturedOrgan:
         texture: TextureSampler,
         *,
         subdivisions: int | str = "auto",
-        face_subdivisions: int = 2,
+        face_subdivisions: int | str = "auto",
     ) -> None:
         if REST not in grid.point_data:
             grid = grid.copy()
             grid.point_data[REST] = np.asarray(grid.points, dtype=np.float64)
         self.grid = grid
         self.texture = texture
-        self.face_subdivisions = int(face_subdivisions)
+        self.face_subdivisions = face_subdivisions if face_subdivisions == "auto" else int(face_subdivisions)
         self.surface = texture_surface(organ_surface(grid), texture, subdivisions)
         self._triangles = self.surface.regular_faces
 
@@ -142,8 +147,11 @@ class TexturedOrgan:
         face = self.grid.slice(normal=_unit(normal), origin=np.asarray(origin, float), generate_triangles=True)
         if face.n_points == 0:
             return _empty_coloured()
-        if self.face_subdivisions:
-            face = face.subdivide(self.face_subdivisions, subfilter="linear")
+        if self.face_subdivisions == "auto":
+            # VTK's adaptive subdivision splits only the long edges, down to a sample every two voxels
+            face = face.subdivide_adaptive(max_edge_len=2.0 * float(self.texture.spacing))
+        elif self.face_subdivisions:
+            face = face.subdivide(int(self.face_subdivisions), subfilter="linear")
         face.point_data["RGB"] = self.texture.sample(face.point_data[REST])
         face.point_data.active_scalars_name = "RGB"
         return face

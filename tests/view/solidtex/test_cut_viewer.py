@@ -84,6 +84,28 @@ def test_dense_colours_are_the_texture_at_rest_positions(grid, texture):
     assert organ_module.auto_subdivisions(outer, texture) >= 1
 
 
+def test_a_cut_face_is_sampled_every_two_voxels_along_every_edge(grid):
+    # a texture finer than the tetrahedra: uniform subdivisions chosen by the mean edge left a
+    # section's long thin triangles sampled too sparsely (their corners' colours fanned out as
+    # streaks); "auto" subdivides adaptively until no edge is longer than two voxels
+    fine = SolidTexture.fit(np.zeros((256, 256, 256, 3), np.uint8), grid.bounds)
+    organ = TexturedOrgan(grid, fine, subdivisions=0)
+    origin, normal = np.array(grid.center), np.array([0.3, 1.0, 0.0])
+    section = grid.slice(normal=normal, origin=origin, generate_triangles=True)
+    face = organ.cut_face(origin, normal)
+
+    def lengths(mesh):
+        return mesh.extract_all_edges().compute_cell_sizes(length=True, area=False, volume=False)["Length"]
+
+    assert lengths(section).max() > 8 * fine.spacing  # the section itself has long edges
+    assert lengths(face).max() <= 2 * fine.spacing * (1 + 1e-6)
+    np.testing.assert_allclose(face.point_data["rest"], face.points, atol=1e-3)  # rest interpolated on the plane
+    assert face.area == pytest.approx(section.area, rel=1e-9)
+    # and only where needed: fewer samples than uniform subdivisions to the same longest edge
+    uniform = int(np.ceil(np.log2(lengths(section).max() / (2 * fine.spacing))))
+    assert face.n_points < 4**uniform * section.n_points / 4
+
+
 def test_cut_faces_sample_the_interior_and_follow_a_deformation(grid, texture):
     organ = TexturedOrgan(grid, texture, subdivisions=1)
     origin, normal = np.array(grid.center), np.array([0.6, 0.8, 0.0])
@@ -187,11 +209,11 @@ def test_add_cut_draws_a_snapshot_that_later_deformations_do_not_change(grid, te
 
 def test_a_lazy_texture_is_cut_viewed_and_deformed_like_a_whole_one(grid):
     exemplar = volume_from_slices(sliding_crops(skimage.data.immunohistochemistry(), 32, 32, start=(90, 90)))
-    lazy = LazySolidTexture.fit(exemplar, grid.bounds, resolution=256, block=8)
+    lazy = LazySolidTexture.fit(exemplar, grid.bounds, resolution=128)
     organ = TexturedOrgan(grid.copy(), lazy, subdivisions=1)
     after_surface = lazy.tiles_synthesised
-    # the surface needs a shell of tiles, far fewer than the box holds
-    assert 0 < after_surface < 0.5 * np.prod(lazy.n_blocks)
+    # the surface needs a shell of voxels, far fewer than the box holds
+    assert 0 < lazy.voxels_synthesised < 0.5 * np.prod(lazy.shape)
     np.testing.assert_array_equal(organ.surface.point_data["RGB"], lazy.sample(organ.surface.point_data["rest"]))
     viewer = CutViewer(organ, normal=(1, 0, 0), window_size=(300, 200))
     after_cut = lazy.tiles_synthesised
