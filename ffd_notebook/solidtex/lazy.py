@@ -118,6 +118,25 @@ class LazyTexture:
         return np.clip(c, 0.0, np.array(self.shape, dtype=np.float64) - 1.0)
 
     def voxels(self, indices: ArrayLike) -> NDArray[np.uint8]:  # pragma: no cover - every subclass defines it
+        """Colours of integer voxels, synthesising what they need (each subclass defines it).
+
+        Parameters
+        ----------
+        indices : array_like
+            ``(N, 3)`` integer voxel indices ``(k, j, i)``, inside ``shape``.
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(N, 3)`` uint8 colours.
+
+        Examples
+        --------
+        >>> from ffd_notebook.solidtex import LazySolidTexture
+        >>> ex = np.random.default_rng(0).integers(0, 256, (16, 16, 16, 3), dtype=np.uint8)
+        >>> LazySolidTexture(ex, 32, rng=0).voxels([[0, 0, 0], [31, 31, 31]]).shape
+        (2, 3)
+        """
         raise NotImplementedError
 
     def sample(self, points: ArrayLike) -> NDArray[np.uint8]:
