@@ -75,12 +75,20 @@ def show_widest_texts(page) -> None:
     page.fill("#ffd-mesh-path", missing)  # a message naming a file longer than the panel is wide
     page.click("#ffd-load-mesh")
     wait_for(lambda: missing in page.locator("#ffd-messages").inner_text(), 30, "the message about the missing file")
-    page.evaluate("(values) => { for (const [k, v] of Object.entries(values)) window.trame.state.set(k, v); }",
-                  WIDEST)  # fmt: skip
+    put = "(values) => { for (const [k, v] of Object.entries(values)) window.trame.state.set(k, v); }"
 
     def shown() -> bool:
-        values = page.evaluate("(keys) => keys.map((k) => window.trame.state.get(k))", list(WIDEST))
-        return values == list(WIDEST.values()) and page.locator("#ffd-dx").input_value() == WIDEST["dx"]
+        # the server answers some of these (a new interpolation or size refreshes the point's fields), and
+        # under load its answer can land after them: put again what it overwrote until everything shows
+        now = page.evaluate("(keys) => keys.map((k) => window.trame.state.get(k))", list(WIDEST))
+        values = dict(zip(WIDEST, now, strict=True))
+        changed = {k: v for k, v in WIDEST.items() if values[k] != v}
+        if changed:
+            page.evaluate(put, changed)
+            return False
+        return page.locator("#ffd-dx").input_value() == WIDEST["dx"]
+
+    page.evaluate(put, WIDEST)
 
     wait_for(shown, 30, "the widest values in the panel")
     time.sleep(0.5)  # the selects' menus close and the fields re-render
