@@ -6,6 +6,7 @@ Open the bundled sample mesh and browse to the printed address::
 
     python -m ffd_notebook
     python -m ffd_notebook face.obj --ffd face.ffd --port 8765
+    python -m ffd_notebook --image fixed.nii.gz --ffd cpp.nii.gz   # a NiftyReg result on its image
     python -m ffd_notebook me.jpg                 # the coloured 3D face in a photo
     python -m ffd_notebook --shape 6 6 4 --basis bernstein
     python -m ffd_notebook --root ~/meshes --host 0.0.0.0
@@ -14,7 +15,7 @@ The printed address carries a session token; the page's file paths stay inside `
 
 Subcommands (each with its own ``--help``)::
 
-    python -m ffd_notebook convert lattice.ffd lattice.tfm     # .ffd, ITK .tfm/.txt/.h5, PyGeM .prm
+    python -m ffd_notebook convert lattice.ffd lattice.tfm     # between the deformation formats
     python -m ffd_notebook batch face.ply --n 1000 --out augmented
 """
 
@@ -49,7 +50,10 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("mesh", nargs="?",
                         help="mesh file (OBJ with colours, PLY, VTP, STL, ...), or a photo of a face (JPEG, PNG...: "
                              "the coloured face in it); default: the sample face")  # fmt: skip
-    parser.add_argument("--ffd", metavar="FILE", help="a lattice file to start from (.ffd, ITK .tfm/.h5, PyGeM .prm)")
+    parser.add_argument("--ffd", metavar="FILE",
+                        help="a deformation file to start from: .ffd, ITK .tfm/.h5, elastix, NiftyReg, ANTs, FSL "
+                             "FNIRT, PyGeM .prm or a displacement field (a lattice is edited as it is, an affine "
+                             "as the affine part, a field or a chain fitted by a lattice)")  # fmt: skip
     parser.add_argument("--image", metavar="IMG",
                         help="an image to show with the mesh as three slices warped by the lattice (NIfTI, NRRD, "
                              "MetaImage...); without a mesh, the lattice is fitted to the image's box")  # fmt: skip

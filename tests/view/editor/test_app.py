@@ -153,6 +153,8 @@ def test_command_line():
     run = subprocess.run([sys.executable, "-m", "ffd_notebook", "--help"], capture_output=True, text=True, env=env,
                          timeout=60)  # fmt: skip
     assert run.returncode == 0 and "--ffd FILE" in run.stdout and "--shape NX NY NZ" in run.stdout
+    # --ffd reads what load_deformation reads: the help says so, by the tools' names
+    assert all(tool in run.stdout for tool in ("elastix", "NiftyReg", "ANTs", "FNIRT", "displacement"))
 
 
 def test_itk_and_pygem_files_by_path_inside_the_root_only(app, tmp_path):
