@@ -22,6 +22,7 @@ from typing import Any
 import numpy as np
 import pyvista as pv
 from numpy.typing import ArrayLike, NDArray
+from scipy.spatial import cKDTree
 from vtkmodules.vtkCommonCore import vtkUnsignedCharArray
 
 from ...meshing.organ import REST, organ_surface, rest_points, texture_surface
@@ -259,12 +260,35 @@ def _empty_coloured() -> pv.PolyData:
 
 
 def _rim(face: pv.PolyData) -> pv.PolyData:
-    """The boundary of a cut face: where the knife met the organ's surface."""
+    """The boundary of a cut face: where the knife met the organ's surface.
+
+    VTK's adaptive subdivision leaves T-junctions (an edge split on one side and not on the other),
+    which count as boundary edges inside the face: two edges that lie along each other. Those are
+    left out; the outline's edges lie along none.
+    """
     if face.n_cells == 0:
         return pv.PolyData()
-    return face.extract_feature_edges(
+    edges = face.extract_feature_edges(
         boundary_edges=True, feature_edges=False, manifold_edges=False, non_manifold_edges=False
     )
+    lines = edges.lines.reshape(-1, 3)[:, 1:]
+    if len(lines) < 2:
+        return edges
+    a, b = edges.points[lines[:, 0]], edges.points[lines[:, 1]]
+    mid, half = (a + b) / 2.0, np.linalg.norm(b - a, axis=1) / 2.0
+    # an edge whose midpoint lies on another edge (within a millionth of the face's size): a T-junction
+    tol = 1e-6 * max(float(np.ptp(face.points, axis=0).max()), 1e-300)
+    pairs = cKDTree(mid).query_pairs(r=2.0 * half.max() + tol, output_type="ndarray")
+    i, j = np.concatenate([pairs[:, 0], pairs[:, 1]]), np.concatenate([pairs[:, 1], pairs[:, 0]])
+    d = b[j] - a[j]
+    t = np.clip(np.einsum("ij,ij->i", mid[i] - a[j], d) / np.einsum("ij,ij->i", d, d), 0.0, 1.0)
+    on = np.linalg.norm(a[j] + t[:, None] * d - mid[i], axis=1) <= tol
+    overlapped = np.zeros(len(lines), dtype=bool)
+    overlapped[i[on]] = True
+    if not overlapped.any():
+        return edges
+    kept = pv.PolyData(edges.points, lines=np.column_stack([np.full((~overlapped).sum(), 2), lines[~overlapped]]))
+    return kept.clean()
 
 
 def add_cut(
