@@ -428,7 +428,7 @@ def methods(keep: str | None) -> None:
     import tempfile
 
     print(f"-- issue 31: the methods at 2x and 4x the exemplar, the lazy texture at 512^3 ({load()})")
-    print(f"{'':<34}{'time s':>8}{'peak MB':>9}  {'self-similarity z y x':<21}{'block grid z y x':<19}")
+    print(f"{'':<34}{'time s':>8}{'peak MB':>9}  {'self-similarity z y x':<24}{'block grid z y x':<19}")
     crops = _crops96()
     work = keep or tempfile.mkdtemp()
     skip = {("gravel", 384, "optimisation")}  # 2.6 GB and 145 s at 256^3: ~9 GB here, on a machine shared by seven
