@@ -22,10 +22,9 @@ from typing import Any
 import numpy as np
 import pyvista as pv
 from numpy.typing import ArrayLike, NDArray
-from scipy.spatial import cKDTree
 from vtkmodules.vtkCommonCore import vtkUnsignedCharArray
 
-from ...meshing.organ import REST, organ_surface, rest_points, texture_surface
+from ...meshing.organ import REST, auto_subdivisions, organ_surface, rest_points, texture_surface
 from ...solidtex.sampling import SolidTexture, TextureSampler  # noqa: F401  (SolidTexture: the doctests)
 from ..rendering.camera import frame_camera, unit_vector, view_direction
 from ..rendering.plotters import new_plotter
@@ -57,12 +56,11 @@ class TexturedOrgan:
     subdivisions : int or "auto"
         Linear subdivisions of the outer surface before sampling (:func:`texture_surface`).
     face_subdivisions : int or "auto"
-        Subdivisions of the cut face before sampling (its triangles are as large as the tetrahedra).
-        ``"auto"`` (the default): VTK's adaptive subdivision of every edge longer than two texture
-        voxels, so that each cut samples the texture every two voxels whatever the sizes of its
-        triangles (uniform subdivisions by the mean edge left the section's long thin triangles
-        sampled too sparsely: their corners' colours fanned out as streaks); an integer: that many
-        uniform linear subdivisions.
+        Linear subdivisions of the cut face before sampling (its triangles are as large as the
+        tetrahedra). ``"auto"`` (the default): chosen per cut, enough for a sample every two texture
+        voxels along the long edges (99th percentile, at most 4; :func:`auto_subdivisions`): by the
+        mean edge, the section's long thin triangles were sampled too sparsely and their corners'
+        colours fanned out as streaks.
 
     Examples
     --------
@@ -148,11 +146,13 @@ class TexturedOrgan:
         face = self.grid.slice(normal=_unit(normal), origin=np.asarray(origin, float), generate_triangles=True)
         if face.n_points == 0:
             return _empty_coloured()
-        if self.face_subdivisions == "auto":
-            # VTK's adaptive subdivision splits only the long edges, down to a sample every two voxels
-            face = face.subdivide_adaptive(max_edge_len=2.0 * float(self.texture.spacing))
-        elif self.face_subdivisions:
-            face = face.subdivide(int(self.face_subdivisions), subfilter="linear")
+        n = (
+            auto_subdivisions(face, self.texture, samples_per_voxel=0.5, quantile=0.99)
+            if self.face_subdivisions == "auto"
+            else int(self.face_subdivisions)
+        )
+        if n:  # uniform: VTK's adaptive subdivision leaves T-junctions, cracks a rim would draw
+            face = face.subdivide(n, subfilter="linear")
         face.point_data["RGB"] = self.texture.sample(face.point_data[REST])
         face.point_data.active_scalars_name = "RGB"
         return face
@@ -259,36 +259,21 @@ def _empty_coloured() -> pv.PolyData:
     return empty
 
 
-def _rim(face: pv.PolyData) -> pv.PolyData:
+def _rim(face: pv.PolyData, normal: ArrayLike | None = None) -> pv.PolyData:
     """The boundary of a cut face: where the knife met the organ's surface.
 
-    VTK's adaptive subdivision leaves T-junctions (an edge split on one side and not on the other),
-    which count as boundary edges inside the face: two edges that lie along each other. Those are
-    left out; the outline's edges lie along none.
+    With ``normal`` (the side cut away, where the camera looks from), the line is lifted off the
+    face by a thousandth of its size: drawn in the face's plane, its short segments lost the depth
+    test to the face here and there and the rim showed as a broken line.
     """
     if face.n_cells == 0:
         return pv.PolyData()
-    edges = face.extract_feature_edges(
+    rim = face.extract_feature_edges(
         boundary_edges=True, feature_edges=False, manifold_edges=False, non_manifold_edges=False
     )
-    lines = edges.lines.reshape(-1, 3)[:, 1:]
-    if len(lines) < 2:
-        return edges
-    a, b = edges.points[lines[:, 0]], edges.points[lines[:, 1]]
-    mid, half = (a + b) / 2.0, np.linalg.norm(b - a, axis=1) / 2.0
-    # an edge whose midpoint lies on another edge (within a millionth of the face's size): a T-junction
-    tol = 1e-6 * max(float(np.ptp(face.points, axis=0).max()), 1e-300)
-    pairs = cKDTree(mid).query_pairs(r=2.0 * half.max() + tol, output_type="ndarray")
-    i, j = np.concatenate([pairs[:, 0], pairs[:, 1]]), np.concatenate([pairs[:, 1], pairs[:, 0]])
-    d = b[j] - a[j]
-    t = np.clip(np.einsum("ij,ij->i", mid[i] - a[j], d) / np.einsum("ij,ij->i", d, d), 0.0, 1.0)
-    on = np.linalg.norm(a[j] + t[:, None] * d - mid[i], axis=1) <= tol
-    overlapped = np.zeros(len(lines), dtype=bool)
-    overlapped[i[on]] = True
-    if not overlapped.any():
-        return edges
-    kept = pv.PolyData(edges.points, lines=np.column_stack([np.full((~overlapped).sum(), 2), lines[~overlapped]]))
-    return kept.clean()
+    if normal is not None and rim.n_points:
+        rim.points = rim.points + 1e-3 * float(np.ptp(face.points, axis=0).max()) * _unit(normal)
+    return rim
 
 
 def add_cut(
@@ -345,7 +330,7 @@ def add_cut(
     if face.n_cells:
         plotter.add_mesh(face, name=f"{name}-cut", lighting=False, **opts)
         if rim:
-            plotter.add_mesh(_rim(face), name=f"{name}-rim", color=RIM_COLOUR, line_width=2, lighting=False)
+            plotter.add_mesh(_rim(face, normal), name=f"{name}-rim", color=RIM_COLOUR, line_width=2, lighting=False)
     return outside, face
 
 
@@ -415,7 +400,7 @@ class CutViewer:
         self.origin = np.asarray(organ.grid.center if origin is None else origin, dtype=np.float64)
         self.normal = _unit(normal)
         self.outside, self.face = organ.cut(self.origin, self.normal)
-        self.rim = _rim(self.face)
+        self.rim = _rim(self.face, self.normal)
         opts = {"scalars": "RGB", "rgb": True, "show_scalar_bar": False}
         self.plotter.add_mesh(self.outside, name="organ-outside", **opts)
         self.plotter.add_mesh(self.face, name="organ-cut", lighting=False, **opts)
@@ -500,7 +485,7 @@ class CutViewer:
         outside, face = self.organ.cut(self.origin, self.normal)
         self.outside.copy_from(outside, deep=False)
         self.face.copy_from(face, deep=False)
-        self.rim.copy_from(_rim(face), deep=False)
+        self.rim.copy_from(_rim(face, self.normal), deep=False)
         self._sync_widget()
         show_changes(self.plotter)
 
