@@ -39,21 +39,23 @@ from ..ffd.lattice import Lattice
 from .displacement_field import DisplacementField
 from .nifti_files import (
     FSL_INTENTS,
+    RAS_TO_LPS_4,
     NiftiFile,
     check_millimetres,
+    lps_field,
+    lps_matrix,
     nifti_meaning,
     read_nifti,
     read_nifti_header,
+    voxel_positions,
     write_nifti,
 )
-from .niftyreg import RAS_TO_LPS
 
 __all__ = ["load_fnirt", "save_fnirt"]
 
 _CUBIC = (2007, 2016)
 _FIELD = 2006
 _CLEAR = 3.0  # how much less one reading of a displacement field must vary than the other to be taken
-_FLIP = np.diag([-1.0, -1.0, 1.0, 1.0])  # RAS <-> LPS on homogeneous coordinates
 
 
 @dataclass
@@ -97,13 +99,8 @@ def fsl_image(image: Any, what: str) -> FslImage:
     from ..images.reference import reference_grid
 
     grid = reference_grid(image)
-    world = _FLIP @ grid.index_to_physical()
+    world = RAS_TO_LPS_4 @ grid.index_to_physical()
     return FslImage(world, np.asarray(grid.spacing, dtype=np.float64), tuple(grid.size))  # type: ignore[arg-type]
-
-
-def _lps(matrix: NDArray[np.float64]) -> NDArray[np.float64]:
-    """A RAS-to-RAS affine map as the LPS-to-LPS one."""
-    return _FLIP @ matrix @ _FLIP
 
 
 def _coefficients(nifti: NiftiFile, reference: FslImage, source: FslImage) -> FFD:
@@ -128,19 +125,14 @@ def _coefficients(nifti: NiftiFile, reference: FslImage, source: FslImage) -> FF
     ref_fsl_to_world = reference.fsl_to_world()
     src_fsl_to_world = source.fsl_to_world()
     # knot q rests at reference voxel (q - 1) * step: the lattice's placement in the reference's world (LPS)
-    place = _FLIP @ reference.world @ np.diag([*step, 1.0])
+    place = RAS_TO_LPS_4 @ reference.world @ np.diag([*step, 1.0])
     axes = place[:3, :3]
     spacing = np.linalg.norm(axes, axis=0)
     lattice = Lattice(shape[:3], spacing, place[:3, :3] @ [-1.0, -1.0, -1.0] + place[:3, 3], axes / spacing)
-    carry = (_FLIP @ src_fsl_to_world)[:3, :3]  # a vector in the source's FSL coordinates, into LPS
+    carry = (RAS_TO_LPS_4 @ src_fsl_to_world)[:3, :3]  # a vector in the source's FSL coordinates, into LPS
     lattice.offsets[...] = coefficients @ carry.T
-    affine = _lps(src_fsl_to_world @ np.linalg.inv(premat) @ np.linalg.inv(ref_fsl_to_world))
+    affine = lps_matrix(src_fsl_to_world @ np.linalg.inv(premat) @ np.linalg.inv(ref_fsl_to_world))
     return FFD(lattice, "bspline", border="zero", affine=affine)
-
-
-def _voxel_positions(world: NDArray[np.float64], shape: tuple[int, ...]) -> NDArray[np.float64]:
-    index = np.stack(np.meshgrid(*[np.arange(n, dtype=np.float64) for n in shape], indexing="ij"), -1)
-    return index @ world[:3, :3].T + world[:3, 3]
 
 
 def _field(nifti: NiftiFile, reference: FslImage, source: FslImage, field: str | None) -> DisplacementField:
@@ -148,7 +140,7 @@ def _field(nifti: NiftiFile, reference: FslImage, source: FslImage, field: str |
     if len(shape) != 4 or shape[3] != 3:
         raise nifti.fail(f"an FNIRT displacement field is (nx, ny, nz, 3), got data of shape {shape}")
     world = nifti.world()
-    voxels = _voxel_positions(world, shape[:3])  # RAS world of each field voxel
+    voxels = voxel_positions(world, shape[:3])  # RAS world of each field voxel
     world_to_fsl = np.linalg.inv(reference.fsl_to_world())
     ref_fsl = voxels @ world_to_fsl[:3, :3].T + world_to_fsl[:3, 3]
     assert nifti.data is not None
@@ -165,14 +157,7 @@ def _field(nifti: NiftiFile, reference: FslImage, source: FslImage, field: str |
         field = "relative" if varies_as_is < varies_minus else "absolute"
     src_fsl = data + ref_fsl if field == "relative" else data
     target = src_fsl @ source.fsl_to_world()[:3, :3].T + source.fsl_to_world()[:3, 3]
-    displacements = (target - voxels) @ RAS_TO_LPS.T
-    axes = RAS_TO_LPS @ world[:3, :3]
-    spacing = np.linalg.norm(axes, axis=0)
-    try:
-        return DisplacementField(displacements.transpose(2, 1, 0, 3), spacing, RAS_TO_LPS @ world[:3, 3],
-                                 axes / spacing)  # fmt: skip
-    except ValueError as exc:
-        raise nifti.fail(str(exc)) from None
+    return lps_field(nifti, target - voxels)
 
 
 def fnirt_deformation(
@@ -299,7 +284,7 @@ def save_fnirt(path: str | os.PathLike[str], ffd: FFD, *, reference: Any, source
     ffd = ffd.baked()
     lattice = ffd.lattice
     # the lattice's steps in reference voxels: must be (step, 0, 0), (0, step, 0), (0, 0, step)
-    to_voxel = np.linalg.inv(_FLIP @ ref.world)
+    to_voxel = np.linalg.inv(RAS_TO_LPS_4 @ ref.world)
     steps = to_voxel[:3, :3] @ (lattice.rotation * lattice.spacing)
     step = np.diag(steps).copy()
     if np.abs(steps - np.diag(step)).max() > 1e-6 * np.abs(step).max() or np.any(step <= 0):
@@ -310,10 +295,10 @@ def save_fnirt(path: str | os.PathLike[str], ffd: FFD, *, reference: Any, source
     if np.abs(first - lead).max() > 1e-6 or np.any(lead < 0):
         raise _refuse(path, f"its control points are not on a knot grid of the reference (knot q at voxel (q - 1) "
                       f"x spacing; its first control point is at knot {first.round(6).tolist()})")  # fmt: skip
-    carry = (_FLIP @ src.fsl_to_world())[:3, :3]
+    carry = (RAS_TO_LPS_4 @ src.fsl_to_world())[:3, :3]
     coefficients = lattice.offsets @ np.linalg.inv(carry).T
     coefficients = np.pad(coefficients, [(int(n), 0) for n in lead] + [(0, 0)])
-    world_affine = _FLIP @ ffd.affine @ _FLIP  # RAS
+    world_affine = lps_matrix(ffd.affine)  # RAS
     ref_to_src = np.linalg.inv(src.fsl_to_world()) @ world_affine @ ref.fsl_to_world()
     if abs(np.linalg.det(ref_to_src[:3, :3])) < 1e-12:
         raise _refuse(path, "its affine part is singular (the premat is its inverse)")

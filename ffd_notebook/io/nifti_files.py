@@ -24,6 +24,7 @@ from numpy.typing import NDArray
 from ..errors import FileFormatError
 from ._atomic import atomic_path
 from ._safety import open_regular
+from .displacement_field import DisplacementField
 
 __all__ = ["NiftiFile", "nifti_meaning", "read_nifti", "read_nifti_header", "write_nifti"]
 
@@ -234,6 +235,35 @@ class _Collect(logging.Handler):
 def read_nifti_header(path: str | os.PathLike[str]) -> Any:
     """The nibabel header of a NIfTI file (see :func:`read_nifti`), without its data."""
     return read_nifti(path, data=False).header
+
+
+#: RAS (NIfTI's world) <-> LPS (ITK's physical space): x and y change sign (the map is its own inverse).
+RAS_TO_LPS = np.diag([-1.0, -1.0, 1.0])
+#: The same on homogeneous coordinates.
+RAS_TO_LPS_4 = np.diag([-1.0, -1.0, 1.0, 1.0])
+
+
+def lps_matrix(matrix: NDArray[np.float64]) -> NDArray[np.float64]:
+    """A RAS-to-RAS 4x4 affine map as the LPS-to-LPS one (and back: the flip is its own inverse)."""
+    return RAS_TO_LPS_4 @ matrix @ RAS_TO_LPS_4
+
+
+def voxel_positions(world: NDArray[np.float64], shape: tuple[int, ...]) -> NDArray[np.float64]:
+    """``(nx, ny, nz, 3)`` positions of a grid's voxels by its 4x4 voxel-to-world matrix (nibabel's i, j, k order)."""
+    index = np.stack(np.meshgrid(*[np.arange(n, dtype=np.float64) for n in shape], indexing="ij"), -1)
+    return index @ world[:3, :3].T + world[:3, 3]
+
+
+def lps_field(nifti: NiftiFile, displacements: NDArray[np.float64], *, outside: str = "zero") -> DisplacementField:
+    """RAS displacements on the file's own grid (``(nx, ny, nz, 3)``) as an ITK displacement field (LPS)."""
+    world = nifti.world()
+    axes = RAS_TO_LPS @ world[:3, :3]
+    spacing = np.linalg.norm(axes, axis=0)
+    try:
+        vectors_kji = (displacements @ RAS_TO_LPS.T).transpose(2, 1, 0, 3)  # nibabel's (i, j, k) to array order
+        return DisplacementField(vectors_kji, spacing, RAS_TO_LPS @ world[:3, 3], axes / spacing, outside=outside)
+    except ValueError as exc:
+        raise nifti.fail(str(exc)) from None
 
 
 def _short(exc: BaseException) -> str:

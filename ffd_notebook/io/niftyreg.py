@@ -42,19 +42,24 @@ from numpy.typing import NDArray
 from ..ffd.deform import FFD
 from ..ffd.lattice import Lattice
 from .displacement_field import DisplacementField
-from .nifti_files import NIFTYREG_CODES, NiftiFile, check_millimetres, read_nifti, vector_data, write_nifti
+from .nifti_files import (
+    NIFTYREG_CODES,
+    RAS_TO_LPS,
+    RAS_TO_LPS_4,
+    NiftiFile,
+    check_millimetres,
+    lps_field,
+    lps_matrix,
+    read_nifti,
+    vector_data,
+    voxel_positions,
+    write_nifti,
+)
 from .transform_chain import AffineTransform, TransformChain
 
 __all__ = ["load_niftyreg", "save_niftyreg"]
 
-#: RAS (NIfTI's world) <-> LPS (ITK's physical space): x and y change sign.
-RAS_TO_LPS = np.diag([-1.0, -1.0, 1.0])
 _AFFINE_BYTES = 64  # a mat44 of float32, as NiftyReg stores an affine in an extension
-
-
-def _voxel_positions(world: NDArray[np.float64], shape: tuple[int, int, int]) -> NDArray[np.float64]:
-    index = np.stack(np.meshgrid(*[np.arange(n, dtype=np.float64) for n in shape], indexing="ij"), -1)
-    return index @ world[:3, :3].T + world[:3, 3]
 
 
 def _extension_affines(nifti: NiftiFile) -> list[NDArray[np.float64]]:
@@ -76,12 +81,6 @@ def _extension_affines(nifti: NiftiFile) -> list[NDArray[np.float64]]:
     return out
 
 
-def _lps_affine(matrix: NDArray[np.float64]) -> AffineTransform:
-    flip = np.eye(4)
-    flip[:3, :3] = RAS_TO_LPS
-    return AffineTransform(flip @ matrix @ flip)
-
-
 def _grid_lattice(nifti: NiftiFile, positions: NDArray[np.float64]) -> Lattice:
     world = nifti.world()
     shape = positions.shape[:3]
@@ -93,21 +92,13 @@ def _grid_lattice(nifti: NiftiFile, positions: NDArray[np.float64]) -> Lattice:
         lattice = Lattice(shape, spacing, RAS_TO_LPS @ world[:3, 3], axes / spacing, border="clamp")
     except ValueError as exc:
         raise nifti.fail(f"the grid is not a lattice: {exc}") from None
-    lattice.offsets[...] = (positions - _voxel_positions(world, shape)) @ RAS_TO_LPS.T
+    lattice.offsets[...] = (positions - voxel_positions(world, shape)) @ RAS_TO_LPS.T
     return lattice
 
 
 def _field(nifti: NiftiFile, vectors: NDArray[np.float64], positions: bool) -> DisplacementField:
-    world = nifti.world()
-    shape = vectors.shape[:3]
-    displacements = vectors - _voxel_positions(world, shape) if positions else vectors
-    axes = RAS_TO_LPS @ world[:3, :3]
-    spacing = np.linalg.norm(axes, axis=0)
-    try:
-        vectors_kji = (displacements @ RAS_TO_LPS.T).transpose(2, 1, 0, 3)  # nibabel's (i, j, k) to array order
-        return DisplacementField(vectors_kji, spacing, RAS_TO_LPS @ world[:3, 3], axes / spacing, outside="nearest")
-    except ValueError as exc:
-        raise nifti.fail(str(exc)) from None
+    displacements = vectors - voxel_positions(nifti.world(), vectors.shape[:3]) if positions else vectors
+    return lps_field(nifti, displacements, outside="nearest")
 
 
 def niftyreg_deformation(
@@ -145,7 +136,7 @@ def niftyreg_deformation(
         raise nifti.fail(f"{what} of shape {shape}; NiftyReg's 3D transformations are (nx, ny, nz, 1, 3) with at "
                          "least 2 voxels per axis (a 2D one has 2 components and is not read)")  # fmt: skip
     vectors = vector_data(nifti)
-    affines = [_lps_affine(m).matrix for m in _extension_affines(nifti)]
+    affines = [lps_matrix(m) for m in _extension_affines(nifti)]
     if code == 2:
         return _grid_ffd(nifti, _grid_lattice(nifti, vectors), affines)
     if code == 5:
@@ -319,17 +310,12 @@ def niftyreg_grid(
         if np.linalg.cond(linear) > 1e12:
             raise _refuse(path, "its affine matrix is singular (the offsets A^-1 offsets do not exist)")
         offsets = offsets @ np.linalg.inv(linear).T
-        flip = np.eye(4)
-        flip[:3, :3] = RAS_TO_LPS
-        after = flip @ ffd.affine @ flip
-    axes = lattice.rotation * lattice.spacing  # columns: one step along each lattice axis (LPS)
-    shape = offsets.shape[:3]
-    index = np.stack(np.meshgrid(*[np.arange(n, dtype=np.float64) for n in shape], indexing="ij"), -1)
-    positions = index @ axes.T + origin + offsets
-    world = np.eye(4)
-    world[:3, :3] = RAS_TO_LPS @ axes
-    world[:3, 3] = RAS_TO_LPS @ origin
-    return positions @ RAS_TO_LPS.T, world, after
+        after = lps_matrix(ffd.affine)
+    placement = np.eye(4)  # index -> LPS: columns one step along each lattice axis, then the origin
+    placement[:3, :3] = lattice.rotation * lattice.spacing
+    placement[:3, 3] = origin
+    positions = voxel_positions(placement, offsets.shape[:3]) + offsets
+    return positions @ RAS_TO_LPS.T, RAS_TO_LPS_4 @ placement, after
 
 
 def save_niftyreg(path: str | os.PathLike[str], deformation: FFD | DisplacementField) -> None:
@@ -378,9 +364,7 @@ def save_niftyreg(path: str | os.PathLike[str], deformation: FFD | DisplacementF
                              "grid; this field leaves points there unmoved (ITK's rule), so NiftyReg would move "
                              "them: not written (resample it on a grid that covers every point you need)")  # fmt: skip
         grid = deformation.grid
-        world = np.eye(4)
-        world[:3, :3] = RAS_TO_LPS @ (grid.direction * grid.spacing)
-        world[:3, 3] = RAS_TO_LPS @ grid.origin
+        world = RAS_TO_LPS_4 @ grid.index_to_physical()
         values = (deformation.vectors @ RAS_TO_LPS.T).transpose(2, 1, 0, 3)  # array order to nibabel's (i, j, k)
         code = 1  # DISP_FIELD
     else:
