@@ -166,14 +166,13 @@ class PyramidExemplar:
         self.size = int(self.shape.prod())
         self.n_levels = default_levels(exemplar.shape) if levels is None else int(levels)
         rng = np.random.default_rng(seed)
-        self._zyx = np.stack(np.unravel_index(np.arange(self.size), tuple(self.shape)), axis=-1).astype(np.int32)
         # each voxel's appearance: its 5^3 colour neighbourhood (wrapping around), PCA-reduced
         e = exemplar.astype(np.float32)
         r = range(-_APPEARANCE_RADIUS, _APPEARANCE_RADIUS + 1)
         offsets = [np.array(d) for d in itertools.product(r, r, r)]
         picks = rng.integers(0, self.size, _PCA_SAMPLE)
         flat = e.reshape(-1, 3)
-        sample = np.concatenate([flat[self.lin((self._zyx[picks] + d) % self.shape)] for d in offsets], axis=1)
+        sample = np.concatenate([flat[self.lin((self.coords(picks) + d) % self.shape)] for d in offsets], axis=1)
         mean, basis = _principal_axes(sample, APPEARANCE)
         appearance = np.zeros((*exemplar.shape[:3], APPEARANCE), np.float32)
         for i, d in enumerate(offsets):
@@ -193,11 +192,7 @@ class PyramidExemplar:
 
     def coords(self, lin: NDArray) -> NDArray[np.int32]:
         """Coordinates ``(..., 3)`` of linear indices."""
-        return self._zyx[lin]
-
-    def wrap(self, zyx: NDArray) -> NDArray:
-        """Coordinates brought back into the exemplar (it is a torus)."""
-        return zyx % self.shape.astype(zyx.dtype)
+        return np.stack(np.unravel_index(lin, tuple(self.shape)), axis=-1).astype(np.int32)
 
     def index(self, codes: NDArray[np.int32]) -> NDArray[np.int32]:
         """Linear indices (rows of the tables and colours) of packed coordinates (see :func:`pack`)."""
@@ -212,11 +207,7 @@ class PyramidExemplar:
     @property
     def nbytes(self) -> int:
         """Memory of the prepared tables."""
-        return int(
-            self._zyx.nbytes
-            + sum(lv.features.nbytes + lv.appearance.nbytes for lv in self.levels)
-            + self.colours.nbytes
-        )
+        return int(sum(lv.features.nbytes + lv.appearance.nbytes for lv in self.levels) + self.colours.nbytes)
 
 
 _BITS = 10  # bits per axis of a packed coordinate: exemplars up to 1024 voxels a side

@@ -96,10 +96,8 @@ class SolidTexture:
     mode: str = "mirror"
 
     def __post_init__(self) -> None:
-        self.volume = np.asarray(self.volume)
-        if self.volume.ndim != 4 or self.volume.shape[3] != 3:
-            raise ValueError(f"a solid texture is a (Z, Y, X, 3) volume, got shape {self.volume.shape}")
-        self.volume = exemplar_volume(self.volume, "a solid texture")  # uint8 by the package's dtype policy
+        # a (Z, Y, X, 3) volume, uint8 by the package's dtype policy
+        self.volume = exemplar_volume(self.volume, "a solid texture")
         self.origin = np.asarray(self.origin, dtype=np.float64).reshape(3)
         self.spacing = float(self.spacing)
         if not self.spacing > 0:
