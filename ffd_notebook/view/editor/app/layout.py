@@ -28,7 +28,7 @@ from typing import Any
 from ....face.photo import PHOTO_SUFFIXES
 from ....io import MESH_SUFFIXES
 from ...serving.file_root import FFD_SUFFIXES
-from ..session.controls import SECTION_HINTS, Control
+from ..session.controls import CODE_STYLE, SECTION_HINTS, Control
 
 __all__ = ["DRAWER_WIDTH", "OPEN_SECTIONS", "build_layout", "min_width_px"]
 
@@ -57,7 +57,6 @@ _CSS = """
 .ffd-wrap { overflow-wrap: anywhere; }
 """
 #: a box of code lines (the running log, the code dialog): the user scrolls it (class ffd-scroll); % its max height
-_CODE_STYLE = "margin: 0; max-height: %s; overflow: auto; font-size: 11px; line-height: 1.3; white-space: pre;"
 #: the upload's file filter: every lattice file suffix the app reads, in both cases
 _LATTICE_ACCEPT = ",".join(s for suffix in FFD_SUFFIXES for s in (suffix, suffix.upper()))
 #: the mesh upload's filter: meshes, and photos (the face in a photo becomes the mesh)
@@ -197,7 +196,8 @@ def _control(app: Any, control: Control) -> None:
             _messages(control)
         elif kind == "log":
             html.Div(control.label, classes="text-caption")
-            html.Pre(f"{{{{ {control.state[0]} }}}}", classes="ffd-scroll", id=ident, style=_CODE_STYLE % "7.5em")
+            log_style = CODE_STYLE.format(height="7.5em")
+            html.Pre(f"{{{{ {control.state[0]} }}}}", classes="ffd-scroll", id=ident, style=log_style)
         elif kind == "code":
             v.VBtn(control.label, click=f"trigger('{control.app_trigger or 'ffd_show_code'}')", size="small",
                    id=ident, classes="text-none", variant="tonal")  # fmt: skip
@@ -216,7 +216,8 @@ def _code_dialog() -> None:
     with v.VDialog(v_model=("code_open",), max_width=900, scrollable=True), v.VCard():
         v.VCardTitle("Your edits as Python", classes="text-subtitle-1")
         with v.VCardText():
-            html.Pre("{{ code_text }}", classes="ffd-scroll", id="ffd-code-text", style=_CODE_STYLE % "60vh")
+            code_style = CODE_STYLE.format(height="60vh")
+            html.Pre("{{ code_text }}", classes="ffd-scroll", id="ffd-code-text", style=code_style)
         with v.VCardActions():
             v.VBtn("Download .py", click=download, prepend_icon="mdi-download", id="ffd-code-download",
                    classes="text-none", variant="tonal")  # fmt: skip

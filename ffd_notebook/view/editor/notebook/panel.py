@@ -18,7 +18,7 @@ import ipywidgets as widgets
 
 from ..session import controls as panel_controls
 from ..session.changes import Change, DragSync
-from ..session.controls import RECORD_FPS, RECORD_FRAMES, SECTION_HINTS, Control, run, session_state
+from ..session.controls import CODE_STYLE, RECORD_FPS, RECORD_FRAMES, SECTION_HINTS, Control, run, session_state
 
 if TYPE_CHECKING:
     from ..editor import Editor
@@ -26,8 +26,6 @@ if TYPE_CHECKING:
 __all__ = ["ControlPanel"]
 
 PANEL_WIDTH = "410px"
-#: the box of code lines (the running log, the whole code): monospace, scrolled by the user (class ffd-scroll)
-CODE_STYLE = "margin: 0; max-height: {height}; overflow: auto; font-size: 11px; line-height: 1.3; white-space: pre;"
 #: what the notebook panel says under the code it shows (a widget's click cannot add a cell: see ``Editor.code_cell``)
 CODE_HINT = ("Copy it into a cell (select it, Ctrl+C), or run <code>editor.code_cell()</code> in a cell: "
              "a new cell below it holds this code.")  # fmt: skip

@@ -31,6 +31,7 @@ if TYPE_CHECKING:
 __all__ = [
     "BASIS_CHOICES",
     "BRUSH_CHOICES",
+    "CODE_STYLE",
     "CONTROLS",
     "FIELD_CHOICES",
     "INTERPOLATION_CHOICES",
@@ -54,6 +55,9 @@ N_MESSAGES = 5  # messages the panels list (newest first)
 #: steps of the undo history the panels' running log shows as code (newest last)
 N_LOG_STEPS = 3
 #: what the panels say beside a section's name (the section of :attr:`Control.section`)
+#: The style of a box of code (the log and the Code dialog) in both panels; ``{height}``: its greatest height.
+CODE_STYLE = "margin: 0; max-height: {height}; overflow: auto; font-size: 11px; line-height: 1.3; white-space: pre;"
+
 SECTION_HINTS = {"Control point": "drag a sphere, or pick one and type", "Teaching": "the edits as code, a movie"}
 #: what an animation recorded from a panel has (frames in all; a second at 12 frames a second is 12)
 RECORD_FRAMES, RECORD_FPS = 36, 12.0
