@@ -229,11 +229,8 @@ def _not_a_lattice(path: str | os.PathLike[str], deformation: Any, what: str) ->
 
 
 def _format(path: str | os.PathLike[str], format: str | None) -> str:
-    """The format to write: ``format`` if given (checked against the extension), else by extension."""
-    if format is not None and format not in DEFORMATION_FORMATS:
-        raise ValueError(
-            f"format must be one of {', '.join(DEFORMATION_FORMATS)} (or None: by extension), got {format!r}"
-        )
+    """The format to write: ``format`` if given (one of :data:`DEFORMATION_FORMATS`, checked by
+    :func:`save_deformation`; here against the extension), else by extension."""
     suffix = _suffix(path)
     kind = "field" if suffix in FIELD_SUFFIXES else {".ffd": "ffd", ".prm": "prm"}.get(suffix, "itk")
     if format in ("niftyreg", "fnirt"):

@@ -268,7 +268,7 @@ def lps_field(nifti: NiftiFile, displacements: NDArray[np.float64], *, outside: 
 
 def _short(exc: BaseException) -> str:
     text = " ".join(str(exc).split())
-    return (text[:200] or type(exc).__name__) if text else type(exc).__name__
+    return text[:200] or type(exc).__name__
 
 
 def vector_data(nifti: NiftiFile) -> NDArray[np.float64]:

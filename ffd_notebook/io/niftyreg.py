@@ -50,6 +50,7 @@ from .nifti_files import (
     check_millimetres,
     lps_field,
     lps_matrix,
+    nifti_meaning,
     read_nifti,
     vector_data,
     voxel_positions,
@@ -261,8 +262,6 @@ def load_niftyreg(path: str | os.PathLike[str], *, reference: Any = None) -> FFD
     >>> back.border, bool(np.allclose(back.deform([[0.0, 0.0, 0.0]]), [[1.0 * (2 / 3) ** 3, 0.0, 0.0]]))
     ('clamp', True)
     """
-    from .nifti_files import nifti_meaning
-
     nifti = read_nifti(path)
     kind, code = nifti_meaning(nifti.header)
     if kind != "niftyreg":
