@@ -24,7 +24,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from .._util.blas import one_blas_thread
 from .._util.deprecation import renamed_keyword
-from .pyramid import MARGIN, PyramidExemplar, boxes, dependency, region
+from .pyramid import MARGIN, PyramidExemplar, box_positions, boxes, dependency, region
 from .seeding import RNGLike, integer_seed
 from .slices import exemplar_volume
 
@@ -34,6 +34,7 @@ FINE_TILE = 4  # voxels per tile edge at the two finest levels: a surface's shel
 TILE = 16  # at the level before them (powers of two); the coarser levels are synthesised whole
 _PAD = 8  # voxels around a level synthesised whole: its finer level's dependencies reach beyond the box
 _BATCH_VOXELS = 2**20  # voxels (with their margins) synthesised in one batch of tiles
+_CORNERS = np.array(list(itertools.product((0, 1), repeat=3)))  # of a unit cube
 
 
 class LazyTexture:
@@ -342,14 +343,9 @@ class LazySolidTexture(LazyTexture):
         if isinstance(store, _WholeLevel):
             store.make(self.prepared, self.seed, level)
         else:
-            corners = np.array(list(itertools.product((0, 1), repeat=3)))  # a cube no larger than a tile
-            ends = lo if size == 1 else (lo[:, None, :] + corners * (size - 1)).reshape(-1, 3)
-            self._ensure(level, store.tiles_of(ends))
-        pos = [
-            (lo[:, a, None] + np.arange(size)).reshape([-1] + [size if b == a else 1 for b in range(3)])
-            for a in range(3)
-        ]
-        return lo, store.lookup(*pos)
+            ends = lo if size == 1 else (lo[:, None, :] + _CORNERS * (size - 1)).reshape(-1, 3)
+            self._ensure(level, store.tiles_of(ends))  # (a cube no larger than a tile: its corners' tiles)
+        return lo, store.lookup(*box_positions(lo, (size, size, size)))
 
     def _ensure(self, level: int, tiles: NDArray[np.int64]) -> None:
         """Synthesise the tiles of ``level`` (and what they need of the coarser levels) not made yet."""

@@ -236,7 +236,7 @@ def unpack(codes: NDArray[np.int32]) -> tuple[NDArray[np.int32], NDArray[np.int3
     return codes >> (2 * _BITS), (codes >> _BITS) & _MASK, codes & _MASK
 
 
-def _positions(lo: NDArray[np.int64], size) -> list[NDArray[np.int64]]:
+def box_positions(lo: NDArray[np.int64], size) -> list[NDArray[np.int64]]:
     """Absolute positions along each axis of boxes ``[lo, lo + size)`` (``lo`` is ``(N, 3)``), broadcastable to
     ``(N, *size)``."""
     out = []
@@ -261,7 +261,7 @@ def _uniform(words: NDArray[np.uint64], salt: int) -> NDArray[np.float64]:
 
 
 def _initial(ex: PyramidExemplar, seed: int, lo: NDArray[np.int64], size) -> NDArray[np.int32]:
-    words = _hash(seed, 0, 0, *_positions(lo, size))
+    words = _hash(seed, 0, 0, *box_positions(lo, size))
     return pack(*[(_uniform(words, a) * ex.shape[a]).astype(np.int32) for a in range(3)])
 
 
@@ -270,7 +270,7 @@ def _upsampled(ex: PyramidExemplar, k: int, seed: int, coarse, lo: NDArray[np.in
     (clo, coordinates)``: ``(N, ...)`` boxes at ``clo`` that hold every parent."""
     h = ex.levels[k].h
     clo, parents = coarse
-    pos = _positions(lo, size)
+    pos = box_positions(lo, size)
     index = [(p >> 1) - clo[:, a].reshape(-1, 1, 1, 1) for a, p in enumerate(pos)]
     zyx = [c.astype(np.int64) for c in unpack(parents[np.arange(len(lo)).reshape(-1, 1, 1, 1), *index])]
     for a in range(3):
@@ -289,7 +289,7 @@ def _correct(ex: PyramidExemplar, k: int, state: NDArray[np.int32], lo: NDArray[
     n, *size = state.shape
     inner = tuple(s - 2 for s in size)
     out = state[:, 1:-1, 1:-1, 1:-1].copy()
-    pz, py, px = _positions(lo + 1, inner)
+    pz, py, px = box_positions(lo + 1, inner)
     todo = np.flatnonzero(((pz + py + px) % 2 == parity).ravel())
     b, z, y, x = np.unravel_index(todo, (n, *inner))
     # flat indices into the state: each voxel's own (the box shifted by one), and its 27 neighbours' offsets
